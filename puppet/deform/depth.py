@@ -1,0 +1,52 @@
+"""Per-vertex depth interpolated from pin depths (Shepard / inverse-distance weights).
+
+The drawn depth of a vertex is its layer's stacking index plus this field. The weights
+are the same inverse (geodesic) distance weights the object-space MLS uses, so a pin's
+depth spreads over the region that the pin also moves.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from puppet.deform.mls import inverse_distance_weights
+
+__all__ = ["depth_field"]
+
+
+def depth_field(D: np.ndarray, pin_depth, *, alpha: float = 1.0) -> np.ndarray:
+    """Weighted average of pin depths with weights ``D^(-2 alpha)``.
+
+    Parameters
+    ----------
+    D : (k, n) float
+        Distance (typically geodesic) from each of the k pins to each of the n
+        vertices; ``inf`` where unreachable.
+    pin_depth : (k,) float
+        Depth of each pin, in stacking units.
+    alpha : float
+        Weight exponent.
+
+    Returns
+    -------
+    z : (n,) float
+        ``z[v] = sum_i w_i(v) pin_depth[i] / sum_i w_i(v)``; exactly ``pin_depth[i]``
+        where ``D[i, v] == 0``; ``0`` where no pin is reachable (and everywhere when
+        ``k == 0``). Always within ``[min(pin_depth), max(pin_depth)]`` where reachable.
+    """
+    D = np.asarray(D, dtype=np.float64)
+    z_pin = np.asarray(pin_depth, dtype=np.float64).reshape(-1)
+    if D.ndim != 2 or D.shape[0] != len(z_pin):
+        raise ValueError(f"D must have shape (k, n) with k = {len(z_pin)}, got {D.shape}")
+    n = D.shape[1]
+    if len(z_pin) == 0:
+        return np.zeros(n)
+    W, exact, reachable = inverse_distance_weights(D, alpha=alpha)
+    z = np.zeros(n)
+    todo = reachable & (exact < 0)
+    Wt = W[:, todo]
+    z[todo] = (z_pin @ Wt) / Wt.sum(axis=0)
+    hit = exact >= 0
+    z[hit] = z_pin[exact[hit]]
+    # a convex combination can leave [min, max] by one rounding; clamp it back
+    z[todo] = np.clip(z[todo], z_pin.min(), z_pin.max())
+    return z

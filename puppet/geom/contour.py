@@ -1,0 +1,97 @@
+"""Mask -> closed contours (outer rings and holes) -> simplified, resampled polygons."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Region:
+    """One connected component of a mask: an outer ring and its holes.
+
+    Rings are (n, 2) float arrays of canvas coordinates, not closed (last != first).
+    """
+
+    outer: np.ndarray
+    holes: list[np.ndarray] = field(default_factory=list)
+
+
+def ring_area(P: np.ndarray) -> float:
+    """Signed area of a closed ring (shoelace; positive = counter-clockwise in y-up axes)."""
+    x, y = P[:, 0], P[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def mask_regions(mask: np.ndarray, offset=(0.0, 0.0), *, grow: int = 1) -> list[Region]:
+    """Outer contours and holes of every component of a mask.
+
+    The mask is first grown by ``grow`` pixels so that the contour, which runs through
+    the centres of boundary pixels, encloses every pixel of the mask (the texture's own
+    alpha then gives the exact, anti-aliased edge).
+
+    Parameters
+    ----------
+    mask : (h, w) bool.
+    offset : canvas position of the mask's top-left corner.
+
+    Returns
+    -------
+    list of Region, in canvas coordinates (pixel (i, j) has its centre at (j+0.5, i+0.5)).
+    """
+    import cv2
+
+    m = mask.astype(np.uint8)
+    if grow > 0:
+        k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow + 1, 2 * grow + 1))
+        m = cv2.dilate(m, k)
+    # pad so that contours touching the image border are still closed curves
+    m = np.pad(m, 1)
+    contours, hierarchy = cv2.findContours(m, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if hierarchy is None:
+        return []
+    hierarchy = hierarchy[0]
+    shift = np.asarray(offset, np.float64) + 0.5 - 1.0  # centre of pixel, minus padding
+    regions: dict[int, Region] = {}
+    for i, c in enumerate(contours):
+        P = c[:, 0, :].astype(np.float64) + shift
+        parent = hierarchy[i][3]
+        if parent < 0:
+            regions[i] = Region(P)
+    for i, c in enumerate(contours):
+        parent = hierarchy[i][3]
+        if parent >= 0 and parent in regions:
+            regions[parent].holes.append(c[:, 0, :].astype(np.float64) + shift)
+    return list(regions.values())
+
+
+def simplify_ring(P: np.ndarray, tolerance: float) -> np.ndarray:
+    """Douglas-Peucker simplification of a closed ring (OpenCV's approxPolyDP)."""
+    import cv2
+
+    if tolerance <= 0 or len(P) < 4:
+        return P
+    Q = cv2.approxPolyDP(P.astype(np.float32).reshape(-1, 1, 2), float(tolerance), True)
+    Q = Q[:, 0, :].astype(np.float64)
+    return Q if len(Q) >= 3 else P
+
+
+def resample_ring(P: np.ndarray, max_edge: float) -> np.ndarray:
+    """Split every edge of a closed ring longer than ``max_edge`` into equal pieces."""
+    Q = np.roll(P, -1, axis=0)
+    L = np.linalg.norm(Q - P, axis=1)
+    counts = np.maximum(1, np.ceil(L / max_edge - 1e-9).astype(int))
+    out = []
+    for a, b, n in zip(P, Q, counts):
+        t = np.arange(n)[:, None] / n
+        out.append(a + t * (b - a))
+    return np.concatenate(out, axis=0)
+
+
+def subdivide_segment(a, b, max_edge: float) -> np.ndarray:
+    """Points of the segment a-b split into equal pieces no longer than ``max_edge``."""
+    a = np.asarray(a, np.float64)
+    b = np.asarray(b, np.float64)
+    n = max(1, int(np.ceil(np.linalg.norm(b - a) / max_edge - 1e-9)))
+    t = np.arange(n + 1)[:, None] / n
+    return a + t * (b - a)

@@ -1,0 +1,106 @@
+"""Refill the pixels of a layer that layers in front of it took from the same picture.
+
+``inpaint(rgb, hole, method)`` returns a copy of ``rgb`` whose ``hole`` pixels are replaced
+by a fill computed from the pixels around them. Methods:
+
+``pyramid``
+    Push-pull fill over a Gaussian-like pyramid (Ogden, Adelson, Bergen & Burt,
+    "Pyramid-based computer graphics", 1985): known pixels are averaged down level by
+    level with their coverage as weight, then holes are filled top-down from the
+    coarser level. Smooth, fast, no texture synthesis.
+``telea``, ``ns``
+    OpenCV's ``cv2.inpaint`` (Telea 2004 fast marching; Bertalmio et al. Navier-Stokes).
+``fsr``
+    OpenCV contrib ``xphoto.inpaint`` with frequency-selective reconstruction (fast variant).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+METHODS = ("none", "pyramid", "telea", "ns", "fsr")
+
+
+def _box_down(a: np.ndarray) -> np.ndarray:
+    """Sum 2x2 blocks (odd sizes padded by edge replication)."""
+    h, w = a.shape[:2]
+    if h % 2 or w % 2:
+        pad = [(0, h % 2), (0, w % 2)] + [(0, 0)] * (a.ndim - 2)
+        a = np.pad(a, pad, mode="edge")
+    return a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2]
+
+
+def _blur(a: np.ndarray) -> np.ndarray:
+    """Separable [1 4 6 4 1]/16 blur, edges replicated."""
+    k = np.array([1, 4, 6, 4, 1], np.float64) / 16.0
+    for axis in (0, 1):
+        pad = [(0, 0)] * a.ndim
+        pad[axis] = (2, 2)
+        p = np.pad(a, pad, mode="edge")
+        n = a.shape[axis]
+        a = sum(k[i] * np.take(p, np.arange(i, i + n), axis=axis) for i in range(5))
+    return a
+
+
+def pyramid_fill(rgb: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """Push-pull pyramid fill of ``hole`` pixels in an (h, w, c) image.
+
+    Parameters
+    ----------
+    rgb : (h, w, c) uint8 or float image.
+    hole : (h, w) bool, True where the pixel must be filled.
+
+    Returns
+    -------
+    (h, w, c) array of ``rgb``'s dtype; pixels outside ``hole`` are unchanged.
+    """
+    img = rgb.astype(np.float64)
+    known = (~hole).astype(np.float64)
+    if known.sum() == 0:
+        return rgb.copy()
+    # push: pre-multiplied colour and coverage, blurred and halved level by level
+    levels = [(img * known[..., None], known)]
+    while min(levels[-1][1].shape) > 1 and levels[-1][1].min() == 0:
+        c, k = levels[-1]
+        c, k = _blur(c), _blur(k)
+        levels.append((_box_down(c) / 4.0, _box_down(k) / 4.0))
+    # pull: from the coarsest level down, fill what is not fully covered
+    c, k = levels[-1]
+    fill = c / np.maximum(k, 1e-12)[..., None]
+    for c, k in reversed(levels[:-1]):
+        h, w = k.shape
+        up = np.repeat(np.repeat(fill, 2, axis=0), 2, axis=1)[:h, :w]
+        up = _blur(up)
+        own = c / np.maximum(k, 1e-12)[..., None]
+        t = np.clip(k, 0.0, 1.0)[..., None]
+        fill = t * own + (1.0 - t) * up
+    out = img.copy()
+    out[hole] = fill[hole]
+    if np.issubdtype(rgb.dtype, np.integer):
+        return np.clip(np.rint(out), 0, 255).astype(rgb.dtype)
+    return out.astype(rgb.dtype)
+
+
+def inpaint(rgb: np.ndarray, hole: np.ndarray, method: str, *, radius: float = 5.0) -> np.ndarray:
+    """Fill ``hole`` pixels of an (h, w, 3) uint8 image by ``method`` (see module doc)."""
+    if method == "none" or not hole.any():
+        return rgb.copy()
+    if method == "pyramid":
+        return pyramid_fill(rgb, hole)
+    import cv2
+
+    src = np.ascontiguousarray(rgb[..., :3])
+    m8 = hole.astype(np.uint8) * 255
+    if method == "telea":
+        out = cv2.inpaint(src, m8, radius, cv2.INPAINT_TELEA)
+    elif method == "ns":
+        out = cv2.inpaint(src, m8, radius, cv2.INPAINT_NS)
+    elif method == "fsr":
+        out = src.copy()
+        # xphoto wants the mask of *valid* pixels (non-zero = known)
+        valid = (~hole).astype(np.uint8) * 255
+        cv2.xphoto.inpaint(src, valid, out, cv2.xphoto.INPAINT_FSR_FAST)
+    else:
+        raise ValueError(f"unknown inpainting method {method!r}")
+    res = rgb.copy()
+    res[..., :3] = out
+    return res

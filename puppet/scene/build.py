@@ -1,0 +1,236 @@
+"""From a validated scene to the things every pose needs: layer textures, masks,
+meshes, linked groups. Built once per scene (not per pose)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from puppet.errors import SceneError
+from puppet.geom.contour import mask_regions, subdivide_segment
+from puppet.geom.merge import GroupMesh, UnionFind, merge_meshes
+from puppet.geom.triangulate import Mesh, edge_length_for_area, triangulate_regions
+from puppet.imaging import masks as mk
+from puppet.imaging.inpaint import inpaint
+from puppet.imaging.io import load_mask_image, load_rgba
+from puppet.scene.model import Layer, SceneData
+
+#: Default meshes aim at about this many triangles per layer.
+TARGET_TRIANGLES = 2000
+
+
+@dataclass
+class LayerImage:
+    """A layer's pixels: its RGBA image (straight alpha, already masked and inpainted),
+    where it sits on the canvas, and its mask in the image's pixel grid."""
+
+    rgba: np.ndarray
+    offset: tuple[float, float]
+    mask: np.ndarray
+    from_source: bool
+
+    def contains(self, xy) -> bool:
+        """Is canvas point ``xy`` on a mask pixel?"""
+        j = int(np.floor(xy[0] - self.offset[0]))
+        i = int(np.floor(xy[1] - self.offset[1]))
+        h, w = self.mask.shape
+        return 0 <= i < h and 0 <= j < w and bool(self.mask[i, j])
+
+
+@dataclass
+class Group:
+    """Linked layers solved as one problem."""
+
+    layers: list[int]
+    mesh: GroupMesh
+    pins: list[int] = field(default_factory=list)  # indices into scene pins (interior pins)
+    b: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # group vertex per pin
+
+
+def _image_and_mask(data: SceneData, L: Layer, source) -> LayerImage:
+    base = f"layers[{L.index}]"
+    if L.image is not None:
+        rgba = load_rgba(L.image, scene_file=data.file, json_path=f"{base}.image")
+    else:
+        rgba = source
+    shape = rgba.shape[:2]
+    M = L.mask
+    mp = f"{base}.mask"
+    if M is None:
+        mask = mk.alpha_mask(rgba) if mk.has_transparency(rgba) else mk.threshold_mask(rgba, 250.0)
+    elif M.kind == "alpha":
+        mask = mk.alpha_mask(rgba)
+    elif M.kind == "threshold":
+        mask = mk.threshold_mask(rgba, M.threshold, M.invert)
+    elif M.kind == "polygon":
+        mask = mk.polygon_mask(shape, M.polygon, L.offset) & (rgba[..., 3] > 0)
+    elif M.kind == "rect":
+        mask = mk.rect_mask(shape, M.rect, L.offset) & (rgba[..., 3] > 0)
+    elif M.kind == "grabcut":
+        mask = mk.grabcut_mask(rgba, M.rect, L.offset) & (rgba[..., 3] > 0)
+    else:
+        mask = load_mask_image(M.file, scene_file=data.file, json_path=f"{mp}.file")
+        if mask.shape != shape:
+            raise SceneError(f"mask file is {mask.shape[1]}x{mask.shape[0]} but the layer image is "
+                             f"{shape[1]}x{shape[0]}", file=data.file, path=f"{mp}.file")
+        mask &= rgba[..., 3] > 0
+    if not mask.any():
+        raise SceneError(f"the mask of layer {L.name!r} selects no pixels", file=data.file,
+                         path=mp if L.mask is not None else base)
+    return LayerImage(rgba=rgba, offset=L.offset, mask=mask, from_source=L.image is None)
+
+
+def stacking(data: SceneData) -> list[int]:
+    """Stacking index (rank, 0 = back) of each layer: by ``order``, then list position."""
+    key = sorted(range(len(data.layers)),
+                 key=lambda i: (data.layers[i].order if data.layers[i].order is not None else i, i))
+    rank = [0] * len(key)
+    for r, i in enumerate(key):
+        rank[i] = r
+    return rank
+
+
+def build_images(data: SceneData) -> list[LayerImage]:
+    """Load every layer's pixels and mask; refill inpainted layers; apply masks to alpha."""
+    source = None
+    if data.source is not None:
+        source = load_rgba(data.source, scene_file=data.file, json_path="source")
+    images = [_image_and_mask(data, L, source) for L in data.layers]
+    rank = stacking(data)
+    for k, (L, im) in enumerate(zip(data.layers, images)):
+        if L.inpaint == "none" or not im.from_source:
+            continue
+        hole = np.zeros_like(im.mask)
+        for j, other in enumerate(images):
+            if other.from_source and rank[j] > rank[k]:
+                hole |= other.mask
+        hole &= im.mask
+        if hole.any():
+            im.rgba = inpaint(im.rgba, hole, L.inpaint)
+    for im in images:
+        rgba = im.rgba.copy()
+        rgba[..., 3] = np.where(im.mask, rgba[..., 3], 0)
+        im.rgba = rgba
+    return images
+
+
+def default_max_area(mask: np.ndarray) -> float:
+    """Triangle area giving about TARGET_TRIANGLES triangles, within [6, 400] px²."""
+    return float(np.clip(mask.sum() / TARGET_TRIANGLES, 6.0, 400.0))
+
+
+def build_meshes(data: SceneData, images: list[LayerImage]) -> tuple[list[Mesh], list[dict[str, int]], list[Group]]:
+    """Mesh every layer (pins as vertices, links as shared edges) and merge linked groups.
+
+    Returns
+    -------
+    meshes : per layer. pin_vertex : per layer, interior pin name -> vertex index.
+    groups : linked groups, each with its merged mesh and pinned vertices.
+    """
+    n = len(data.layers)
+    index = {L.name: L.index for L in data.layers}
+    areas = [L.mesh.max_area or default_max_area(im.mask) for L, im in zip(data.layers, images)]
+    # every link segment subdivided once, with the finer spacing of its two layers
+    polylines: list[list[tuple[int, int, np.ndarray]]] = [[] for _ in range(n)]
+    for li, link in enumerate(data.links):
+        a, b = index[link.layers[0]], index[link.layers[1]]
+        h = min(edge_length_for_area(areas[a]), edge_length_for_area(areas[b]))
+        for si, seg in enumerate(link.segments):
+            for k in (a, b):
+                if not _segment_inside(images[k], seg):
+                    raise SceneError(f"segment leaves the mask of layer {data.layers[k].name!r} "
+                                     "(a link segment must lie inside both layers)",
+                                     file=data.file, path=f"links[{li}].segments[{si}]")
+            P = subdivide_segment(seg[0], seg[1], h)
+            polylines[a].append((li, si, P))
+            polylines[b].append((li, si, P))
+    meshes, pin_vertex = [], []
+    for k, (L, im) in enumerate(zip(data.layers, images)):
+        pins = [(i, p) for i, p in enumerate(data.pins) if p.layer == L.name and p.kind == "interior"]
+        for i, p in pins:
+            if not im.contains(p.at):
+                raise SceneError(f"pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of layer "
+                                 f"{L.name!r}", file=data.file, path=f"pins[{i}].at")
+        regions = mask_regions(im.mask, im.offset)
+        pts = np.array([p.at for _, p in pins]).reshape(-1, 2)
+        mesh = triangulate_regions(regions, max_area=areas[k], min_angle=L.mesh.min_angle,
+                                   simplify=L.mesh.simplify, points=pts,
+                                   segments=[P for _, _, P in polylines[k]])
+        if len(mesh.F) == 0:
+            raise SceneError(f"layer {L.name!r} is too small to mesh", file=data.file, path=f"layers[{k}]")
+        found = {}
+        for i, p in pins:
+            v = _vertex_at(mesh.V, p.at)
+            if v is None:
+                raise SceneError(f"pin {p.name!r} could not be placed in the mesh of layer {L.name!r} "
+                                 "(too close to the edge?)", file=data.file, path=f"pins[{i}].at")
+            found[p.name] = v
+        meshes.append(mesh)
+        pin_vertex.append(found)
+    groups = _groups(data, meshes, pin_vertex, polylines)
+    return meshes, pin_vertex, groups
+
+
+def _segment_inside(im: LayerImage, seg: np.ndarray) -> bool:
+    """All points of the segment (sampled every 0.25 px) on mask pixels, with 1 px tolerance."""
+    import cv2
+
+    grown = cv2.dilate(im.mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    n = max(2, int(np.ceil(np.linalg.norm(seg[1] - seg[0]) / 0.25)) + 1)
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    P = seg[0] + t * (seg[1] - seg[0]) - np.asarray(im.offset)
+    j = np.floor(P[:, 0]).astype(int)
+    i = np.floor(P[:, 1]).astype(int)
+    h, w = grown.shape
+    ok = (i >= 0) & (i < h) & (j >= 0) & (j < w)
+    return bool(ok.all() and grown[i, j].all())
+
+
+def _vertex_at(V: np.ndarray, xy, tol: float = 1e-7):
+    d = np.linalg.norm(V - np.asarray(xy)[None], axis=1)
+    k = int(np.argmin(d)) if len(d) else -1
+    return k if k >= 0 and d[k] <= tol else None
+
+
+def _groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
+    n = len(data.layers)
+    index = {L.name: L.index for L in data.layers}
+    uf = UnionFind(n)
+    for link in data.links:
+        uf.union(index[link.layers[0]], index[link.layers[1]])
+    lab = uf.labels()
+    groups = []
+    for g in range(lab.max() + 1):
+        members = [k for k in range(n) if lab[k] == g]
+        local = {k: i for i, k in enumerate(members)}
+        shared = []
+        for li, link in enumerate(data.links):
+            a, b = index[link.layers[0]], index[link.layers[1]]
+            if a not in local:
+                continue
+            for (l2, si, P) in polylines[a]:
+                if l2 != li:
+                    continue
+                for q in P:
+                    va, vb = _vertex_at(meshes[a].V, q), _vertex_at(meshes[b].V, q)
+                    if va is None or vb is None:
+                        raise SceneError("link segment could not be meshed in both layers (is it too close "
+                                         "to an edge?)", file=data.file, path=f"links[{li}].segments[{si}]")
+                    shared.append((local[a], va, local[b], vb))
+        gm = merge_meshes([(meshes[k].V, meshes[k].F) for k in members], shared)
+        grp = Group(layers=members, mesh=gm)
+        seen = {}
+        for i, p in enumerate(data.pins):
+            if p.kind != "interior" or index[p.layer] not in local:
+                continue
+            v = int(gm.maps[local[index[p.layer]]][pin_vertex[index[p.layer]][p.name]])
+            if v in seen:
+                raise SceneError(f"pin {p.name!r} is on the same point as pin {data.pins[seen[v]].name!r}",
+                                 file=data.file, path=f"pins[{i}].at")
+            seen[v] = i
+            grp.pins.append(i)
+        grp.b = np.array([int(gm.maps[local[index[data.pins[i].layer]]][pin_vertex[index[data.pins[i].layer]]
+                                                                          [data.pins[i].name]])
+                          for i in grp.pins], np.int64)
+        groups.append(grp)
+    return groups

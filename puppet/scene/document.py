@@ -1,0 +1,163 @@
+"""The scene as a document: validated data plus lazily built layers, meshes and solvers."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from puppet.errors import SceneError
+from puppet.imaging.io import atomic_write, load_rgba
+from puppet.scene import build, evaluate as ev, timeline
+from puppet.scene.load import load_scene_data
+from puppet.scene.model import SceneData
+
+
+class Document:
+    """A loaded scene. Expensive parts (images, meshes, factorisations) are built once,
+    on first use, and reused by every pose."""
+
+    def __init__(self, data: SceneData):
+        self.data = data
+        self._images = None
+        self._meshes = None
+        self._solver = None
+
+    @classmethod
+    def load(cls, path: str):
+        """Read, validate and load the pixels of a scene (raises SceneError)."""
+        doc = cls(load_scene_data(path))
+        doc.images  # images and masks are checked at load time: pins need them
+        doc._check_pins_in_masks()
+        return doc
+
+    # -- built parts -------------------------------------------------------------
+    @property
+    def file(self) -> str:
+        return self.data.file
+
+    @property
+    def images(self) -> list[build.LayerImage]:
+        if self._images is None:
+            self._images = build.build_images(self.data)
+        return self._images
+
+    @property
+    def canvas(self) -> tuple[int, int]:
+        """Output size (W, H): ``canvas``, else the source's size, else the first layer image's."""
+        if self.data.canvas is not None:
+            return self.data.canvas
+        if self.data.source is not None:
+            h, w = self.images[0].rgba.shape[:2] if self.images[0].from_source else \
+                load_rgba(self.data.source).shape[:2]
+            return (w, h)
+        h, w = self.images[0].rgba.shape[:2]
+        return (w, h)
+
+    @property
+    def rank(self) -> list[int]:
+        return build.stacking(self.data)
+
+    def _build_meshes(self):
+        if self._meshes is None:
+            self._meshes = build.build_meshes(self.data, self.images)
+            self._solver = ev.Solver(self.data, self._meshes[2])
+        return self._meshes
+
+    @property
+    def groups(self) -> list[build.Group]:
+        return self._build_meshes()[2]
+
+    def _check_pins_in_masks(self):
+        index = {L.name: L.index for L in self.data.layers}
+        for i, p in enumerate(self.data.pins):
+            if p.kind == "interior" and not self.images[index[p.layer]].contains(p.at):
+                raise SceneError(f"pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of layer "
+                                 f"{p.layer!r}", file=self.file, path=f"pins[{i}].at")
+
+    # -- poses -------------------------------------------------------------------
+    def pose_names(self) -> list[str]:
+        return ["rest"] + list(self.data.poses)
+
+    def state(self, pose: str | None = None, time: float | None = None) -> ev.PinState:
+        """Pin targets for a named pose or a time on the animation (default: rest)."""
+        if pose is not None and time is not None:
+            raise SceneError("give a pose or a time, not both", file=self.file)
+        if time is not None:
+            anim = self.data.animation
+            if anim is None:
+                raise SceneError("the scene has no animation, so --time cannot be used", file=self.file)
+            if not np.isfinite(time) or time < 0:
+                raise SceneError(f"time must be a number >= 0, got {time}", file=self.file)
+            a, b, t = timeline.segment_at(anim, float(time))
+            return ev.blend(self._named(a), self._named(b), t)
+        return self._named(pose or "rest")
+
+    def _named(self, pose: str) -> ev.PinState:
+        if pose == "rest":
+            return ev.rest_state(self.data)
+        if pose not in self.data.poses:
+            raise SceneError(f"no pose named {pose!r} (poses: {', '.join(self.pose_names())})", file=self.file)
+        return ev.pose_state(self.data, self.data.poses[pose])
+
+    def layers(self, pose: str | None = None, time: float | None = None) -> list[ev.LayerResult]:
+        """Deformed meshes and depths of every layer in a pose or at a time."""
+        meshes, pin_vertex, groups = self._build_meshes()
+        return ev.evaluate(self.data, meshes, pin_vertex, groups, self._solver, self.rank,
+                           self.state(pose, time))
+
+    def mesh(self, pose: str | None = None, time: float | None = None) -> dict:
+        """The meshes as data, as ``puppet mesh`` writes them."""
+        res = self.layers(pose, time)
+        out = {"puppet": 1, "canvas": list(self.canvas)}
+        out["pose"] = pose if pose is not None else ("rest" if time is None else None)
+        if time is not None:
+            out["time"] = float(time)
+        out["layers"] = [{
+            "name": r.name, "group": r.group, "order": r.order,
+            "rest": r.rest.tolist(), "deformed": r.deformed.tolist(), "triangles": r.triangles.tolist(),
+            "depth": r.depth.tolist(), "pins": {k: int(v) for k, v in r.pins.items()}, "exterior": r.exterior,
+        } for r in res]
+        return out
+
+    def summary(self) -> str:
+        """A few lines on the scene: layers, groups, vertices, triangles, and what is not applied yet."""
+        meshes, _, groups = self._build_meshes()
+        d = self.data
+        W, H = self.canvas
+        lines = [f"{self.file}: canvas {W}x{H}, {len(d.layers)} layer(s), {len(groups)} group(s), "
+                 f"{len(d.pins)} pin(s), {len(d.poses)} pose(s)"
+                 + (f", animation {timeline.duration(d.animation):g} s at {d.animation.fps:g} fps"
+                    if d.animation else "")]
+        for k, (L, m) in enumerate(zip(d.layers, meshes)):
+            gi = next(i for i, g in enumerate(groups) if k in g.layers)
+            lines.append(f"  layer {L.name!r}: order {self.rank[k]}, group {gi}, {len(m.V)} vertices, "
+                         f"{len(m.F)} triangles")
+        for gi, g in enumerate(groups):
+            lines.append(f"  group {gi}: {len(g.layers)} layer(s), {len(g.mesh.V)} vertices, "
+                         f"{len(g.mesh.F)} triangles, {len(g.pins)} pin(s)")
+        lines += [f"  note: {n}" for n in self.not_applied()]
+        return "\n".join(lines)
+
+    def not_applied(self) -> list[str]:
+        """Things the scene asks for that this version accepts but does not apply yet."""
+        d = self.data
+        notes = []
+        if any(abs(t.angle) > 0 for pose in d.poses.values() for t in pose.values()):
+            notes.append("pin angles (rotation about pins) are accepted but not applied yet")
+        if any(p.kind == "exterior" for p in d.pins) or any(L.exterior for L in d.layers):
+            notes.append("exterior control points are accepted but not applied yet")
+        if d.deformer.method in ("igarashi", "mls-skeleton"):
+            notes.append(f"deformer method {d.deformer.method!r} is not built yet; 'arap' is used")
+        if d.bones:
+            notes.append("bones are accepted but only used by 'mls-skeleton', which is not built yet")
+        if d.deformer.relax_foldovers:
+            notes.append("relax_foldovers is not applied yet")
+        return notes
+
+    def write_mesh(self, path: str, pose: str | None = None, time: float | None = None) -> None:
+        text = json.dumps(self.mesh(pose, time), separators=(",", ":"))
+
+        def write(tmp):
+            with open(tmp, "w") as f:
+                f.write(text)
+        atomic_write(path, write)

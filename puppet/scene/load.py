@@ -1,0 +1,284 @@
+"""Read a scene file (format v1) into a validated :class:`SceneData`.
+
+This checks everything that can be checked from the JSON alone; checks that need
+pixels (pins inside masks, links inside both masks) are made when the layers are built.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+
+import numpy as np
+
+from puppet.errors import SceneError
+from puppet.scene import model as m
+from puppet.scene.schema import (Ctx, expect_bool, expect_list, expect_number, expect_object,
+                                 expect_point, expect_string, join)
+
+TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
+            "deformer", "poses", "animation")
+MAX_CANVAS = 16384
+EXTERIOR_NAME = re.compile(r"^(?P<layer>.+):ext(?P<i>\d+)$")
+
+
+def read_json(path: str) -> dict:
+    """Parse a scene file; every failure becomes a SceneError naming the file."""
+    if not os.path.exists(path):
+        raise SceneError("no such scene file", file=path)
+    if os.path.isdir(path):
+        raise SceneError("is a folder, not a scene file", file=path)
+    try:
+        with open(path, "rb") as f:
+            text = f.read().decode("utf-8")
+    except UnicodeDecodeError:
+        raise SceneError("not a text (UTF-8) file", file=path) from None
+    except OSError as e:
+        raise SceneError(f"cannot be read ({e.strerror})", file=path) from None
+
+    def no_constants(name):
+        raise ValueError(f"{name} is not allowed in a scene")
+
+    try:
+        return json.loads(text, parse_constant=no_constants)
+    except json.JSONDecodeError as e:
+        raise SceneError(f"invalid JSON at line {e.lineno} column {e.colno}: {e.msg}", file=path) from None
+    except ValueError as e:
+        raise SceneError(f"invalid JSON: {e}", file=path) from None
+
+
+def load_scene_data(path: str) -> m.SceneData:
+    """Read and validate a scene file. Raises SceneError."""
+    path = os.path.abspath(path)
+    raw = read_json(path)
+    return parse_scene(raw, path)
+
+
+def parse_scene(raw, file: str) -> m.SceneData:
+    c = Ctx(file)
+    folder = os.path.dirname(file)
+    expect_object(c, raw, "", required=("puppet", "layers"), optional=TOP_KEYS)
+    if isinstance(raw["puppet"], bool) or raw["puppet"] != 1:
+        raise c.fail("puppet", f"unsupported format version {raw['puppet']!r} (this puppet reads version 1)")
+
+    def file_path(v, p):
+        return os.path.normpath(os.path.join(folder, expect_string(c, v, p)))
+
+    canvas = None
+    if "canvas" in raw:
+        expect_list(c, raw["canvas"], "canvas", length=2)
+        canvas = tuple(expect_number(c, raw["canvas"][i], f"canvas[{i}]", lo=1, hi=MAX_CANVAS, integer=True)
+                       for i in range(2))
+    background = (0, 0, 0, 0)
+    if "background" in raw:
+        bg = raw["background"]
+        if isinstance(bg, str):
+            background = file_path(bg, "background")
+        else:
+            expect_list(c, bg, "background", length=4)
+            background = tuple(expect_number(c, x, f"background[{i}]", lo=0, hi=255, integer=True)
+                               for i, x in enumerate(bg))
+    source = file_path(raw["source"], "source") if "source" in raw else None
+
+    layers = [_layer(c, v, f"layers[{i}]", i, file_path, source)
+              for i, v in enumerate(expect_list(c, raw["layers"], "layers", min_len=1))]
+    names = {}
+    for L in layers:
+        if L.name in names:
+            raise c.fail(f"layers[{L.index}].name", f"duplicate layer name {L.name!r} (also layers[{names[L.name]}])")
+        names[L.name] = L.index
+
+    links = [_link(c, v, f"links[{i}]", names) for i, v in enumerate(expect_list(c, raw.get("links", []), "links"))]
+    pins = [_pin(c, v, f"pins[{i}]", names) for i, v in enumerate(expect_list(c, raw.get("pins", []), "pins"))]
+    pin_names: dict[str, int] = {}
+    for i, p in enumerate(pins):
+        if p.name in pin_names:
+            raise c.fail(f"pins[{i}].name", f"duplicate pin name {p.name!r} (also pins[{pin_names[p.name]}])")
+        pin_names[p.name] = i
+        mt = EXTERIOR_NAME.match(p.name)
+        if mt and mt.group("layer") in names and layers[names[mt.group("layer")]].exterior:
+            raise c.fail(f"pins[{i}].name", f"{p.name!r} is reserved for the layer's automatic exterior points")
+
+    bones = []
+    for i, b in enumerate(expect_list(c, raw.get("bones", []), "bones")):
+        p = f"bones[{i}]"
+        expect_list(c, b, p, length=2)
+        a, z = (expect_string(c, b[k], join(p, k)) for k in range(2))
+        for k, nm in enumerate((a, z)):
+            if nm not in pin_names:
+                raise c.fail(join(p, k), f"no pin named {nm!r}")
+        if a == z:
+            raise c.fail(p, "a bone joins two different pins")
+        bones.append((a, z))
+
+    deformer = _deformer(c, raw.get("deformer", {}), "deformer")
+    poses = {}
+    pv = expect_object(c, raw.get("poses", {}), "poses", optional=raw.get("poses", {}).keys()
+                       if isinstance(raw.get("poses", {}), dict) else ())
+    for name, pose in pv.items():
+        p = join("poses", name)
+        if name == "rest":
+            raise c.fail(p, "the pose name 'rest' is reserved (every pin at its 'at')")
+        if not name.strip():
+            raise c.fail(p, "a pose needs a non-empty name")
+        poses[name] = _pose(c, pose, p, pin_names, layers, names)
+
+    animation = None
+    if "animation" in raw:
+        animation = _animation(c, raw["animation"], "animation", poses)
+    return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
+                       links=links, pins=pins, bones=bones, deformer=deformer, poses=poses,
+                       animation=animation, raw=raw)
+
+
+def _layer(c, v, p, index, file_path, source) -> m.Layer:
+    expect_object(c, v, p, required=("name",),
+                  optional=("name", "image", "offset", "mask", "order", "inpaint", "mesh", "exterior"))
+    name = expect_string(c, v["name"], join(p, "name"))
+    image = file_path(v["image"], join(p, "image")) if "image" in v else None
+    if image is None and source is None:
+        raise c.fail(join(p, "image"), f"layer {name!r} has no image and the scene has no 'source' to take pixels from")
+    offset = expect_point(c, v["offset"], join(p, "offset")) if "offset" in v else (0.0, 0.0)
+    mask = _mask(c, v["mask"], join(p, "mask"), file_path) if "mask" in v else None
+    order = expect_number(c, v["order"], join(p, "order")) if "order" in v else None
+    inpaint = expect_string(c, v.get("inpaint", "none"), join(p, "inpaint"), choices=m.INPAINT_METHODS)
+    mesh = m.MeshOptions()
+    if "mesh" in v:
+        mp = join(p, "mesh")
+        mo = expect_object(c, v["mesh"], mp, optional=("max_area", "min_angle", "simplify"))
+        if "max_area" in mo:
+            mesh.max_area = expect_number(c, mo["max_area"], join(mp, "max_area"), lo=0.5, hi=1e7)
+        if "min_angle" in mo:
+            mesh.min_angle = expect_number(c, mo["min_angle"], join(mp, "min_angle"), lo=0, hi=34, lo_open=True)
+        if "simplify" in mo:
+            mesh.simplify = expect_number(c, mo["simplify"], join(mp, "simplify"), lo=0, hi=1000)
+    exterior = None
+    if "exterior" in v:
+        ep = join(p, "exterior")
+        eo = expect_object(c, v["exterior"], ep, optional=("auto", "beta"))
+        auto = expect_bool(c, eo.get("auto", True), join(ep, "auto"))
+        beta = expect_number(c, eo.get("beta", 1.0), join(ep, "beta"), lo=0, lo_open=True, hi=1000)
+        exterior = m.Exterior(auto=auto, beta=beta) if auto else None
+    return m.Layer(name=name, image=image, offset=offset, mask=mask, order=order, inpaint=inpaint,
+                   mesh=mesh, exterior=exterior, index=index)
+
+
+def _mask(c, v, p, file_path) -> m.Mask:
+    if isinstance(v, str):
+        if v != "alpha":
+            raise c.fail(p, f"{v!r} is not a mask; use \"alpha\" or an object with one of: "
+                            "threshold, polygon, rect, file, grabcut")
+        return m.Mask("alpha")
+    if not isinstance(v, dict) or not v:
+        raise c.fail(p, "expected \"alpha\" or an object with one of: threshold, polygon, rect, file, grabcut")
+    kinds = [k for k in ("threshold", "polygon", "rect", "file", "grabcut") if k in v]
+    if len(kinds) != 1:
+        if not kinds:
+            expect_object(c, v, p, optional=("threshold", "invert", "polygon", "rect", "file", "grabcut"))
+        raise c.fail(p, f"a mask has exactly one of threshold, polygon, rect, file, grabcut (got {', '.join(kinds)})")
+    kind = kinds[0]
+    expect_object(c, v, p, required=(kind,), optional=(kind, "invert") if kind == "threshold" else (kind,))
+    kp = join(p, kind)
+    if kind == "threshold":
+        return m.Mask("threshold", threshold=expect_number(c, v[kind], kp, lo=0, hi=256),
+                      invert=expect_bool(c, v.get("invert", False), join(p, "invert")))
+    if kind == "polygon":
+        pts = [expect_point(c, q, join(kp, i)) for i, q in enumerate(expect_list(c, v[kind], kp, min_len=3))]
+        P = np.array(pts)
+        area = 0.5 * abs(np.dot(P[:, 0], np.roll(P[:, 1], -1)) - np.dot(np.roll(P[:, 0], -1), P[:, 1]))
+        if area < 1.0:
+            raise c.fail(kp, f"polygon encloses no area ({area:.3g} px²)")
+        return m.Mask("polygon", polygon=P)
+    if kind in ("rect", "grabcut"):
+        expect_list(c, v[kind], kp, length=4)
+        r = tuple(expect_number(c, x, join(kp, i)) for i, x in enumerate(v[kind]))
+        if r[2] <= 0 or r[3] <= 0:
+            raise c.fail(kp, f"width and height must be positive, got {r[2]:g} x {r[3]:g}")
+        return m.Mask(kind, rect=r)
+    return m.Mask("file", file=file_path(v[kind], kp))
+
+
+def _link(c, v, p, names) -> m.Link:
+    expect_object(c, v, p, required=("layers", "segments"))
+    lp = join(p, "layers")
+    expect_list(c, v["layers"], lp, length=2)
+    a, b = (expect_string(c, v["layers"][k], join(lp, k)) for k in range(2))
+    for k, nm in enumerate((a, b)):
+        if nm not in names:
+            raise c.fail(join(lp, k), f"no layer named {nm!r}")
+    if a == b:
+        raise c.fail(lp, "a link joins two different layers")
+    sp = join(p, "segments")
+    segs = []
+    for i, s in enumerate(expect_list(c, v["segments"], sp, min_len=1)):
+        q = join(sp, i)
+        expect_list(c, s, q, length=2)
+        S = np.array([expect_point(c, s[k], join(q, k)) for k in range(2)])
+        if np.linalg.norm(S[1] - S[0]) < 1e-6:
+            raise c.fail(q, "segment has zero length")
+        segs.append(S)
+    return m.Link(layers=(a, b), segments=segs)
+
+
+def _pin(c, v, p, names) -> m.Pin:
+    expect_object(c, v, p, required=("name", "layer", "at"), optional=("name", "layer", "at", "depth", "kind"))
+    name = expect_string(c, v["name"], join(p, "name"))
+    layer = expect_string(c, v["layer"], join(p, "layer"))
+    if layer not in names:
+        raise c.fail(join(p, "layer"), f"no layer named {layer!r}")
+    at = np.array(expect_point(c, v["at"], join(p, "at")))
+    depth = expect_number(c, v.get("depth", 0.0), join(p, "depth"), lo=-1e4, hi=1e4)
+    kind = expect_string(c, v.get("kind", "interior"), join(p, "kind"), choices=("interior", "exterior"))
+    return m.Pin(name=name, layer=layer, at=at, depth=depth, kind=kind)
+
+
+def _deformer(c, v, p) -> m.Deformer:
+    expect_object(c, v, p, optional=("method", "weights", "init", "iterations", "alpha", "relax_foldovers"))
+    d = m.Deformer()
+    d.method = expect_string(c, v.get("method", d.method), join(p, "method"), choices=m.METHODS)
+    d.weights = expect_string(c, v.get("weights", d.weights), join(p, "weights"), choices=m.WEIGHTS)
+    d.init = expect_string(c, v.get("init", d.init), join(p, "init"), choices=m.INITS)
+    d.iterations = expect_number(c, v.get("iterations", d.iterations), join(p, "iterations"), lo=0, hi=10000,
+                                 integer=True)
+    d.alpha = expect_number(c, v.get("alpha", d.alpha), join(p, "alpha"), lo=0, lo_open=True, hi=20)
+    d.relax_foldovers = expect_bool(c, v.get("relax_foldovers", True), join(p, "relax_foldovers"))
+    return d
+
+
+def _pose(c, v, p, pin_names, layers, names) -> dict[str, m.Target]:
+    expect_object(c, v, p, optional=v.keys() if isinstance(v, dict) else ())
+    out = {}
+    for pin, t in v.items():
+        q = join(p, pin)
+        mt = EXTERIOR_NAME.match(pin)
+        auto_ext = mt and mt.group("layer") in names and layers[names[mt.group("layer")]].exterior
+        if pin not in pin_names and not auto_ext:
+            raise c.fail(q, f"no pin named {pin!r}")
+        if isinstance(t, list):
+            out[pin] = m.Target(to=np.array(expect_point(c, t, q)))
+            continue
+        expect_object(c, t, q, optional=("to", "angle", "depth"))
+        to = np.array(expect_point(c, t["to"], join(q, "to"))) if "to" in t else None
+        angle = expect_number(c, t.get("angle", 0.0), join(q, "angle"), lo=-3600, hi=3600)
+        depth = expect_number(c, t["depth"], join(q, "depth"), lo=-1e4, hi=1e4) if "depth" in t else None
+        out[pin] = m.Target(to=to, angle=angle, depth=depth)
+    return out
+
+
+def _animation(c, v, p, poses) -> m.Animation:
+    expect_object(c, v, p, required=("keys",), optional=("fps", "keys"))
+    fps = expect_number(c, v.get("fps", 24), join(p, "fps"), lo=0, lo_open=True, hi=240)
+    kp = join(p, "keys")
+    keys = []
+    for i, k in enumerate(expect_list(c, v["keys"], kp, min_len=1)):
+        q = join(kp, i)
+        expect_object(c, k, q, required=("time", "pose"), optional=("time", "pose", "ease"))
+        t = expect_number(c, k["time"], join(q, "time"), lo=0, hi=1e6)
+        pose = expect_string(c, k["pose"], join(q, "pose"))
+        if pose != "rest" and pose not in poses:
+            raise c.fail(join(q, "pose"), f"no pose named {pose!r}")
+        ease = expect_string(c, k.get("ease", "linear"), join(q, "ease"), choices=m.EASES)
+        if keys and t < keys[-1].time:
+            raise c.fail(join(q, "time"), f"keys must be sorted by time ({t:g} comes after {keys[-1].time:g})")
+        keys.append(m.Key(time=t, pose=pose, ease=ease))
+    return m.Animation(fps=fps, keys=keys)

@@ -1,0 +1,227 @@
+import numpy as np
+import pytest
+import triangle
+
+import puppet.deform.arap as arap_mod
+from puppet.deform import ArapData, arap_energy, arap_precompute, arap_solve
+
+
+def triangulate(pts, max_area):
+    n = len(pts)
+    seg = np.c_[np.arange(n), (np.arange(n) + 1) % n]
+    T = triangle.triangulate({"vertices": np.asarray(pts, float), "segments": seg},
+                             f"pq30a{max_area}")
+    return T["vertices"], T["triangles"]
+
+
+def rectangle(w, h, max_area):
+    return triangulate([[0, 0], [w, 0], [w, h], [0, h]], max_area)
+
+
+def l_shape(max_area=2.0):
+    return triangulate([[0, 0], [20, 0], [20, 8], [8, 8], [8, 20], [0, 20]], max_area)
+
+
+def rot(theta):
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+def nearest(V, pts):
+    return np.array([np.argmin(np.linalg.norm(V - p, axis=1)) for p in pts])
+
+
+V_L, F_L = l_shape()
+B_L = nearest(V_L, [[1, 1], [19, 1], [1, 19], [19, 7]])
+
+
+@pytest.mark.parametrize("weights", ["cotangent", "uniform"])
+@pytest.mark.parametrize("init", ["mls", "rest"])
+def test_rest_targets_give_rest_mesh(weights, init):
+    data = arap_precompute(V_L, F_L, B_L, weights=weights)
+    U0 = None if init == "mls" else V_L
+    U = arap_solve(data, V_L[B_L], iterations=30, U0=U0)
+    assert np.abs(U - V_L).max() < 1e-9
+
+
+@pytest.mark.parametrize("weights", ["cotangent", "uniform"])
+def test_pinned_vertices_exactly_at_targets(weights):
+    data = arap_precompute(V_L, F_L, B_L, weights=weights)
+    bc = V_L[B_L] + np.array([[3.3, -1.7], [0.1, 0.2], [-4.0, 2.5], [1 / 3, 2 / 7]])
+    for U0 in (None, V_L + 0.5):
+        U = arap_solve(data, bc, iterations=5, U0=U0)
+        np.testing.assert_array_equal(U[B_L], bc)
+
+
+@pytest.mark.parametrize("weights", ["cotangent", "uniform"])
+def test_energy_never_increases(weights):
+    data = arap_precompute(V_L, F_L, B_L, weights=weights)
+    bc = V_L[B_L].copy()
+    bc[1] += [-6.0, 9.0]  # bend the horizontal arm up
+    bc[2] += [7.0, -2.0]
+    for U0 in (None, V_L):
+        energies = []
+        U0_full = arap_solve(data, bc, iterations=0, U0=U0)
+        arap_solve(data, bc, iterations=25, U0=U0,
+                   callback=lambda it, U: energies.append(arap_energy(data, U)))
+        E = np.r_[arap_energy(data, U0_full), energies]
+        assert len(E) == 26
+        assert E[-1] > 1e-3  # a real deformation
+        assert np.all(np.diff(E) <= 1e-10 * E[0]), np.diff(E).max()
+        assert E[-1] < 0.9 * E[0]
+
+
+@pytest.mark.parametrize("weights", ["cotangent", "uniform"])
+def test_rigid_motion_of_pins_moves_whole_mesh_rigidly(weights):
+    data = arap_precompute(V_L, F_L, B_L, weights=weights)
+    R, t = rot(2.0), np.array([40.0, -15.0])
+    U = arap_solve(data, V_L[B_L] @ R.T + t)
+    expected = V_L @ R.T + t
+    assert np.abs(U - expected).max() < 1e-6 * np.ptp(V_L)
+    assert arap_energy(data, U) < 1e-12
+
+
+def test_hand_checked_energy_of_scaled_square():
+    # unit square split in two: boundary weights 1/2, diagonal 0; U = 2V (any rotation)
+    V = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    data = arap_precompute(V, np.array([[0, 1, 2], [0, 2, 3]]), [0])
+    assert arap_energy(data, V) == 0.0
+    # 4 edges x 2 cells x w = 1/2 x |2e - e|^2 = 1
+    assert arap_energy(data, 2 * V) == pytest.approx(4.0)
+    assert arap_energy(data, 2 * V @ rot(0.8).T + 3.0) == pytest.approx(4.0)
+
+
+def test_stretched_bar_has_positive_energy():
+    V, F = rectangle(10.0, 1.0, 0.05)
+    left, right = np.flatnonzero(V[:, 0] < 1e-9), np.flatnonzero(V[:, 0] > 10 - 1e-9)
+    b = np.r_[left, right]
+    data = arap_precompute(V, F, b)
+    bc = V[b].copy()
+    assert arap_energy(data, arap_solve(data, bc)) < 1e-18
+    bc[len(left):, 0] += 5.0
+    U = arap_solve(data, bc)
+    E = arap_energy(data, U)
+    assert E > 0.1
+    # the bar really is stretched, roughly uniformly
+    mid = np.argmin(np.abs(V[:, 0] - 5.0) + np.abs(V[:, 1] - 0.5))
+    assert U[mid, 0] == pytest.approx(7.5, abs=0.3)
+
+
+def test_unpinned_components_stay_at_rest():
+    V1, F1 = rectangle(4.0, 4.0, 0.5)
+    V = np.r_[V1, V1 + [10.0, 0.0], [[50.0, 50.0]]]  # + a copy + an isolated vertex
+    F = np.r_[F1, F1 + len(V1)]
+    b = nearest(V, [[0, 0], [4, 0], [0, 4]])
+    data = arap_precompute(V, F, b)
+    assert len(data.held) == len(V1) + 1
+    bc = V[b] @ rot(0.5).T + [1.0, 2.0]
+    bc[0] += [0.5, -0.5]
+    U = arap_solve(data, bc)
+    np.testing.assert_array_equal(U[len(V1):], V[len(V1):])
+    assert np.abs(U[: len(V1)] - V1).max() > 0.5
+
+
+def test_no_pins_everything_at_rest():
+    data = arap_precompute(V_L, F_L, [])
+    assert data.factor is None
+    np.testing.assert_array_equal(arap_solve(data, np.zeros((0, 2))), V_L)
+
+
+def test_drag_does_not_refactorise():
+    before = arap_mod.FACTORIZATIONS
+    data = arap_precompute(V_L, F_L, B_L)
+    assert arap_mod.FACTORIZATIONS == before + 1
+    factor = data.factor
+    for k in range(5):
+        bc = V_L[B_L] + [k * 1.0, -k * 0.5]
+        arap_solve(data, bc, iterations=3)
+    assert arap_mod.FACTORIZATIONS == before + 1
+    assert data.factor is factor
+
+
+def test_trajectory_invariance():
+    data = arap_precompute(V_L, F_L, B_L)
+    bc1 = V_L[B_L] + [[5.0, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 3.0]]
+    bc2 = V_L[B_L] + [[-2.0, 4.0], [1.0, 0.0], [0.0, -3.0], [0.0, 0.0]]
+    fresh = arap_solve(arap_precompute(V_L, F_L, B_L), bc2)
+    arap_solve(data, bc1)
+    np.testing.assert_array_equal(arap_solve(data, bc2), fresh)
+
+
+def test_splu_and_fallback_agree_with_cholespy(monkeypatch):
+    bc = V_L[B_L] + [[5.0, 2.0], [0.0, 0.0], [-3.0, 0.0], [0.0, 3.0]]
+    U_chol = arap_solve(arap_precompute(V_L, F_L, B_L), bc)
+    d_lu = arap_precompute(V_L, F_L, B_L, solver="splu")
+    assert d_lu.factor.kind == "splu"
+    np.testing.assert_allclose(arap_solve(d_lu, bc), U_chol, atol=1e-9)
+
+    class Refuses:
+        def __init__(self, A):
+            raise ValueError("Matrix is not positive definite!")
+
+    monkeypatch.setattr(arap_mod, "_CholespyFactor", Refuses)
+    d_fb = arap_precompute(V_L, F_L, B_L)
+    assert d_fb.factor.kind == "splu"
+    np.testing.assert_allclose(arap_solve(d_fb, bc), U_chol, atol=1e-9)
+
+
+def test_bad_input_raises():
+    with pytest.raises(ValueError):
+        arap_precompute(V_L, F_L, [0, 0])
+    with pytest.raises(ValueError):
+        arap_precompute(V_L, F_L, [len(V_L)])
+    with pytest.raises(ValueError):
+        arap_precompute(V_L, F_L, B_L, weights="harmonic")
+    data = arap_precompute(V_L, F_L, B_L)
+    assert isinstance(data, ArapData)
+    with pytest.raises(ValueError):
+        arap_solve(data, np.zeros((3, 2)))
+
+
+# ---- independent dense reference (loops, SVD rotations, direct solve for U) ----------
+
+def reference_arap(V, F, b, bc, U, iterations):
+    n = len(V)
+    W = np.zeros((n, n))
+    for tri in F:
+        for c in range(3):
+            o, i, j = tri[c], tri[(c + 1) % 3], tri[(c + 2) % 3]
+            e1, e2 = V[i] - V[o], V[j] - V[o]
+            cot = np.dot(e1, e2) / abs(e1[0] * e2[1] - e1[1] * e2[0])
+            W[i, j] += cot / 2
+            W[j, i] += cot / 2
+    L = np.diag(W.sum(1)) - W
+    free = np.setdiff1d(np.arange(n), b)
+    U = U.copy()
+    U[b] = bc
+    for _ in range(iterations):
+        R = np.zeros((n, 2, 2))
+        for i in range(n):
+            S = np.zeros((2, 2))
+            for j in np.flatnonzero(W[i]):
+                S += W[i, j] * np.outer(V[i] - V[j], U[i] - U[j])
+            u, _, vt = np.linalg.svd(S)
+            Ri = vt.T @ u.T
+            if np.linalg.det(Ri) < 0:
+                vt[1] *= -1
+                Ri = vt.T @ u.T
+            R[i] = Ri
+        rhs = np.zeros((n, 2))
+        for i in range(n):
+            for j in np.flatnonzero(W[i]):
+                rhs[i] += W[i, j] / 2 * (R[i] + R[j]) @ (V[i] - V[j])
+        rhs_f = rhs[free] - L[np.ix_(free, b)] @ bc
+        U[free] = np.linalg.solve(L[np.ix_(free, free)], rhs_f)
+    return U
+
+
+def test_matches_dense_reference():
+    V, F = rectangle(6.0, 3.0, 0.6)
+    b = nearest(V, [[0, 0], [6, 0], [6, 3]])
+    bc = V[b] + [[0.0, 0.0], [1.5, 2.0], [-1.0, 3.0]]
+    data = arap_precompute(V, F, b)
+    U0 = arap_solve(data, bc, iterations=0)
+    U = arap_solve(data, bc, iterations=8, U0=U0)
+    Uref = reference_arap(V, F, b, bc, U0, 8)
+    assert np.abs(U - Uref).max() < 1e-9
+    assert np.abs(U - U0).max() > 0.05  # the iterations did something
