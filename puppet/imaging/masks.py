@@ -36,17 +36,37 @@ def threshold_mask(rgba: np.ndarray, threshold: float, invert: bool = False) -> 
 
 
 def polygon_mask(shape: tuple[int, int], polygon: np.ndarray, offset=(0.0, 0.0)) -> np.ndarray:
-    """Pixels whose centre lies inside a polygon given in canvas coordinates."""
-    import cv2
+    """Pixels whose centre lies inside a polygon given in canvas coordinates.
 
+    Even-odd rule, scanline by scanline: every pixel row's centre line is cut with the
+    polygon's edges (half-open in y, so a vertex on the line counts once) and the runs
+    between pairs of crossings are filled (a centre exactly on an edge counts as inside
+    on the left edge, outside on the right one).
+    """
     h, w = shape
-    pts = np.asarray(polygon, np.float64) - np.asarray(offset, np.float64)
-    # cv2 fills pixel (i, j) when its integer coordinate is inside; pixel centres are at
-    # +0.5, so shift by -0.5 and use 4 fractional bits for sub-pixel accuracy.
-    fixed = np.round((pts - 0.5) * 16).astype(np.int32)
-    out = np.zeros((h, w), np.uint8)
-    cv2.fillPoly(out, [fixed], 1, lineType=cv2.LINE_8, shift=4)
-    return out.astype(bool)
+    P = np.asarray(polygon, np.float64) - np.asarray(offset, np.float64)
+    A, B = P, np.roll(P, -1, axis=0)
+    keep = A[:, 1] != B[:, 1]
+    A, B = A[keep], B[keep]
+    y0 = np.minimum(A[:, 1], B[:, 1])
+    y1 = np.maximum(A[:, 1], B[:, 1])
+    # rows whose centre y = i + 0.5 satisfies y0 <= y < y1
+    r0 = np.clip(np.ceil(y0 - 0.5), 0, h).astype(np.int64)
+    r1 = np.clip(np.ceil(y1 - 0.5), 0, h).astype(np.int64)
+    counts = np.maximum(r1 - r0, 0)
+    edge = np.repeat(np.arange(len(A)), counts)
+    row = np.repeat(r0, counts) + (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts))
+    y = row + 0.5
+    a, b = A[edge], B[edge]
+    x = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+    order = np.lexsort((x, row))
+    row, x = row[order], x[order]
+    diff = np.zeros((h, w + 1), np.int32)
+    # crossings come in pairs per row (closed polygon): fill [x_start, x_end)
+    col = np.clip(np.ceil(x - 0.5), 0, w).astype(np.int64)
+    sign = np.where(np.arange(len(x)) % 2 == 0, 1, -1)
+    np.add.at(diff, (row, col), sign)
+    return np.cumsum(diff[:, :w], axis=1) > 0
 
 
 def rect_mask(shape: tuple[int, int], rect, offset=(0.0, 0.0)) -> np.ndarray:

@@ -1,0 +1,91 @@
+"""Mask -> contours -> Douglas-Peucker -> constrained Delaunay, and group merging."""
+import numpy as np
+import pytest
+
+from puppet.geom.contour import mask_regions, resample_ring, ring_area, simplify_ring, subdivide_segment
+from puppet.geom.merge import merge_meshes
+from puppet.geom.triangulate import signed_areas, triangulate_regions
+
+
+def disc_mask(h=80, w=100, c=(50, 40), r=30, hole=0):
+    yy, xx = np.mgrid[:h, :w] + 0.5
+    d = np.hypot(xx - c[0], yy - c[1])
+    return (d < r) & (d >= hole)
+
+
+def test_rectangle_contour_encloses_every_pixel():
+    m = np.zeros((20, 30), bool)
+    m[5:15, 10:20] = True
+    (reg,) = mask_regions(m, offset=(100, 200))
+    P = reg.outer
+    # pixel centres span 10.5..19.5; grown by one pixel -> 9.5..20.5, shifted by the offset
+    assert P[:, 0].min() == pytest.approx(109.5) and P[:, 0].max() == pytest.approx(120.5)
+    assert P[:, 1].min() == pytest.approx(204.5) and P[:, 1].max() == pytest.approx(215.5)
+    assert reg.holes == []
+
+
+def test_ring_keeps_its_hole_and_components_are_separate():
+    m = disc_mask(r=30, hole=12)
+    m[:, 95:] = True  # a second component along the right edge
+    regs = mask_regions(m)
+    assert len(regs) == 2
+    ring = max(regs, key=lambda r: abs(ring_area(r.outer)))
+    assert len(ring.holes) == 1
+    M = triangulate_regions(regs, max_area=10.0)
+    cent = M.V[M.F].mean(axis=1)
+    # no triangle inside the hole
+    assert (np.hypot(cent[:, 0] - 50, cent[:, 1] - 40) > 10.5).all()
+    area = -signed_areas(M.V, M.F).sum() / 2
+    assert area == pytest.approx(m.sum(), rel=0.08)
+
+
+def test_douglas_peucker_keeps_corners_and_drops_collinear_points():
+    sq = np.array([[0, 0], [5, 0], [10, 0], [10, 5], [10, 10], [5, 10], [0, 10], [0, 5]], float)
+    S = simplify_ring(sq, 0.5)
+    assert len(S) == 4
+    assert {tuple(p) for p in S} == {(0, 0), (10, 0), (10, 10), (0, 10)}
+
+
+def test_resample_and_subdivide_lengths():
+    sq = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], float)
+    R = resample_ring(sq, 3.0)
+    L = np.linalg.norm(np.roll(R, -1, 0) - R, axis=1)
+    assert L.max() <= 3.0 + 1e-12 and len(R) == 16
+    S = subdivide_segment([0, 0], [7, 0], 2.0)
+    assert len(S) == 5 and np.allclose(S[-1], [7, 0]) and np.allclose(np.diff(S[:, 0]), 1.75)
+
+
+def test_triangulation_quality_orientation_pins_and_segments():
+    regs = mask_regions(disc_mask())
+    pins = np.array([[40.25, 33.5], [61.0, 47.75]])
+    seg = subdivide_segment([35, 40], [65, 40], 4.0)
+    M = triangulate_regions(regs, max_area=12.0, min_angle=25, points=pins, segments=[seg])
+    A = signed_areas(M.V, M.F)
+    assert (A < 0).all(), "counter-clockwise as seen on screen (y down) = negative raw area"
+    assert (np.abs(A) / 2 <= 12.0 * 1.0001).all()
+    for p in np.concatenate([pins, seg]):
+        assert np.min(np.linalg.norm(M.V - p, axis=1)) == 0.0
+    # the subdivided segment pieces are edges of the mesh
+    E = {tuple(sorted(e)) for f in M.F for e in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+    idx = [int(np.argmin(np.linalg.norm(M.V - q, axis=1))) for q in seg]
+    for a, b in zip(idx, idx[1:]):
+        assert tuple(sorted((a, b))) in E
+    # min angle: Triangle aims for 25 degrees; allow the boundary's own small angles
+    a, b, c = M.V[M.F[:, 0]], M.V[M.F[:, 1]], M.V[M.F[:, 2]]
+
+    def ang(p, q, r):
+        u, v = q - p, r - p
+        return np.degrees(np.arccos(np.clip((u * v).sum(1) / np.linalg.norm(u, axis=1) / np.linalg.norm(v, axis=1), -1, 1)))
+    mins = np.minimum(np.minimum(ang(a, b, c), ang(b, c, a)), ang(c, a, b))
+    assert np.median(mins) > 35 and np.mean(mins < 20) < 0.02
+
+
+def test_merge_shares_link_vertices():
+    V1 = np.array([[0, 0], [1, 0], [0, 1]], float)
+    V2 = np.array([[1, 0], [0, 1], [1, 1]], float)
+    F = np.array([[0, 2, 1]])
+    g = merge_meshes([(V1, F), (V2, F)], [(0, 1, 1, 0), (0, 2, 1, 1)])
+    assert len(g.V) == 4
+    assert np.allclose(g.V[g.maps[0]], V1) and np.allclose(g.V[g.maps[1]], V2)
+    assert g.maps[0][1] == g.maps[1][0] and g.maps[0][2] == g.maps[1][1]
+    assert len(g.F) == 2 and set(g.F.ravel()) == {0, 1, 2, 3}
