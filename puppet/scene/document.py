@@ -1,7 +1,9 @@
 """The scene as a document: validated data plus lazily built layers, meshes and solvers."""
 from __future__ import annotations
 
+import copy
 import json
+import os
 
 import numpy as np
 
@@ -21,6 +23,9 @@ class Document:
         self._images = None
         self._meshes = None
         self._solver = None
+        #: images this scene owns (not files the user gave): scene-relative name -> (h, w, 4|1) uint8;
+        #: written beside the scene by :meth:`save`
+        self.owned: dict[str, np.ndarray] = {}
 
     @classmethod
     def load(cls, path: str):
@@ -153,6 +158,46 @@ class Document:
         if d.deformer.relax_foldovers:
             notes.append("relax_foldovers is not applied yet")
         return notes
+
+    def to_json(self, folder: str) -> dict:
+        """The scene as JSON with every file path relative to ``folder``."""
+        raw = copy.deepcopy(self.data.raw)
+        src = os.path.dirname(self.file)
+
+        def rel(path: str) -> str:
+            if path in self.owned:
+                return path
+            return os.path.relpath(os.path.normpath(os.path.join(src, path)), folder).replace(os.sep, "/")
+
+        for key in ("source", "background"):
+            if isinstance(raw.get(key), str):
+                raw[key] = rel(raw[key])
+        for L in raw["layers"]:
+            if "image" in L:
+                L["image"] = rel(L["image"])
+            if isinstance(L.get("mask"), dict) and "file" in L["mask"]:
+                L["mask"]["file"] = rel(L["mask"]["file"])
+        return raw
+
+    def save(self, path: str) -> None:
+        """Write the scene (and the images it owns, beside it), each file atomically.
+
+        File paths inside the scene are rewritten relative to the new location, so the
+        saved scene loads and renders the same pixels wherever it is written.
+        """
+        from puppet.imaging.io import save_png
+
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise SceneError(f"cannot save: folder {folder!r} does not exist", file=path)
+        text = json.dumps(self.to_json(folder), indent=1)
+        for name, img in self.owned.items():
+            save_png(os.path.join(folder, name), img)
+
+        def write(tmp):
+            with open(tmp, "w") as f:
+                f.write(text + "\n")
+        atomic_write(path, write)
 
     def write_mesh(self, path: str, pose: str | None = None, time: float | None = None) -> None:
         text = json.dumps(self.mesh(pose, time), separators=(",", ":"))
