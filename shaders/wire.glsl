@@ -1,0 +1,15 @@
+#version 330 core
+// Mesh edges as lines of one premultiplied colour (debug wireframe).
+#if defined VERTEX_SHADER
+uniform vec2 u_canvas;
+in vec2 in_pos;
+void main() {
+    gl_Position = vec4(in_pos / u_canvas * 2.0 - 1.0, 0.0, 1.0);
+}
+#elif defined FRAGMENT_SHADER
+uniform vec4 u_color;
+out vec4 f_color;
+void main() {
+    f_color = u_color;
+}
+#endif
