@@ -1,4 +1,6 @@
 """Image loading limits, masks and inpainting."""
+import os
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -57,6 +59,9 @@ def test_save_png_is_atomic_and_round_trips(tmp_path):
     save_png(str(tmp_path / "o.png"), a)
     assert (load_rgba(str(tmp_path / "o.png")) == a).all()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o.png"]
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (tmp_path / "o.png").stat().st_mode & 0o777 == 0o666 & ~umask
 
 
 @pytest.mark.parametrize("method", ["pyramid", "telea", "ns", "fsr"])
