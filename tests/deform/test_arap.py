@@ -4,6 +4,8 @@ import triangle
 
 import puppet.deform.arap as arap_mod
 from puppet.deform import ArapData, arap_energy, arap_precompute, arap_solve
+from puppet.geom.geodesic import geodesic_distances
+from puppet.geom.laplacian import cotangent_weights, laplacian_from_weights, uniform_weights
 
 
 def triangulate(pts, max_area):
@@ -150,7 +152,7 @@ def test_trajectory_invariance():
 
 def test_splu_and_fallback_agree_with_cholespy(monkeypatch):
     bc = V_L[B_L] + [[5.0, 2.0], [0.0, 0.0], [-3.0, 0.0], [0.0, 3.0]]
-    U_chol = arap_solve(arap_precompute(V_L, F_L, B_L), bc)
+    U_chol = arap_solve(arap_precompute(V_L, F_L, B_L, solver="cholespy"), bc)
     d_lu = arap_precompute(V_L, F_L, B_L, solver="splu")
     assert d_lu.factor.kind == "splu"
     np.testing.assert_allclose(arap_solve(d_lu, bc), U_chol, atol=1e-9)
@@ -160,9 +162,92 @@ def test_splu_and_fallback_agree_with_cholespy(monkeypatch):
             raise ValueError("Matrix is not positive definite!")
 
     monkeypatch.setattr(arap_mod, "_CholespyFactor", Refuses)
-    d_fb = arap_precompute(V_L, F_L, B_L)
+    d_fb = arap_precompute(V_L, F_L, B_L, solver="cholespy")
     assert d_fb.factor.kind == "splu"
     np.testing.assert_allclose(arap_solve(d_fb, bc), U_chol, atol=1e-9)
+
+
+def test_qdldl_default_agrees_with_cholespy_with_and_without_threads(monkeypatch):
+    pytest.importorskip("qdldl")
+    bc = V_L[B_L] + [[5.0, 2.0], [0.0, 0.0], [-3.0, 0.0], [0.0, 3.0]]
+    U_chol = arap_solve(arap_precompute(V_L, F_L, B_L, solver="cholespy"), bc)
+    data = arap_precompute(V_L, F_L, B_L)
+    assert data.factor.kind == "qdldl"
+    U = arap_solve(data, bc)
+    np.testing.assert_allclose(U, U_chol, atol=1e-9)
+    monkeypatch.setattr(arap_mod, "PARALLEL_MIN_FREE", 0)  # both coordinates on 2 threads
+    np.testing.assert_array_equal(arap_solve(data, bc), U)
+    seen = []
+    np.testing.assert_array_equal(arap_solve(data, bc, callback=lambda it, Ui: seen.append(Ui)), U)
+    assert len(seen) == 20 and np.array_equal(seen[-1], U)
+    monkeypatch.setattr(arap_mod, "THREADS", False)  # everything on the caller's thread
+    serial = arap_precompute(V_L, F_L, B_L)
+    np.testing.assert_array_equal(serial.D, data.D)
+    np.testing.assert_array_equal(arap_solve(serial, bc), U)
+
+
+def test_missing_qdldl_falls_back_to_cholespy(monkeypatch):
+    class Missing:
+        def __init__(self, A):
+            raise ImportError("No module named 'qdldl'")
+
+    monkeypatch.setattr(arap_mod, "_QdldlFactor", Missing)
+    assert arap_precompute(V_L, F_L, B_L).factor.kind == "cholespy"
+
+
+def test_errors_on_the_second_thread_reach_the_caller(monkeypatch):
+    def singular(A, solver):
+        raise ValueError("ARAP system is singular")
+
+    data = arap_precompute(V_L, F_L, B_L)
+    with monkeypatch.context() as m:
+        m.setattr(arap_mod, "_factorize", singular)
+        with pytest.raises(ValueError, match="singular"):
+            arap_precompute(V_L, F_L, B_L)
+
+    class Broken(arap_mod._QdldlFactor):
+        def __init__(self, good):
+            self.__dict__.update(good.__dict__)
+
+        def solve1(self, b):
+            raise RuntimeError("broken solve")
+
+    data.factor = Broken(data.factor)
+    monkeypatch.setattr(arap_mod, "PARALLEL_MIN_FREE", 0)
+    with pytest.raises(RuntimeError, match="broken solve"):
+        arap_solve(data, V_L[B_L] + 1.0, iterations=3)
+
+
+@pytest.mark.parametrize("weights", ["cotangent", "uniform"])
+def test_one_pass_build_matches_puppet_geom(weights):
+    V1, F1 = rectangle(4.0, 4.0, 0.5)
+    V = np.r_[V_L, V1 + [30.0, 0.0]]  # + a component without pins: D = inf there
+    F = np.r_[F_L, F1 + len(V_L)]
+    data = arap_precompute(V, F, B_L, weights=weights)
+    W = cotangent_weights(V, F) if weights == "cotangent" else uniform_weights(V, F)
+    assert abs(data.W - W).max() < 1e-12
+    assert abs(data.L - laplacian_from_weights(W)).max() < 1e-12
+    np.testing.assert_allclose(data.D, geodesic_distances(V, F, B_L), rtol=1e-12)
+    assert np.isinf(data.D[:, len(V_L):]).all()
+
+
+@pytest.mark.parametrize("weights", ["cotangent", "uniform"])
+def test_real_operators_C_K_match_the_complex_ones(weights):
+    # C and K (the real forms, built on first access) against S and R of the solver
+    data = arap_precompute(V_L, F_L, B_L, weights=weights)
+    n = data.n
+    U = V_L @ rot(0.3).T + np.random.default_rng(1).normal(scale=0.5, size=V_L.shape)
+    q = data.S0 + data.S @ ((U - V_L) @ np.array([1.0, 1.0j]))
+    CU = data.C @ U
+    assert data.C.shape == (2 * n, n)
+    np.testing.assert_allclose(CU[:n, 0] + CU[n:, 1], q.real, atol=1e-9)
+    np.testing.assert_allclose(CU[:n, 1] - CU[n:, 0], q.imag, atol=1e-9)
+    cm1, s = arap_mod._rotations(data, U)
+    Z = np.r_[np.c_[cm1, s], np.c_[-s, cm1]]
+    rhs = data.R @ (cm1 + 1j * s)
+    assert data.K.shape == (len(data.free), 2 * n)
+    np.testing.assert_allclose(data.K @ Z, np.c_[rhs.real, rhs.imag], atol=1e-9)
+    np.testing.assert_allclose(np.hypot(cm1 + 1, s), 1.0)
 
 
 def test_bad_input_raises():
