@@ -10,6 +10,7 @@ import numpy as np
 from puppet.errors import SceneError
 from puppet.imaging.io import atomic_write, load_rgba
 from puppet.scene import build, evaluate as ev, timeline
+from puppet.scene.exterior import build_exterior
 from puppet.scene.load import load_scene_data
 from puppet.scene.model import SceneData
 
@@ -23,6 +24,7 @@ class Document:
         self._images = None
         self._meshes = None
         self._solver = None
+        self._exterior = []
         #: images this scene owns (not files the user gave): scene-relative name -> (h, w, 4|1) uint8;
         #: written beside the scene by :meth:`save`
         self.owned: dict[str, np.ndarray] = {}
@@ -64,8 +66,10 @@ class Document:
 
     def _build_meshes(self):
         if self._meshes is None:
-            self._meshes = build.build_meshes(self.data, self.images)
-            self._solver = ev.Solver(self.data, self._meshes[2])
+            meshes = build.build_meshes(self.data, self.images)
+            self._exterior, _ = build_exterior(self.data, self.images, meshes[2])
+            self._solver = ev.Solver(self.data, meshes[2], self._exterior)
+            self._meshes = meshes
         return self._meshes
 
     @property
@@ -85,6 +89,7 @@ class Document:
 
     def state(self, pose: str | None = None, time: float | None = None) -> ev.PinState:
         """Pin targets for a named pose or a time on the animation (default: rest)."""
+        self._build_meshes()
         if pose is not None and time is not None:
             raise SceneError("give a pose or a time, not both", file=self.file)
         if time is not None:
@@ -94,15 +99,17 @@ class Document:
             if not np.isfinite(time) or time < 0:
                 raise SceneError(f"time must be a number >= 0, got {time}", file=self.file)
             a, b, t = timeline.segment_at(anim, float(time))
-            return ev.blend(self._named(a), self._named(b), t)
+            ext_rest = np.concatenate([ge.rest for ge in self._exterior]) if self._exterior else np.zeros((0, 2))
+            return ev.blend(self._named(a), self._named(b), t, ext_rest)
         return self._named(pose or "rest")
 
     def _named(self, pose: str) -> ev.PinState:
-        if pose == "rest":
-            return ev.rest_state(self.data)
-        if pose not in self.data.poses:
+        if pose != "rest" and pose not in self.data.poses:
             raise SceneError(f"no pose named {pose!r} (poses: {', '.join(self.pose_names())})", file=self.file)
-        return ev.pose_state(self.data, self.data.poses[pose])
+        self._build_meshes()
+        if pose == "rest":
+            return ev.rest_state(self.data, self._exterior)
+        return ev.pose_state(self.data, self._exterior, self.data.poses[pose])
 
     def layers(self, pose: str | None = None, time: float | None = None) -> list[ev.LayerResult]:
         """Deformed meshes and depths of every layer in a pose or at a time."""
@@ -144,19 +151,13 @@ class Document:
         return "\n".join(lines)
 
     def not_applied(self) -> list[str]:
-        """Things the scene asks for that this version accepts but does not apply yet."""
+        """Things the scene asks for that this version accepts but does not apply."""
         d = self.data
         notes = []
-        if any(abs(t.angle) > 0 for pose in d.poses.values() for t in pose.values()):
-            notes.append("pin angles (rotation about pins) are accepted but not applied yet")
-        if any(p.kind == "exterior" for p in d.pins) or any(L.exterior for L in d.layers):
-            notes.append("exterior control points are accepted but not applied yet")
-        if d.deformer.method in ("igarashi", "mls-skeleton"):
-            notes.append(f"deformer method {d.deformer.method!r} is not built yet; 'arap' is used")
-        if d.bones:
-            notes.append("bones are accepted but only used by 'mls-skeleton', which is not built yet")
-        if d.deformer.relax_foldovers:
-            notes.append("relax_foldovers is not applied yet")
+        if d.deformer.method != "arap" and any(abs(t.angle) > 0 for pose in d.poses.values() for t in pose.values()):
+            notes.append(f"pin angles are applied by the 'arap' method only, not by {d.deformer.method!r}")
+        if d.bones and d.deformer.method != "mls-skeleton":
+            notes.append("bones are used by the 'mls-skeleton' method only")
         return notes
 
     def to_json(self, folder: str) -> dict:

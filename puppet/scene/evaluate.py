@@ -1,28 +1,15 @@
-"""Pose a built scene: pin targets -> per-layer deformed meshes and depths.
-
-Every pose is solved from its own initial guess (trajectory invariance): nothing of a
-previously solved pose is reused but the precomputed factorisations.
-"""
+"""Pose a built scene: pin targets -> per-layer deformed meshes and depths."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.deform.arap import ArapData, arap_precompute, arap_solve
-from puppet.deform.depth import depth_field
-from puppet.deform.mls import mls_object_space
-from puppet.scene.build import Group
+from puppet.scene.exterior import GroupExterior
 from puppet.scene.model import SceneData, Target
+from puppet.scene.solve import PinState, Solver
 
-
-@dataclass
-class PinState:
-    """Where every pin is in one pose."""
-
-    to: np.ndarray  # (k, 2) targets, scene pin order
-    angle: np.ndarray  # (k,) degrees
-    depth: np.ndarray  # (k,)
+__all__ = ["PinState", "Solver", "LayerResult", "rest_state", "pose_state", "blend", "evaluate"]
 
 
 @dataclass
@@ -40,18 +27,28 @@ class LayerResult:
     exterior: dict[str, list[float]]
 
 
-def rest_state(data: SceneData) -> PinState:
-    return PinState(to=np.array([p.at for p in data.pins]).reshape(-1, 2),
-                    angle=np.zeros(len(data.pins)), depth=np.array([p.depth for p in data.pins], float))
+def exterior_names(exterior: list[GroupExterior]) -> list[str]:
+    return [n for ge in exterior for n in ge.names]
 
 
-def pose_state(data: SceneData, pose: dict[str, Target]) -> PinState:
-    """Pin targets of a named pose's table (pins not named stay at rest)."""
-    s = rest_state(data)
-    index = {p.name: i for i, p in enumerate(data.pins)}
+def rest_state(data: SceneData, exterior: list[GroupExterior]) -> PinState:
+    j = len(exterior_names(exterior))
+    return PinState(to=np.array([p.at for p in data.pins], float).reshape(-1, 2),
+                    angle=np.zeros(len(data.pins)), depth=np.array([p.depth for p in data.pins], float),
+                    ext_to=np.full((j, 2), np.nan))
+
+
+def pose_state(data: SceneData, exterior: list[GroupExterior], pose: dict[str, Target]) -> PinState:
+    """Pin targets of a named pose's table (pins not named stay at rest; exterior points
+    not named ride along with the mesh)."""
+    s = rest_state(data, exterior)
+    index = {p.name: i for i, p in enumerate(data.pins) if p.kind == "interior"}
+    ext = {n: i for i, n in enumerate(exterior_names(exterior))}
     for name, t in pose.items():
-        if name not in index:
-            continue  # automatic exterior points: not applied yet
+        if name in ext:
+            if t.to is not None:
+                s.ext_to[ext[name]] = t.to
+            continue
         i = index[name]
         if t.to is not None:
             s.to[i] = t.to
@@ -61,50 +58,31 @@ def pose_state(data: SceneData, pose: dict[str, Target]) -> PinState:
     return s
 
 
-def blend(a: PinState, b: PinState, t: float) -> PinState:
-    """Linear blend of two pin states (targets, angles and depths)."""
+def blend(a: PinState, b: PinState, t: float, ext_rest: np.ndarray) -> PinState:
+    """Linear blend of two pin states. An exterior point moved in only one of them blends
+    from its rest position on the other side (``ext_rest``, (j, 2))."""
+    ea, eb = a.ext_to, b.ext_to
+    both_free = np.isnan(ea[:, 0]) & np.isnan(eb[:, 0])
+    ea = np.where(np.isnan(ea), ext_rest, ea)
+    eb = np.where(np.isnan(eb), ext_rest, eb)
+    ext = (1 - t) * ea + t * eb
+    ext[both_free] = np.nan
     return PinState(to=(1 - t) * a.to + t * b.to, angle=(1 - t) * a.angle + t * b.angle,
-                    depth=(1 - t) * a.depth + t * b.depth)
+                    depth=(1 - t) * a.depth + t * b.depth, ext_to=ext)
 
 
-class Solver:
-    """Per-group precomputation (one factorisation per group and pin set) and solves."""
-
-    def __init__(self, data: SceneData, groups: list[Group]):
-        self.data = data
-        self.groups = groups
-        d = data.deformer
-        self.pre: list[ArapData] = [
-            arap_precompute(g.mesh.V, g.mesh.F, g.b, weights=d.weights, alpha=d.alpha) for g in groups]
-
-    def solve_group(self, gi: int, state: PinState) -> tuple[np.ndarray, np.ndarray]:
-        """Deformed vertices (n, 2) and pin-depth field (n,) of group ``gi``."""
-        g, pre, d = self.groups[gi], self.pre[gi], self.data.deformer
-        bc = state.to[g.pins].reshape(-1, 2)
-        if len(g.pins) == 0:
-            U = g.mesh.V.copy()
-        elif d.method == "mls":
-            U = mls_object_space(g.mesh.V, pre.D, bc, g.mesh.V[g.b], kind="rigid", alpha=d.alpha)
-            U[pre.held] = g.mesh.V[pre.held]
-        else:
-            U0 = None if d.init == "mls" else g.mesh.V
-            U = arap_solve(pre, bc, iterations=d.iterations, U0=U0)
-        depth = depth_field(pre.D, state.depth[g.pins], alpha=d.alpha) if len(g.pins) else np.zeros(len(U))
-        return U, depth
-
-
-def evaluate(data: SceneData, meshes, pin_vertex, groups: list[Group], solver: Solver, rank: list[int],
+def evaluate(data: SceneData, meshes, pin_vertex, groups, solver: Solver, rank: list[int],
              state: PinState) -> list[LayerResult]:
     """Per-layer results of one pose, in scene layer order."""
     out: list[LayerResult | None] = [None] * len(data.layers)
     for gi, g in enumerate(groups):
-        U, depth = solver.solve_group(gi, state)
+        U, depth, ext = solver.solve_group(gi, state)
+        ge = solver.exterior[gi]
         for li, k in enumerate(g.layers):
             idx = g.mesh.maps[li]
             L = data.layers[k]
-            ext = {p.name: [float(x) for x in state.to[i]]
-                   for i, p in enumerate(data.pins) if p.layer == L.name and p.kind == "exterior"}
+            exterior = {n: [float(x) for x in ext[j]] for j, n in enumerate(ge.names) if ge.layers[j] == k}
             out[k] = LayerResult(name=L.name, group=gi, order=rank[k], rest=meshes[k].V, deformed=U[idx],
                                  triangles=meshes[k].F, depth=rank[k] + depth[idx], pins=dict(pin_vertex[k]),
-                                 exterior=ext)
+                                 exterior=exterior)
     return out

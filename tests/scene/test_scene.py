@@ -125,8 +125,12 @@ def test_check_summary_counts(bar):
 def test_not_applied_features_are_reported(make_scene):
     s = bar_scene()
     s["poses"]["turn"] = {"right": {"to": [105, 20], "angle": 30}}
+    s["deformer"] = {"method": "mls"}
     sc = puppet.load_scene(make_scene(s, {"bar.png": bar_image()}))
     assert any("angle" in n for n in sc.not_applied())
+    s["deformer"] = {"method": "arap"}
+    sc = puppet.load_scene(make_scene(s, {"bar.png": bar_image()}, name="b.json"))
+    assert sc.not_applied() == []
 
 
 @pytest.mark.parametrize("name", ["dress", "horse", "runner", "strips", "trex-cutout", "trex-layers"])
