@@ -30,12 +30,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 import numpy as np
-import triangle
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from benchmarks.common import best, disc, pins_and_targets  # noqa: E402
 
 import puppet.deform.arap as arap_mod  # noqa: E402
 from puppet.deform import arap_energy, arap_precompute, arap_solve  # noqa: E402
@@ -48,30 +47,10 @@ except ImportError:  # libigl is an optional benchmark dependency
 MESHES = {"5k": (240, 5.0), "10k": (340, 2.5), "20k": (480, 1.25)}
 
 
-def disc(n_boundary: int, max_area: float, radius: float = 100.0):
-    t = np.linspace(0, 2 * np.pi, n_boundary, endpoint=False)
-    pts = radius * np.c_[np.cos(t), np.sin(t)]
-    seg = np.c_[np.arange(n_boundary), (np.arange(n_boundary) + 1) % n_boundary]
-    T = triangle.triangulate({"vertices": pts, "segments": seg}, f"pq30a{max_area}")
-    return T["vertices"], T["triangles"].astype(np.int64)
 
 
-def pins_and_targets(V):
-    spots = np.array([[0, 0], [70, 0], [-70, 0], [0, 70], [0, -70]], float)
-    b = np.array([np.argmin(np.linalg.norm(V - s, axis=1)) for s in spots])
-    bc = V[b] + np.array([[0, 0], [25, -30], [-10, 15], [20, 10], [-15, -5]], float)
-    return b, bc
 
 
-def best(fn, repeat=5):
-    """Best wall time of `repeat` calls after one warm-up call, in seconds; last result."""
-    out = fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 
 def igl_data(V, F, b, max_iter):

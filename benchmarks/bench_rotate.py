@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import os
 import sys
-import time
 
 import numpy as np
 import triangle
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from benchmarks.common import best  # noqa: E402
 
 from puppet.deform import arap_precompute, arap_solve  # noqa: E402
 from puppet.deform.rotate import arap_solve_rotated  # noqa: E402
@@ -32,13 +32,6 @@ def puppet_mesh(max_area: float):
     return T["vertices"], T["triangles"].astype(np.int64)
 
 
-def best(fn, repeat=3):
-    times, out = [], None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 
 def screen_angle(V0, U, mask):

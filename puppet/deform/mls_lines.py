@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.deform.mls import KINDS, _check_controls, _check_points, mls_from_weights  # noqa: F401
+from puppet.deform.mls import KINDS, _check_points, mls_from_weights
 
 _LAGRANGE = np.array([[1.0, -3.0, 2.0], [0.0, 4.0, -4.0], [0.0, -1.0, 2.0]])
 _HIT = 1e-12      # a point closer than _HIT * L to a segment is on it

@@ -10,7 +10,7 @@ import numpy as np
 from puppet.deform.boundary import ExteriorFrame, exterior_frame
 from puppet.errors import SceneError
 from puppet.geom.contour import mask_regions
-from puppet.geom.curvature import contour_start, curvature_maxima
+from puppet.geom.curvature import curvature_maxima
 from puppet.scene.load import EXTERIOR_NAME
 
 

@@ -2,9 +2,7 @@
 no traceback, no output written."""
 from __future__ import annotations
 
-import copy
 import json
-import os
 import subprocess
 import sys
 import zlib

@@ -112,7 +112,7 @@ def test_limb_passes_behind_the_body_and_stays_in_front_at_its_other_end(make_sc
     assert tuple(front[50, 40, :3]) == (210, 40, 40) and tuple(front[50, 120, :3]) == (210, 40, 40)
     sc = arm_over_body(make_scene, -3.0)
     img = sc.render()
-    arm, body = sc.layers()[1], sc.layers()[0]
+    arm = sc.layers()[1]
     assert arm.depth[arm.pins["hand"]] == pytest.approx(-2.0)
     assert tuple(img[50, 40, :3]) == (40, 170, 60), "near the hand the arm is behind the body"
     assert tuple(img[50, 125, :3]) == (210, 40, 40), "at the shoulder it is still in front"

@@ -1,36 +1,16 @@
 import numpy as np
 import pytest
-import triangle
 
 import puppet.deform.arap as arap_mod
 from puppet.deform import ArapData, arap_energy, arap_precompute, arap_solve
 from puppet.geom.geodesic import geodesic_distances
 from puppet.geom.laplacian import cotangent_weights, laplacian_from_weights, uniform_weights
+from tests.deform.meshes import l_shape, nearest, rectangle, rot
 
 
-def triangulate(pts, max_area):
-    n = len(pts)
-    seg = np.c_[np.arange(n), (np.arange(n) + 1) % n]
-    T = triangle.triangulate({"vertices": np.asarray(pts, float), "segments": seg},
-                             f"pq30a{max_area}")
-    return T["vertices"], T["triangles"]
 
 
-def rectangle(w, h, max_area):
-    return triangulate([[0, 0], [w, 0], [w, h], [0, h]], max_area)
 
-
-def l_shape(max_area=2.0):
-    return triangulate([[0, 0], [20, 0], [20, 8], [8, 8], [8, 20], [0, 20]], max_area)
-
-
-def rot(theta):
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
-
-
-def nearest(V, pts):
-    return np.array([np.argmin(np.linalg.norm(V - p, axis=1)) for p in pts])
 
 
 V_L, F_L = l_shape()

@@ -1,36 +1,16 @@
 import numpy as np
 import pytest
-import triangle
 
 import puppet.deform.arap as arap_mod
 from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.igarashi import (IgarashiData, edge_neighbourhoods, edge_similarities,
                                     igarashi_precompute, igarashi_solve)
+from tests.deform.meshes import l_shape, nearest, rectangle, rot
 
 
-def triangulate(pts, max_area):
-    n = len(pts)
-    seg = np.c_[np.arange(n), (np.arange(n) + 1) % n]
-    T = triangle.triangulate({"vertices": np.asarray(pts, float), "segments": seg},
-                             f"pq30a{max_area}")
-    return T["vertices"], T["triangles"].astype(np.int64)
 
 
-def rectangle(w, h, max_area):
-    return triangulate([[0, 0], [w, 0], [w, h], [0, h]], max_area)
 
-
-def l_shape(max_area=2.0):
-    return triangulate([[0, 0], [20, 0], [20, 8], [8, 8], [8, 20], [0, 20]], max_area)
-
-
-def rot(theta):
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
-
-
-def nearest(V, pts):
-    return np.array([np.argmin(np.linalg.norm(V - p, axis=1)) for p in pts])
 
 
 def signed_areas(U, F):

@@ -1,6 +1,5 @@
 import numpy as np
 import pytest
-import triangle
 
 import puppet.deform.arap as arap_mod
 from puppet.deform.arap import arap_precompute, arap_solve
@@ -11,14 +10,8 @@ from puppet.deform.rotate import (
     rotation_initial_guess,
     screen_rotation,
 )
+from tests.deform.meshes import triangulate
 
-
-def triangulate(pts, max_area):
-    n = len(pts)
-    seg = np.c_[np.arange(n), (np.arange(n) + 1) % n]
-    T = triangle.triangulate({"vertices": np.asarray(pts, float), "segments": seg},
-                             f"pq30a{max_area}")
-    return T["vertices"], T["triangles"]
 
 
 def puppet_shape(max_area=1.0):

@@ -5,7 +5,6 @@ import pytest
 import puppet
 from puppet.cli import main
 from puppet.geom.triangulate import signed_areas
-from tests.conftest import bar_image, bar_scene
 
 
 def l_shape():

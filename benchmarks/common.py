@@ -1,0 +1,35 @@
+"""Shared by the benchmark scripts: test meshes, pins, timing."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import triangle
+
+
+def disc(n_boundary: int, max_area: float, radius: float = 100.0):
+    """A quality-triangulated disc: V (n, 2), F (m, 3)."""
+    t = np.linspace(0, 2 * np.pi, n_boundary, endpoint=False)
+    pts = radius * np.c_[np.cos(t), np.sin(t)]
+    seg = np.c_[np.arange(n_boundary), (np.arange(n_boundary) + 1) % n_boundary]
+    T = triangle.triangulate({"vertices": pts, "segments": seg}, f"pq30a{max_area}")
+    return T["vertices"], T["triangles"].astype(np.int64)
+
+
+def pins_and_targets(V):
+    """Five pins spread over a radius-100 disc and a pose for them."""
+    spots = np.array([[0, 0], [70, 0], [-70, 0], [0, 70], [0, -70]], float)
+    b = np.array([np.argmin(np.linalg.norm(V - s, axis=1)) for s in spots])
+    bc = V[b] + np.array([[0, 0], [25, -30], [-10, 15], [20, 10], [-15, -5]], float)
+    return b, bc
+
+
+def best(fn, repeat=5, warmup=True):
+    """Best wall time of `repeat` calls (after one warm-up call), in seconds; last result."""
+    out = fn() if warmup else None
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return min(times), out
