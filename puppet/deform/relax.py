@@ -120,7 +120,7 @@ def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5
     U = _untangle(data, U, adj)
     if len(folded_triangles(V, U, F)) == 0:
         return U
-    candidates += [U, _blend_toward_guess(data, U, bc, region)]
+    candidates += [U, _blend_toward_guess(data, U, bc, adj)]
     # never hand back more folds than we were given
     return min(candidates, key=lambda X: len(folded_triangles(V, X, F)))
 
@@ -148,8 +148,10 @@ def _untangle(data: ArapData, U, adj, sweeps: int = 200) -> np.ndarray:
     return U
 
 
-def _blend_toward_guess(data: ArapData, U, bc, region) -> np.ndarray:
-    """Last resort: move the region's free vertices toward the MLS guess until no fold."""
+def _blend_toward_guess(data: ArapData, U, bc, adj) -> np.ndarray:
+    """Last resort: move the free vertices of the remaining folded triangles, with the
+    smallest neighbourhood that works (2, 4, ... 32 rings), toward a fold-free guess (the
+    MLS guess, or the rest mesh with the pins moved) until no fold remains."""
     V, F = data.V, data.F
     G = mls_object_space(V, data.D, bc, V[data.b], kind="rigid", alpha=data.alpha)
     G[data.held] = V[data.held]
@@ -157,11 +159,16 @@ def _blend_toward_guess(data: ArapData, U, bc, region) -> np.ndarray:
     if len(folded_triangles(V, G, F)):
         G = V.copy()  # the rest mesh is fold-free by construction
         G[data.b] = bc
-    move = region.copy()
-    move[data.b] = False
-    for t in np.linspace(0.1, 1.0, 10):
-        W = U.copy()
-        W[move] = (1 - t) * U[move] + t * G[move]
-        if len(folded_triangles(V, W, F)) == 0:
-            return W
-    return W
+    seed = np.zeros(data.n, bool)
+    seed[F[folded_triangles(V, U, F)].ravel()] = True
+    best = U
+    for rings in (2, 4, 8, 16, 32):
+        move = _grow(adj, seed, rings)
+        move[data.b] = False
+        for t in np.linspace(0.1, 1.0, 10):
+            W = U.copy()
+            W[move] = (1 - t) * U[move] + t * G[move]
+            if len(folded_triangles(V, W, F)) == 0:
+                return W
+        best = W
+    return best

@@ -23,12 +23,32 @@ def ring_area(P: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
-def mask_regions(mask: np.ndarray, offset=(0.0, 0.0), *, grow: int = 1) -> list[Region]:
+def fill_small_holes(m: np.ndarray, min_hole: int) -> np.ndarray:
+    """Fill background components that do not touch the border and have fewer than
+    ``min_hole`` pixels (uint8 0/1 in, out)."""
+    import cv2
+
+    if min_hole <= 0:
+        return m
+    n, lab, stats, _ = cv2.connectedComponentsWithStats((m == 0).astype(np.uint8), connectivity=4)
+    h, w = m.shape
+    out = m.copy()
+    for k in range(1, n):
+        x, y, bw, bh, area = stats[k]
+        touches = x == 0 or y == 0 or x + bw == w or y + bh == h
+        if not touches and area < min_hole:
+            out[lab == k] = 1
+    return out
+
+
+def mask_regions(mask: np.ndarray, offset=(0.0, 0.0), *, grow: int = 1, min_hole: int = 16) -> list[Region]:
     """Outer contours and holes of every component of a mask.
 
     The mask is first grown by ``grow`` pixels so that the contour, which runs through
     the centres of boundary pixels, encloses every pixel of the mask (the texture's own
-    alpha then gives the exact, anti-aliased edge).
+    alpha then gives the exact, anti-aliased edge). Holes smaller than ``min_hole``
+    pixels are filled: they are pixel noise (often made by the growing, where a narrow
+    notch pinches shut), and their rings would touch the outer ring.
 
     Parameters
     ----------
@@ -45,6 +65,7 @@ def mask_regions(mask: np.ndarray, offset=(0.0, 0.0), *, grow: int = 1) -> list[
     if grow > 0:
         k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow + 1, 2 * grow + 1))
         m = cv2.dilate(m, k)
+    m = fill_small_holes(m, min_hole)
     # pad so that contours touching the image border are still closed curves
     m = np.pad(m, 1)
     contours, hierarchy = cv2.findContours(m, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)

@@ -104,7 +104,7 @@ def triangulate_regions(
         base += n
     if points is not None and len(points):
         verts.append(np.asarray(points, np.float64).reshape(-1, 2))
-    pslg = {"vertices": np.concatenate(verts), "segments": np.concatenate(segs).astype(np.int32)}
+    pslg = clean_pslg(np.concatenate(verts), np.concatenate(segs))
     if holes:
         pslg["holes"] = np.array(holes)
     opts = f"pq{min(float(min_angle), 34.0):g}a{float(max_area):g}YYQ"
@@ -112,6 +112,21 @@ def triangulate_regions(
     V = np.asarray(t["vertices"], np.float64)
     F = np.asarray(t.get("triangles", np.zeros((0, 3))), np.int64)
     return orient_and_compact(V, F)
+
+
+def clean_pslg(P: np.ndarray, S: np.ndarray) -> dict:
+    """Merge coincident vertices (rings that touch, a pin on a contour point) and drop
+    degenerate or repeated segments: Triangle may crash on either."""
+    key = np.round(P, 9)
+    U, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    # keep the first occurrence's exact coordinates
+    first = np.full(len(U), -1)
+    first[inv[::-1]] = np.arange(len(P))[::-1]
+    S = inv[S]
+    S = S[S[:, 0] != S[:, 1]]
+    S = np.unique(np.sort(S, axis=1), axis=0)
+    return {"vertices": P[first], "segments": S.astype(np.int32)}
 
 
 def _signed(P: np.ndarray) -> float:

@@ -104,3 +104,32 @@ def inpaint(rgb: np.ndarray, hole: np.ndarray, method: str, *, radius: float = 5
     res = rgb.copy()
     res[hole, :3] = out[hole]  # some methods touch known pixels too; keep them exactly
     return res
+
+
+def inpaint_layer(rgba: np.ndarray, mask: np.ndarray, hole: np.ndarray, method: str) -> np.ndarray:
+    """Refill ``hole`` of a layer from the layer's own pixels only.
+
+    Pixels outside the layer's ``mask`` (transparent black, other parts of a picture)
+    must not bleed into the fill, so they are first given the layer's own colours by a
+    push-pull fill from ``mask & ~hole``; then ``method`` fills the hole.
+
+    Parameters
+    ----------
+    rgba : (h, w, 4) uint8. mask, hole : (h, w) bool, ``hole`` inside ``mask``.
+
+    Returns
+    -------
+    (h, w, 4) uint8: ``rgba`` with the hole's RGB replaced (alpha unchanged).
+    """
+    known = mask & ~hole
+    if not known.any():
+        return rgba.copy()
+    rgb = np.ascontiguousarray(rgba[..., :3])
+    outside = ~mask
+    if outside.any():
+        rgb = pyramid_fill(rgb, ~known)
+        rgb[known] = rgba[..., :3][known]
+    filled = inpaint(rgb, hole, method)
+    out = rgba.copy()
+    out[hole, :3] = filled[hole, :3]
+    return out

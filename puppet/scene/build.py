@@ -11,7 +11,7 @@ from puppet.geom.contour import mask_regions, subdivide_segment
 from puppet.geom.merge import GroupMesh, UnionFind, merge_meshes
 from puppet.geom.triangulate import Mesh, edge_length_for_area, triangulate_regions
 from puppet.imaging import masks as mk
-from puppet.imaging.inpaint import inpaint
+from puppet.imaging.inpaint import inpaint_layer
 from puppet.imaging.io import load_mask_image, load_rgba
 from puppet.scene.model import Layer, SceneData
 
@@ -106,7 +106,7 @@ def build_images(data: SceneData) -> list[LayerImage]:
                 hole |= other.mask
         hole &= im.mask
         if hole.any():
-            im.rgba = inpaint(im.rgba, hole, L.inpaint)
+            im.rgba = inpaint_layer(im.rgba, im.mask, hole, L.inpaint)
     for im in images:
         rgba = im.rgba.copy()
         rgba[..., 3] = np.where(im.mask, rgba[..., 3], 0)

@@ -89,3 +89,43 @@ def test_merge_shares_link_vertices():
     assert np.allclose(g.V[g.maps[0]], V1) and np.allclose(g.V[g.maps[1]], V2)
     assert g.maps[0][1] == g.maps[1][0] and g.maps[0][2] == g.maps[1][1]
     assert len(g.F) == 2 and set(g.F.ravel()) == {0, 1, 2, 3}
+
+
+def test_pinched_notch_does_not_crash_triangle(tmp_path):
+    """Growing a mask can pinch a narrow notch into one-pixel holes whose rings touch the
+    outer ring; Triangle used to segfault on them (Kenney hair). Run in a subprocess so a
+    crash fails the test instead of killing the run."""
+    import subprocess
+    import sys
+    from tests.conftest import ASSETS
+    code = f"""
+import numpy as np
+from puppet.imaging.io import load_rgba
+from puppet.geom.contour import mask_regions
+from puppet.geom.triangulate import triangulate_regions
+m = load_rgba({ASSETS + '/kenney-character/brown2Man5.png'!r})[..., 3] > 0
+for min_hole in (16, 0):
+    M = triangulate_regions(mask_regions(m, min_hole=min_hole), max_area=6.0)
+    assert len(M.F) > 1000
+print("ok")
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", (r.returncode, r.stderr[-500:])
+
+
+def test_small_holes_are_filled_big_ones_kept():
+    from puppet.geom.contour import fill_small_holes
+    m = np.ones((30, 30), np.uint8)
+    m[5:7, 5:7] = 0      # 4 px hole
+    m[15:25, 15:25] = 0  # 100 px hole
+    out = fill_small_holes(m, 16)
+    assert out[5:7, 5:7].all() and not out[15:25, 15:25].any()
+
+
+def test_clean_pslg_merges_touching_rings():
+    from puppet.geom.triangulate import clean_pslg
+    P = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [4, 0], [5, 1], [4, 2]], float)
+    S = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 4], [1, 1]])
+    g = clean_pslg(P, S)
+    assert len(g["vertices"]) == 6
+    assert len(g["segments"]) == 7 and (g["segments"][:, 0] != g["segments"][:, 1]).all()

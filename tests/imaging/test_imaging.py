@@ -86,3 +86,20 @@ def test_pyramid_fill_constant_is_exact():
     hole[5:30, 2:15] = True
     img[hole] = 0
     assert (pyramid_fill(img, hole) == 90).all()
+
+
+@pytest.mark.parametrize("method", ["pyramid", "telea", "ns", "fsr"])
+def test_layer_fill_ignores_pixels_outside_the_layer(method):
+    """A hole touching the layer's outline: transparent black around the layer (and a
+    white part elsewhere in the picture) must not bleed into the fill."""
+    from puppet.imaging.inpaint import inpaint_layer
+    rgba = np.zeros((60, 60, 4), np.uint8)            # transparent black outside
+    mask = np.zeros((60, 60), bool)
+    mask[10:50, 10:50] = True
+    rgba[mask] = (60, 200, 90, 255)
+    rgba[20:30, 5:25] = (255, 255, 255, 255)          # a white front part over the edge
+    hole = mask & (np.arange(60)[None, :] < 25) & (np.arange(60)[:, None] >= 20) & (np.arange(60)[:, None] < 30)
+    out = inpaint_layer(rgba, mask, hole, method)
+    fill = out[hole, :3].astype(int)
+    assert np.abs(fill - [60, 200, 90]).max() <= 12, fill.min(0)
+    assert (out[~hole] == rgba[~hole]).all()
