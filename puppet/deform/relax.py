@@ -150,25 +150,33 @@ def _untangle(data: ArapData, U, adj, sweeps: int = 200) -> np.ndarray:
 
 def _blend_toward_guess(data: ArapData, U, bc, adj) -> np.ndarray:
     """Last resort: move the free vertices of the remaining folded triangles, with the
-    smallest neighbourhood that works (2, 4, ... 32 rings), toward a fold-free guess (the
-    MLS guess, or the rest mesh with the pins moved) until no fold remains."""
+    smallest neighbourhood that works, toward a fold-free guess until no fold remains.
+
+    The MLS guess is tried with neighbourhoods of 2 to 128 rings; the rest mesh (pins
+    moved) only locally, up to 8 rings, since blending a large region toward rest would
+    undo the pose."""
     V, F = data.V, data.F
-    G = mls_object_space(V, data.D, bc, V[data.b], kind="rigid", alpha=data.alpha)
-    G[data.held] = V[data.held]
-    G[data.b] = bc
-    if len(folded_triangles(V, G, F)):
-        G = V.copy()  # the rest mesh is fold-free by construction
-        G[data.b] = bc
+    mls = mls_object_space(V, data.D, bc, V[data.b], kind="rigid", alpha=data.alpha)
+    mls[data.held] = V[data.held]
+    mls[data.b] = bc
+    rest = V.copy()
+    rest[data.b] = bc
+    guesses = [(rest, (2, 4, 8))]
+    if len(folded_triangles(V, mls, F)) == 0:
+        guesses.insert(0, (mls, (2, 4, 8, 16, 32, 64, 128)))
     seed = np.zeros(data.n, bool)
     seed[F[folded_triangles(V, U, F)].ravel()] = True
-    best = U
-    for rings in (2, 4, 8, 16, 32):
-        move = _grow(adj, seed, rings)
-        move[data.b] = False
-        for t in np.linspace(0.1, 1.0, 10):
-            W = U.copy()
-            W[move] = (1 - t) * U[move] + t * G[move]
-            if len(folded_triangles(V, W, F)) == 0:
-                return W
-        best = W
+    best, fewest = U, len(folded_triangles(V, U, F))
+    for G, ring_list in guesses:
+        for rings in ring_list:
+            move = _grow(adj, seed, rings)
+            move[data.b] = False
+            for t in np.linspace(0.1, 1.0, 10):
+                W = U.copy()
+                W[move] = (1 - t) * U[move] + t * G[move]
+                k = len(folded_triangles(V, W, F))
+                if k == 0:
+                    return W
+                if k < fewest:
+                    best, fewest = W, k
     return best
