@@ -21,14 +21,6 @@ def compositor():
 class Scene(Document):
     """A loaded scene that can also draw itself."""
 
-    def background(self):
-        bg = self.data.background
-        if isinstance(bg, str):
-            from puppet.imaging.io import load_rgba
-
-            return load_rgba(bg, scene_file=self.file, json_path="background")
-        return tuple(bg)
-
     def render(self, pose: str | None = None, time: float | None = None, *, size: tuple[int, int] | None = None,
                wireframe: bool = False) -> np.ndarray:
         """Draw a pose (or a time on the animation).

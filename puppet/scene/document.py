@@ -25,6 +25,8 @@ class Document:
         self._meshes = None
         self._solver = None
         self._exterior = []
+        self._source_size = None
+        self._background = None
         #: images this scene owns (not files the user gave): scene-relative name -> (h, w, 4|1) uint8;
         #: written beside the scene by :meth:`save`
         self.owned: dict[str, np.ndarray] = {}
@@ -34,8 +36,18 @@ class Document:
         """Read, validate and load the pixels of a scene (raises SceneError)."""
         doc = cls(load_scene_data(path))
         doc.images  # images and masks are checked at load time: pins need them
+        doc.background()
         doc._check_pins_in_masks()
         return doc
+
+    def background(self):
+        """The background: an RGBA colour tuple, or the background image (read once)."""
+        bg = self.data.background
+        if not isinstance(bg, str):
+            return tuple(bg)
+        if self._background is None:
+            self._background = load_rgba(bg, scene_file=self.file, json_path="background")
+        return self._background
 
     # -- built parts -------------------------------------------------------------
     @property
@@ -54,8 +66,15 @@ class Document:
         if self.data.canvas is not None:
             return self.data.canvas
         if self.data.source is not None:
-            h, w = self.images[0].rgba.shape[:2] if self.images[0].from_source else \
-                load_rgba(self.data.source).shape[:2]
+            src = next((im for im in self.images if im.from_source), None)
+            if src is None:  # no layer takes its pixels from the source: read its size once
+                if self._source_size is None:
+                    from PIL import Image
+
+                    with Image.open(self.data.source) as im:
+                        self._source_size = im.size
+                return self._source_size
+            h, w = src.rgba.shape[:2]
             return (w, h)
         h, w = self.images[0].rgba.shape[:2]
         return (w, h)

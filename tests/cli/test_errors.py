@@ -178,6 +178,13 @@ def test_bad_layer_image(make_scene, tmp_path, capsys, kind, words):
     assert not out.exists()
 
 
+def test_check_reads_the_background_image(make_scene, capsys):
+    s = bar_scene()
+    s["background"] = "nowhere.png"
+    rc, err = run_cli(capsys, ["check", make_scene(s, {"bar.png": bar_image()})])
+    assert rc == 2 and "scene.json: background: image" in err and "no such file" in err
+
+
 def test_mask_file_of_wrong_size(make_scene, tmp_path, capsys):
     s = bar_scene()
     s["layers"][0]["mask"] = {"file": "m.png"}
