@@ -36,7 +36,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from benchmarks.common import best, disc, pins_and_targets  # noqa: E402
 
-import puppet.deform.arap as arap_mod  # noqa: E402
+import puppet.deform.factor as factor_mod  # noqa: E402
 from puppet.deform import arap_energy, arap_precompute, arap_solve  # noqa: E402
 
 try:
@@ -100,9 +100,9 @@ def bench_mesh(label, V, F, table):
     data = arap_precompute(V, F, b)
     U0 = arap_solve(data, bc, iterations=0)  # MLS initial guess, pins at targets
     puppet = timings(V, F, b, bc, U0)
-    arap_mod.THREADS = False
+    factor_mod.THREADS = False
     single = timings(V, F, b, bc, U0)
-    arap_mod.THREADS = True
+    factor_mod.THREADS = True
     ref = [None, None, None]
     if igl is not None:
         Vc, Fc = np.ascontiguousarray(V), np.ascontiguousarray(F)
@@ -134,17 +134,17 @@ def bench_mesh(label, V, F, table):
 
 def bench_factorisations(V, F, table):
     b, bc = pins_and_targets(V)
-    start = arap_mod.FACTORIZATIONS
+    start = factor_mod.FACTORIZATIONS
     data = arap_precompute(V, F, b)
     for k in range(10):  # a drag: the second pin moves
         drag_bc = bc.copy()
         drag_bc[1] += [0.5 * k, -0.3 * k]
         arap_solve(data, drag_bc)
-    drag = arap_mod.FACTORIZATIONS - start - 1
+    drag = factor_mod.FACTORIZATIONS - start - 1
     extra = np.argmin(np.linalg.norm(V - [40.0, 40.0], axis=1))
     arap_precompute(V, F, np.r_[b, extra])  # add a pin
     arap_precompute(V, F, b)  # remove it again
-    pins = arap_mod.FACTORIZATIONS - start - 1 - drag
+    pins = factor_mod.FACTORIZATIONS - start - 1 - drag
     table.value(f"5k ({len(V)} v)", "factorisations: 10-step drag / +pin -pin",
                 f"{drag} / {pins}", "", "", "0 / 2", drag == 0 and pins == 2)
 
@@ -167,7 +167,7 @@ def bench_factorisers(meshes):
         data = arap_precompute(V, F, b)
         A = data.L[data.free][:, data.free].tocsc()
         rhs = np.random.default_rng(0).normal(size=(A.shape[0], 2))
-        for cls in (arap_mod._QdldlFactor, arap_mod._CholespyFactor, arap_mod._SpluFactor):
+        for cls in (factor_mod._QdldlFactor, factor_mod._CholespyFactor, factor_mod._SpluFactor):
             t_f, fac = best(lambda: cls(A), 3)
             t_s, _ = best(lambda: fac.solve(rhs), 10)
             print(f"  {label:4s} {cls.kind:9s} {1e3 * t_f:8.2f} {1e3 * t_s:8.3f}")
@@ -196,7 +196,7 @@ def main():
     bench_factorisations(*meshes["5k"], table)
     bench_product("10k", *meshes["10k"], table)
     kind = arap_precompute(*meshes["5k"], [0]).factor.kind
-    print(f"puppet ARAP (factoriser {kind}, second thread {'on' if arap_mod.THREADS else 'off'}, "
+    print(f"puppet ARAP (factoriser {kind}, second thread {'on' if factor_mod.THREADS else 'off'}, "
           f"{os.cpu_count()} cores) vs {igl_version()} (ARAP_ENERGY_TYPE_SPOKES)")
     print("ms, best of 5-7 after a warm-up; ratio = puppet / libigl; see the docstring for "
           "what each row measures\n")

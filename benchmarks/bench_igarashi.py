@@ -17,7 +17,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from benchmarks.common import best, disc, pins_and_targets  # noqa: E402
 
-import puppet.deform.arap as arap_mod  # noqa: E402
+import puppet.deform.factor as factor_mod  # noqa: E402
 from puppet.deform.arap import arap_energy, arap_precompute, arap_solve  # noqa: E402
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve  # noqa: E402
 
@@ -59,7 +59,7 @@ def main():
         print(f"{'':28s} {'arap 20 it':16s} {1e3 * tap:10.1f} {1e3 * tas:8.2f} {ea:10.2f}")
         print(f"{'':28s} {'ratio arap/ig':16s} {tap / tip:10.2f} {tas / tis:8.2f}"
               f"   max|U_ig - U_arap| = {r['dU']:.2f} (disc radius 100)")
-    print(f"\nfactorisations by puppet.deform.arap._factorize in this run: {arap_mod.FACTORIZATIONS}"
+    print(f"\nfactorisations by puppet.deform.factor.factorize in this run: {factor_mod.FACTORIZATIONS}"
           f" (Igarashi: 2 per precompute, none per solve)")
 
 

@@ -24,125 +24,17 @@ the two coordinates are solved on two threads (``THREADS``, ``PARALLEL_MIN_FREE`
 """
 from __future__ import annotations
 
-import queue
-import threading
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.sparse import csgraph
 
+from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
 
-__all__ = ["ArapData", "arap_precompute", "arap_solve", "arap_energy", "FACTORIZATIONS"]
-
-#: Number of sparse factorisations done by this module (a drag must not add any).
-FACTORIZATIONS = 0
-
-SOLVERS = ("qdldl", "cholespy", "splu")
-
-#: Use a second thread: for the factorisation while ``arap_precompute`` builds the rest,
-#: and for the second coordinate's solve in ``arap_solve`` (QDLDL, from
-#: ``PARALLEL_MIN_FREE`` free vertices on). Results are bitwise the same either way.
-THREADS = True
-
-#: Crossover of the per-iteration thread hand-off against one QDLDL solve (2 cores).
-PARALLEL_MIN_FREE = 4000
-
-
-class _QdldlFactor:
-    """LDL^T factor by QDLDL (AMD ordering) via the qdldl wheel; releases the GIL."""
-
-    kind = "qdldl"
-
-    def __init__(self, A: sp.spmatrix):
-        import qdldl
-
-        self.n = A.shape[0]
-        try:
-            self._solver = qdldl.Solver(_upper_csc(A), upper=True)
-        except TypeError:  # older qdldl wheels: no `upper`, they take the triangle themselves
-            self._solver = qdldl.Solver(sp.csc_matrix(A))
-
-    def solve1(self, b: np.ndarray) -> np.ndarray:
-        """One right-hand side (n,); safe to call from two threads at once."""
-        return self._solver.solve(b)
-
-    def solve(self, B: np.ndarray) -> np.ndarray:
-        B = np.asarray(B, dtype=np.float64)
-        if B.ndim == 1:
-            return self._solver.solve(B)
-        return np.stack([self._solver.solve(B[:, c]) for c in range(B.shape[1])], axis=1)
-
-
-class _CholespyFactor:
-    """CHOLMOD (supernodal, AMD/METIS ordering) Cholesky factor via cholespy."""
-
-    kind = "cholespy"
-
-    def __init__(self, A: sp.csc_matrix):
-        import cholespy
-
-        A = sp.csc_matrix(A)
-        self.n = A.shape[0]
-        self._solver = cholespy.CholeskySolverD(
-            self.n, A.indptr.astype(np.int32), A.indices.astype(np.int32),
-            A.data.astype(np.float64), cholespy.MatrixType.CSC)
-
-    def solve(self, B: np.ndarray) -> np.ndarray:
-        B = np.ascontiguousarray(B, dtype=np.float64)
-        X = np.empty_like(B)
-        self._solver.solve(B, X)
-        return X
-
-
-class _SpluFactor:
-    """SuperLU factor (scipy), symmetric mode with a minimum-degree ordering on A+A^T."""
-
-    kind = "splu"
-
-    def __init__(self, A: sp.csc_matrix):
-        self.n = A.shape[0]
-        self._lu = spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A",
-                             diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-
-    def solve(self, B: np.ndarray) -> np.ndarray:
-        return self._lu.solve(np.asarray(B, dtype=np.float64))
-
-
-def _upper_csc(A: sp.spmatrix) -> sp.csc_matrix:
-    """Upper triangle of a symmetric matrix, csc (= its lower triangle read as csr)."""
-    if not (sp.issparse(A) and A.format in ("csr", "csc")):
-        A = sp.csc_matrix(A)
-    outer = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-    keep = A.indices <= outer
-    indptr = np.zeros(A.shape[0] + 1, dtype=np.int64)
-    np.cumsum(np.bincount(outer[keep], minlength=A.shape[0]), out=indptr[1:])
-    return sp.csc_matrix((A.data[keep], A.indices[keep], indptr), shape=A.shape)
-
-
-def _factorize(A: sp.spmatrix, solver: str):
-    """Factorise the symmetric matrix A once: the chosen factoriser, then fallbacks.
-
-    "qdldl" falls back to cholespy if the wheel is missing; "cholespy" (and so
-    "qdldl") to SuperLU if CHOLMOD refuses the matrix (e.g. not positive definite).
-    """
-    global FACTORIZATIONS
-    FACTORIZATIONS += 1
-    A = sp.csc_matrix(A)
-    chain = {"qdldl": (_QdldlFactor, _CholespyFactor), "cholespy": (_CholespyFactor,)}
-    for cls in chain.get(solver, ()):
-        try:
-            return cls(A)
-        except (ValueError, RuntimeError, ImportError):
-            pass  # e.g. "Matrix is not positive definite": try the next one
-    try:
-        return _SpluFactor(A)
-    except RuntimeError as err:  # exactly singular
-        raise ValueError(f"ARAP system is singular ({err}); degenerate triangles?") from err
-
+__all__ = ["ArapData", "arap_precompute", "arap_solve", "arap_energy"]
 
 @dataclass(eq=False)
 class ArapData:
@@ -352,46 +244,6 @@ class _Pattern:
         return sp.csr_matrix((data[keep], c, indptr), shape=shape)
 
 
-class _Worker:
-    """A second thread that runs ``fn(arg)`` for each :meth:`submit`, in order.
-
-    :meth:`result` returns the next result or re-raises what ``fn`` raised; with
-    ``threaded=False`` the calls run inline, at :meth:`submit`.
-    """
-
-    def __init__(self, fn, threaded: bool = True):
-        self._fn, self._results = fn, queue.SimpleQueue()
-        self._jobs = queue.SimpleQueue() if threaded else None
-        if threaded:
-            threading.Thread(target=self._loop, daemon=True).start()
-
-    def _run(self, arg):
-        try:
-            self._results.put((True, self._fn(arg)))
-        except BaseException as err:  # handed to the caller's thread
-            self._results.put((False, err))
-
-    def _loop(self):
-        while (arg := self._jobs.get()) is not None:
-            self._run(arg)
-
-    def submit(self, arg):
-        if self._jobs is None:
-            self._run(arg)
-        else:
-            self._jobs.put(arg)
-
-    def result(self):
-        ok, value = self._results.get()
-        if not ok:
-            raise value
-        return value
-
-    def close(self):
-        if self._jobs is not None:
-            self._jobs.put(None)
-
-
 def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
                     solver: str = "qdldl") -> ArapData:
     """Prepare ARAP for a mesh and a set of pinned vertices (factorises once).
@@ -422,8 +274,8 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
     """
     if weights not in ("cotangent", "uniform"):
         raise ValueError(f"weights must be 'cotangent' or 'uniform', got {weights!r}")
-    if solver not in SOLVERS:
-        raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    if solver not in factor.SOLVERS:
+        raise ValueError(f"solver must be one of {factor.SOLVERS}, got {solver!r}")
     V, F, b = _check_inputs(V, F, b)
     W = _edge_weights(V, F, weights)
     P = _Pattern(W)
@@ -432,8 +284,8 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
     nf = len(free)
     A = P.block(L.data, fmap, fmap, (nf, nf))
     # QDLDL and SuperLU release the GIL; cholespy holds it (a thread would only add contention)
-    threaded = THREADS and nf > 0 and solver != "cholespy"
-    worker = _Worker(lambda A: _factorize(A, solver), threaded=threaded)
+    threaded = factor.THREADS and nf > 0 and solver != "cholespy"
+    worker = factor.Worker(lambda A: factor.factorize(A, solver), threaded=threaded)
     try:
         if nf:  # symmetric: its csr arrays are its csc arrays
             worker.submit(sp.csc_matrix((A.data, A.indices, A.indptr), shape=A.shape))
@@ -519,29 +371,6 @@ def _check_bc(data: ArapData, bc) -> np.ndarray:
     return bc
 
 
-def _pair_solver(factor, nf: int, iterations: int):
-    """``solve(rhs) -> x`` for both coordinates as complex (nf,), and its closer."""
-    if not isinstance(factor, _QdldlFactor):
-        def solve(rhs):
-            X = factor.solve(rhs.view(np.float64).reshape(nf, 2))
-            return np.ascontiguousarray(X, dtype=np.float64).view(np.complex128).ravel()
-        return solve, lambda: None
-    def pack(x, y):
-        z = np.empty(nf, dtype=np.complex128)
-        z.real, z.imag = x, y
-        return z
-
-    if not (THREADS and nf >= PARALLEL_MIN_FREE and iterations > 1):
-        return (lambda rhs: pack(factor.solve1(rhs.real), factor.solve1(rhs.imag))), lambda: None
-    worker = _Worker(factor.solve1)
-
-    def solve(rhs):  # y on the worker while x is solved here
-        worker.submit(np.ascontiguousarray(rhs.imag))
-        x = factor.solve1(np.ascontiguousarray(rhs.real))
-        return pack(x, worker.result())
-    return solve, worker.close
-
-
 def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
                callback: Callable[[int, np.ndarray], None] | None = None) -> np.ndarray:
     """Deform the mesh so that the pins reach their targets, as rigidly as possible.
@@ -585,7 +414,7 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     q0 = data.S0 + data.S_b @ xb  # pinned displacements are fixed
     rb = data.L_fb @ xb
     sigma = np.empty(data.n, dtype=np.complex128)
-    solve, close = _pair_solver(data.factor, nf, int(iterations))
+    solve, close = factor.pair_solver(data.factor, nf, int(iterations))
     try:
         for it in range(int(iterations)):
             q = data.S_f @ xf

@@ -52,7 +52,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from puppet.deform.arap import SOLVERS, _check_bc, _check_inputs, _factorize
+from puppet.deform.arap import _check_bc, _check_inputs
+from puppet.deform.factor import SOLVERS
+from puppet.deform.factor import factorize as _factorize
 from puppet.geom.geodesic import connected_components
 from puppet.geom.laplacian import edges
 

@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from puppet.deform.arap import ArapData, _pair_solver
+from puppet.deform.arap import ArapData
+from puppet.deform.factor import pair_solver as _pair_solver
 from puppet.deform.mls import mls_object_space
 
 __all__ = ["folded_triangles", "relax_foldovers"]

@@ -48,7 +48,8 @@ import time
 
 import numpy as np
 
-from puppet.deform.arap import ArapData, _check_bc, _factorize, arap_solve
+from puppet.deform.arap import ArapData, _check_bc, arap_solve
+from puppet.deform.factor import factorize as _factorize
 from puppet.deform.mls import mls_object_space
 
 __all__ = ["screen_rotation", "rotation_initial_guess", "held_rotations", "cell_residuals",

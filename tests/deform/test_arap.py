@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 import puppet.deform.arap as arap_mod
+import puppet.deform.factor as factor_mod
 from puppet.deform import ArapData, arap_energy, arap_precompute, arap_solve
 from puppet.geom.geodesic import geodesic_distances
 from puppet.geom.laplacian import cotangent_weights, laplacian_from_weights, uniform_weights
@@ -110,14 +111,14 @@ def test_no_pins_everything_at_rest():
 
 
 def test_drag_does_not_refactorise():
-    before = arap_mod.FACTORIZATIONS
+    before = factor_mod.FACTORIZATIONS
     data = arap_precompute(V_L, F_L, B_L)
-    assert arap_mod.FACTORIZATIONS == before + 1
+    assert factor_mod.FACTORIZATIONS == before + 1
     factor = data.factor
     for k in range(5):
         bc = V_L[B_L] + [k * 1.0, -k * 0.5]
         arap_solve(data, bc, iterations=3)
-    assert arap_mod.FACTORIZATIONS == before + 1
+    assert factor_mod.FACTORIZATIONS == before + 1
     assert data.factor is factor
 
 
@@ -141,7 +142,7 @@ def test_splu_and_fallback_agree_with_cholespy(monkeypatch):
         def __init__(self, A):
             raise ValueError("Matrix is not positive definite!")
 
-    monkeypatch.setattr(arap_mod, "_CholespyFactor", Refuses)
+    monkeypatch.setattr(factor_mod, "_CholespyFactor", Refuses)
     d_fb = arap_precompute(V_L, F_L, B_L, solver="cholespy")
     assert d_fb.factor.kind == "splu"
     np.testing.assert_allclose(arap_solve(d_fb, bc), U_chol, atol=1e-9)
@@ -155,12 +156,12 @@ def test_qdldl_default_agrees_with_cholespy_with_and_without_threads(monkeypatch
     assert data.factor.kind == "qdldl"
     U = arap_solve(data, bc)
     np.testing.assert_allclose(U, U_chol, atol=1e-9)
-    monkeypatch.setattr(arap_mod, "PARALLEL_MIN_FREE", 0)  # both coordinates on 2 threads
+    monkeypatch.setattr(factor_mod, "PARALLEL_MIN_FREE", 0)  # both coordinates on 2 threads
     np.testing.assert_array_equal(arap_solve(data, bc), U)
     seen = []
     np.testing.assert_array_equal(arap_solve(data, bc, callback=lambda it, Ui: seen.append(Ui)), U)
     assert len(seen) == 20 and np.array_equal(seen[-1], U)
-    monkeypatch.setattr(arap_mod, "THREADS", False)  # everything on the caller's thread
+    monkeypatch.setattr(factor_mod, "THREADS", False)  # everything on the caller's thread
     serial = arap_precompute(V_L, F_L, B_L)
     np.testing.assert_array_equal(serial.D, data.D)
     np.testing.assert_array_equal(arap_solve(serial, bc), U)
@@ -171,7 +172,7 @@ def test_missing_qdldl_falls_back_to_cholespy(monkeypatch):
         def __init__(self, A):
             raise ImportError("No module named 'qdldl'")
 
-    monkeypatch.setattr(arap_mod, "_QdldlFactor", Missing)
+    monkeypatch.setattr(factor_mod, "_QdldlFactor", Missing)
     assert arap_precompute(V_L, F_L, B_L).factor.kind == "cholespy"
 
 
@@ -181,11 +182,11 @@ def test_errors_on_the_second_thread_reach_the_caller(monkeypatch):
 
     data = arap_precompute(V_L, F_L, B_L)
     with monkeypatch.context() as m:
-        m.setattr(arap_mod, "_factorize", singular)
+        m.setattr(factor_mod, "factorize", singular)
         with pytest.raises(ValueError, match="singular"):
             arap_precompute(V_L, F_L, B_L)
 
-    class Broken(arap_mod._QdldlFactor):
+    class Broken(factor_mod._QdldlFactor):
         def __init__(self, good):
             self.__dict__.update(good.__dict__)
 
@@ -193,7 +194,7 @@ def test_errors_on_the_second_thread_reach_the_caller(monkeypatch):
             raise RuntimeError("broken solve")
 
     data.factor = Broken(data.factor)
-    monkeypatch.setattr(arap_mod, "PARALLEL_MIN_FREE", 0)
+    monkeypatch.setattr(factor_mod, "PARALLEL_MIN_FREE", 0)
     with pytest.raises(RuntimeError, match="broken solve"):
         arap_solve(data, V_L[B_L] + 1.0, iterations=3)
 
