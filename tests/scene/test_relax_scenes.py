@@ -6,17 +6,64 @@ import puppet
 from puppet.deform.relax import folded_triangles
 from tests.conftest import SCENES
 
+CASES = [("trex-cutout", "reach"), ("trex-layers", "roar"), ("trex-layers", "tuck")]
 
-@pytest.mark.parametrize("scene,pose", [("trex-cutout", "reach"), ("trex-layers", "roar"), ("trex-layers", "tuck")])
-def test_no_folds_with_relax_and_some_without(scene, pose):
-    sc = puppet.load_scene(f"{SCENES}/{scene}.json")
-    on = sum(len(folded_triangles(r.rest, r.deformed, r.triangles)) for r in sc.layers(pose))
-    assert on == 0
-    sc.data.deformer.relax_foldovers = False
-    sc2 = puppet.load_scene(f"{SCENES}/{scene}.json")
-    sc2.data.deformer.relax_foldovers = False
-    off = sum(len(folded_triangles(r.rest, r.deformed, r.triangles)) for r in sc2.layers(pose))
-    assert off > 0, "plain ARAP folds here (the reason relax exists)"
-    for r in sc.layers(pose):
+
+@pytest.fixture(scope="module")
+def scenes():
+    return {name: puppet.load_scene(f"{SCENES}/{name}.json") for name in {s for s, _ in CASES}}
+
+
+def solve(sc, pose, relax):
+    sc.data.deformer.relax_foldovers = relax  # read by the solver at every pose
+    try:
+        return sc.layers(pose)
+    finally:
+        sc.data.deformer.relax_foldovers = True
+
+
+def folds(layers):
+    return [folded_triangles(r.rest, r.deformed, r.triangles) for r in layers]
+
+
+@pytest.mark.parametrize("scene,pose", CASES)
+def test_no_folds_with_relax_and_some_without(scenes, scene, pose):
+    sc = scenes[scene]
+    assert sc.data.deformer.relax_foldovers, "on by default"
+    off = solve(sc, pose, False)
+    assert sum(len(f) for f in folds(off)) > 0, "plain ARAP folds here (the reason relax exists)"
+    on = solve(sc, pose, True)
+    assert sum(len(f) for f in folds(on)) == 0
+
+
+@pytest.mark.parametrize("scene,pose", CASES)
+def test_pins_exactly_on_their_targets(scenes, scene, pose):
+    sc = scenes[scene]
+    target = dict(zip((p.name for p in sc.data.pins), sc.state(pose).to))
+    n = 0
+    for r in solve(sc, pose, True):
         for name, v in r.pins.items():
-            assert np.isfinite(r.deformed[v]).all()
+            assert np.array_equal(r.deformed[v], target[name]), (r.name, name)
+            n += 1
+    assert n > 0
+
+
+@pytest.mark.parametrize("scene,pose", CASES)
+def test_relaxing_is_local(scenes, scene, pose):
+    """Vertices 160 px or more from every folded triangle move less than 1 px."""
+    sc = scenes[scene]
+    off, on = solve(sc, pose, False), solve(sc, pose, True)
+    bad = np.concatenate([r.deformed[r.triangles[f]].reshape(-1, 2) for r, f in zip(off, folds(off))])
+    checked = 0
+    for a, b in zip(off, on):
+        far = np.linalg.norm(a.deformed[:, None] - bad[None], axis=2).min(axis=1) >= 160
+        if far.any():
+            assert np.abs(b.deformed[far] - a.deformed[far]).max() < 1.0, a.name
+        checked += far.sum()
+    assert checked > 100
+
+
+@pytest.mark.parametrize("scene", sorted({s for s, _ in CASES}))
+def test_rest_pose_is_the_rest_mesh(scenes, scene):
+    for r in solve(scenes[scene], "rest", True):
+        assert np.abs(r.deformed - r.rest).max() < 1e-9
