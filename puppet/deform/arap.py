@@ -175,7 +175,8 @@ def _edge_weights(V, F, weights: str) -> sp.csr_matrix:
     """Symmetric edge weights W (n, n) from one pass over the triangles' corners.
 
     Cotangent: ``(cot a + cot b) / 2`` (one angle on the boundary, 0 for a degenerate
-    triangle), as ``puppet.geom.laplacian.cotangent_weights``; uniform: 1 per edge.
+    triangle), as ``puppet.geom.laplacian.cotangent_weights``, clamped at 0; uniform: 1
+    per edge.
     """
     n = V.shape[0]
     T = F.T.astype(np.int32)  # n < 2^31 for any mesh that fits in memory here
@@ -199,6 +200,12 @@ def _edge_weights(V, F, weights: str) -> sp.csr_matrix:
     W.sum_duplicates()
     if weights == "uniform":
         W.data[:] = 1.0
+    else:
+        # Obtuse triangles beside constrained edges (links, thin parts) give negative
+        # cotangent weights; a cell whose weights sum negative would fit a 180-degree
+        # "rotation" even at rest. Clamping at 0 keeps every cell well posed and L an
+        # M-matrix (meshes without negative weights, e.g. the benchmark's, are unchanged).
+        np.maximum(W.data, 0.0, out=W.data)
     return W
 
 

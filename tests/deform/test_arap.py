@@ -206,6 +206,8 @@ def test_one_pass_build_matches_puppet_geom(weights):
     F = np.r_[F_L, F1 + len(V_L)]
     data = arap_precompute(V, F, B_L, weights=weights)
     W = cotangent_weights(V, F) if weights == "cotangent" else uniform_weights(V, F)
+    W.data = np.maximum(W.data, 0.0)  # ARAP clamps negative cotangent weights
+    W.eliminate_zeros()
     assert abs(data.W - W).max() < 1e-12
     assert abs(data.L - laplacian_from_weights(W)).max() < 1e-12
     np.testing.assert_allclose(data.D, geodesic_distances(V, F, B_L), rtol=1e-12)
@@ -256,6 +258,7 @@ def reference_arap(V, F, b, bc, U, iterations):
             cot = np.dot(e1, e2) / abs(e1[0] * e2[1] - e1[1] * e2[0])
             W[i, j] += cot / 2
             W[j, i] += cot / 2
+    W = np.maximum(W, 0.0)  # as puppet's ARAP: negative cotangent weights clamped
     L = np.diag(W.sum(1)) - W
     free = np.setdiff1d(np.arange(n), b)
     U = U.copy()
@@ -291,3 +294,21 @@ def test_matches_dense_reference():
     Uref = reference_arap(V, F, b, bc, U0, 8)
     assert np.abs(U - Uref).max() < 1e-9
     assert np.abs(U - U0).max() > 0.05  # the iterations did something
+
+
+def test_negative_cotangent_weights_do_not_flip_cells_at_rest():
+    """A poor (non-Delaunay-quality) mesh has negative cotangent weights; a cell whose
+    weights summed negative used to fit a 180-degree rotation at rest."""
+    import triangle as tr
+    t = np.linspace(0, np.pi, 40)
+    outline = np.c_[np.r_[np.cos(t) * 60, np.cos(t[::-1]) * 58], np.r_[np.sin(t) * 60, np.sin(t[::-1]) * 58 - 2]]
+    n = len(outline)
+    T = tr.triangulate({"vertices": outline, "segments": np.c_[np.arange(n), (np.arange(n) + 1) % n]}, "p")
+    V, F = T["vertices"], T["triangles"].astype(np.int64)
+    raw = cotangent_weights(V, F)
+    assert (raw.data < 0).any(), "the test mesh has negative cotangent weights"
+    b = nearest(V, [[60, 0], [-60, 0], [0, 60]])
+    data = arap_precompute(V, F, b)
+    assert (data.W.data >= 0).all() and (data.S0 > 0).all()
+    U = arap_solve(data, V[b])
+    assert np.abs(U - V).max() < 1e-9
