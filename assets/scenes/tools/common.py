@@ -53,3 +53,13 @@ def dump(scene):
             return "[\n" + ",\n".join(pad + s for s in lines) + "\n" + " " * ind + "]"
         return "[\n" + ",\n".join(pad + s for s in items) + "\n" + " " * ind + "]"
     return fmt(scene, 0) + "\n"
+
+
+def draw_links_and_pins(draw, scene, *, link=(0, 0, 0, 255), pin=(255, 255, 0, 255), width=1):
+    """Overlay a scene's link segments and pin circles on a PIL ImageDraw (previews)."""
+    for L in scene["links"]:
+        for p, q in L["segments"]:
+            draw.line([tuple(p), tuple(q)], fill=link, width=width)
+    for p in scene["pins"]:
+        x, y = p["at"]
+        draw.ellipse([x - 3, y - 3, x + 3, y + 3], outline=pin)

@@ -28,14 +28,13 @@ link segments drawn in, for checking the assembly without puppet.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 
 import cv2
 import numpy as np
 from PIL import Image, ImageDraw
 
-from common import disk, dump, erode, on_mask, samples  # noqa: E402
+from common import draw_links_and_pins, dump, erode, on_mask, samples  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENES = os.path.dirname(HERE)
@@ -258,7 +257,6 @@ def chain_segments(ov, n, gap=2.5):
 
 
 def make_links(layers, masks, spec, clearance=6):
-    idx = {n: i for i, (n, _, _) in enumerate(layers)}
     used = {n: np.zeros_like(m) for n, m in masks.items()}
     links = []
     for a, b, kind, n, margin in spec:
@@ -341,7 +339,7 @@ def build():
             want = [CANVAS[0] - shoulder_r[0], shoulder_r[1]]
         pins.append({"name": name, "layer": layer, "at": pin_at(masks[layer], used[layer], want)})
     P = {p["name"]: p["at"] for p in pins}
-    hl, hr, fl, fr = P["hand_l"], P["hand_r"], P["foot_l"], P["foot_r"]
+    hl, hr, fr = P["hand_l"], P["hand_r"], P["foot_r"]
     n_layers = len(layers)
     poses = {
         "wave": {"hand_r": [hr[0] - 10, 95]},
@@ -378,13 +376,7 @@ def preview(scene, layers, path):
     im = Image.new("RGBA", CANVAS, tuple(BACKGROUND))
     for n, img, off in layers:
         im.alpha_composite(Image.open(os.path.join(SCENES, img)).convert("RGBA"), tuple(off))
-    d = ImageDraw.Draw(im)
-    for L in scene["links"]:
-        for p, q in L["segments"]:
-            d.line([tuple(p), tuple(q)], fill=(0, 0, 0, 255), width=1)
-    for p in scene["pins"]:
-        x, y = p["at"]
-        d.ellipse([x - 3, y - 3, x + 3, y + 3], outline=(255, 255, 0, 255))
+    draw_links_and_pins(ImageDraw.Draw(im), scene)
     im.save(path)
 
 

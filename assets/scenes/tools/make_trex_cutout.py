@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 from PIL import Image, ImageDraw
 
-from common import disk, dump, erode, on_mask, samples  # noqa: E402
+from common import disk, draw_links_and_pins, dump, erode, on_mask, samples  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENES = os.path.dirname(HERE)
@@ -229,12 +229,7 @@ def preview(scene, masks, figure, path):
     d = ImageDraw.Draw(bg)
     for L in scene["layers"][1:]:
         d.polygon([tuple(p) for p in L["mask"]["polygon"]], outline=(255, 0, 0, 255))
-    for L in scene["links"]:
-        for p, q in L["segments"]:
-            d.line([tuple(p), tuple(q)], fill=(0, 0, 255, 255), width=2)
-    for p in scene["pins"]:
-        x, y = p["at"]
-        d.ellipse([x - 3, y - 3, x + 3, y + 3], outline=(0, 0, 0, 255))
+    draw_links_and_pins(d, scene, link=(0, 0, 255, 255), pin=(0, 0, 0, 255), width=2)
     bg.save(path)
 
 
