@@ -1,4 +1,4 @@
-"""Image loading with limits, and atomic image writing.
+"""Image loading with limits (writing lives in :mod:`puppet.output`, re-exported here).
 
 Every image a user names goes through :func:`load_rgba`, which refuses missing, corrupt,
 non-image and absurdly large files (decompression bombs) with an :class:`ImageError`
@@ -7,12 +7,12 @@ naming the file, before any pixel is decoded.
 from __future__ import annotations
 
 import os
-import tempfile
 import warnings
 
 import numpy as np
 
 from puppet.errors import ImageError
+from puppet.output import atomic_write, save_png  # noqa: F401  (re-exported: one output mechanism)
 
 #: Largest side we accept: the GL texture limit we can count on everywhere.
 MAX_SIDE = 16384
@@ -89,32 +89,3 @@ def load_mask_image(path: str, *, scene_file: str | None = None, json_path: str 
             return np.array(im.convert("L")) > 0
     except (OSError, ValueError, SyntaxError) as e:
         raise fail(f"corrupt or truncated ({e})") from None
-
-
-def atomic_write(path: str, write) -> None:
-    """Call ``write(tmp_path)`` then rename the temporary file onto ``path``.
-
-    A failure removes the temporary file, so no partial output is ever left behind.
-    """
-    folder = os.path.dirname(os.path.abspath(path))
-    base = os.path.basename(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=os.path.splitext(base)[1], dir=folder)
-    os.close(fd)
-    try:
-        write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # as an ordinary new file (mkstemp makes it 0600)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-
-
-def save_png(path: str, rgba: np.ndarray) -> None:
-    """Write an (h, w, 4) or (h, w, 3) uint8 array as PNG, atomically."""
-    from PIL import Image
-
-    im = Image.fromarray(np.ascontiguousarray(rgba))
-    atomic_write(path, lambda tmp: im.save(tmp, format="PNG"))

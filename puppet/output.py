@@ -1,0 +1,341 @@
+"""Safe output: every file and frame folder puppet writes goes through this module.
+
+One mechanism for every command and for :meth:`Document.save`:
+
+- the output path is resolved (symlinks followed) and refused when it is, or (for a
+  frame folder) contains, a file the scene reads: the scene file, a layer image, a mask
+  file, the source or the background image;
+- the folder must exist and be writable, an existing output must be a writable regular
+  file (never a device, a folder or a file under ``/proc``);
+- a file is written to a temporary name beside it (``.NAME.XXXXXXXX.tmp``), flushed to
+  disk and renamed over the output; a frame folder is filled as a temporary folder
+  and swapped in as a whole, so old and new frames never mix;
+- every failure (read-only, full disk, missing folder, ...) raises :class:`OutputError`
+  (a :class:`~puppet.errors.SceneError`: one line, exit status 2 in the CLI) and
+  removes what was half written.
+
+Temporary files and folders are registered while they exist; :func:`remove_leftovers`
+deletes them, which the CLI calls when it is stopped by SIGINT, SIGTERM or SIGHUP.
+"""
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import re
+import shutil
+import signal
+import tempfile
+import threading
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+from puppet.errors import SceneError
+
+#: Names a frame folder may already hold to be replaced as a whole by a new run.
+FRAME_NAME = re.compile(r"frame_\d+\.png")
+
+Inputs = Iterable[tuple[str, str]]  # (path of a file the scene reads, what it is, e.g. "layers[0].image")
+
+_live: set[str] = set()  # temporary files and folders that exist right now
+_lock = threading.Lock()
+_SIGNALS = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)}
+
+
+class OutputError(SceneError):
+    """An output that cannot or must not be written: ``OUT: cannot write: reason``."""
+
+    def __init__(self, path: str, reason: str):
+        super().__init__(f"cannot write: {reason}", file=path)
+        self.reason = reason
+
+
+# -- checks -------------------------------------------------------------------------
+def _reason(exc: OSError) -> str:
+    return exc.strerror or str(exc)
+
+
+def _folder_reason(folder: str) -> str | None:
+    """Why files cannot be created in ``folder`` (None when they can, as far as we can tell)."""
+    if not os.path.exists(folder):
+        return f"folder '{folder}' does not exist"
+    if not os.path.isdir(folder):
+        return f"'{folder}' is not a folder"
+    try:
+        if os.statvfs(folder).f_flag & os.ST_RDONLY:
+            return f"folder '{folder}' is on a read-only file system"
+    except OSError as e:
+        return _reason(e)
+    if not os.access(folder, os.W_OK):
+        return f"folder '{folder}' is not writable (permission denied)"
+    return None
+
+
+def _same(a: str, b: str) -> bool:
+    if a == b:
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _check_inputs(path: str, target: str, inputs: Inputs, *, folder: bool) -> None:
+    for src, what in inputs:
+        real = os.path.realpath(src)
+        if folder and (real == target or real.startswith(target.rstrip(os.sep) + os.sep)):
+            raise OutputError(path, f"the folder holds a file the scene reads: '{src}' ({what}); "
+                              "writing frames there would replace it")
+        if not folder and _same(real, target):
+            raise OutputError(path, f"it is a file the scene reads: '{src}' ({what})")
+
+
+def check_file(path: str, *, inputs: Inputs = ()) -> str:
+    """Check that ``path`` can be written as a file, without writing anything.
+
+    Parameters
+    ----------
+    path : the output as the user gave it.
+    inputs : (path, description) of every file the scene reads; none may be overwritten.
+
+    Returns
+    -------
+    The real path that will be written (symlinks resolved: a symlink is kept and its
+    target replaced).
+
+    Raises
+    ------
+    OutputError
+        Missing or non-folder parent, read-only or unwritable folder or file, a folder or
+        a non-regular file (device, pipe, /proc entry) at the path, or an input.
+    """
+    target = os.path.realpath(path)
+    if os.path.isdir(target):
+        raise OutputError(path, "is a folder")
+    why = _folder_reason(os.path.dirname(target))
+    if why:
+        raise OutputError(path, why)
+    if os.path.lexists(target):
+        import stat
+
+        st = os.stat(target)
+        if not stat.S_ISREG(st.st_mode):
+            raise OutputError(path, "not a regular file")
+        if not os.access(target, os.W_OK):
+            raise OutputError(path, "the file is read-only")
+    _check_inputs(path, target, inputs, folder=False)
+    return target
+
+
+def check_folder(path: str, *, inputs: Inputs = ()) -> str:
+    """Check that ``path`` can be (re)placed by a frame folder; returns its real path.
+
+    A folder that exists may hold only frames of an earlier run (``frame_*.png``): they
+    are replaced as a whole. Any other file in it is refused rather than deleted.
+    """
+    target = os.path.realpath(path.rstrip("/" + os.sep) or os.sep)
+    if os.path.lexists(target) and not os.path.isdir(target):
+        raise OutputError(path, "exists and is not a folder")
+    why = _folder_reason(os.path.dirname(target))
+    if why:
+        raise OutputError(path, why)
+    _check_inputs(path, target, inputs, folder=True)
+    if os.path.isdir(target):
+        try:
+            others = sorted(n for n in os.listdir(target) if not FRAME_NAME.fullmatch(n))
+        except OSError as e:
+            raise OutputError(path, _reason(e)) from None
+        if others:
+            raise OutputError(path, f"the folder holds other files than frames (e.g. '{others[0]}'); "
+                              "give a new or an empty folder")
+        if not os.access(target, os.W_OK):
+            raise OutputError(path, "the folder is read-only")
+    return target
+
+
+# -- temporaries ----------------------------------------------------------------------
+@contextlib.contextmanager
+def _signals_blocked():
+    """Hold SIGINT/SIGTERM/SIGHUP for a few system calls, so a temporary is never created
+    without being registered and a swap never stops half way."""
+    main = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS) if main else None
+    try:
+        yield
+    finally:
+        if main:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _temp(path: str, folder: str, make: Callable[[str, str], str]) -> str:
+    base = os.path.basename(path.rstrip("/" + os.sep)) or "out"
+    with _signals_blocked():
+        try:
+            tmp = make(f".{base}.", folder)
+        except OSError as e:
+            if e.errno == errno.ENOENT:  # the folder exists but takes no new files (/proc)
+                raise OutputError(path, f"cannot create files in '{folder}'") from None
+            raise OutputError(path, _reason(e)) from None
+        with _lock:
+            _live.add(tmp)
+    return tmp
+
+
+def _make_file(prefix: str, folder: str) -> str:
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=folder)
+    os.close(fd)
+    return tmp
+
+
+def _make_folder(prefix: str, folder: str) -> str:
+    return tempfile.mkdtemp(prefix=prefix, suffix=".tmp", dir=folder)
+
+
+def _remove(tmp: str) -> None:
+    with contextlib.suppress(OSError):
+        if os.path.isdir(tmp) and not os.path.islink(tmp):
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            os.remove(tmp)
+    with _lock:
+        _live.discard(tmp)
+
+
+def remove_leftovers() -> list[str]:
+    """Delete every temporary file and folder still registered; returns their paths."""
+    with _lock:
+        left = sorted(_live)
+    for tmp in left:
+        _remove(tmp)
+    return left
+
+
+def _mode(target: str, default: int) -> int:
+    """Permissions for the new output: the old file's, else ``default`` under the umask."""
+    with contextlib.suppress(OSError):
+        return os.stat(target).st_mode & 0o7777
+    umask = os.umask(0)
+    os.umask(umask)
+    return default & ~umask
+
+
+def _failed(path: str, exc: BaseException) -> BaseException:
+    """A writing failure as the error to raise: OSErrors with an errno are the user's."""
+    if isinstance(exc, OSError) and not isinstance(exc, OutputError) and exc.errno is not None:
+        return OutputError(path, _reason(exc))
+    return exc
+
+
+# -- writing --------------------------------------------------------------------------
+def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()) -> None:
+    """Call ``write(tmp_path)``, flush it to disk, then rename it onto ``path``.
+
+    ``path`` is checked first (:func:`check_file`). On any failure, and on a signal,
+    the temporary file is removed, so no partial output is ever left behind.
+
+    Raises
+    ------
+    OutputError
+        The output cannot be written (see :func:`check_file`), or writing failed with an
+        operating-system error (no space left, I/O error, ...).
+    """
+    target = check_file(path, inputs=inputs)
+    tmp = _temp(path, os.path.dirname(target), _make_file)
+    try:
+        write(tmp)
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)  # a full disk may only show here (delayed allocation, NFS)
+        finally:
+            os.close(fd)
+        os.chmod(tmp, _mode(target, 0o666))
+        with _signals_blocked():
+            os.replace(tmp, target)
+            with _lock:
+                _live.discard(tmp)
+    except BaseException as e:
+        _remove(tmp)
+        err = _failed(path, e)
+        if err is e:
+            raise
+        raise err from None
+
+
+def _exchange(a: str, b: str) -> bool:
+    """Swap two paths atomically (Linux ``renameat2(RENAME_EXCHANGE)``); False if unsupported."""
+    import ctypes
+
+    try:
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    at_fdcwd, rename_exchange = -100, 2
+    if fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        return False
+    raise OSError(err, os.strerror(err), b)
+
+
+def _swap_in(path: str, tmp: str, target: str) -> None:
+    """Put the folder ``tmp`` at ``target``; an old folder there is replaced and deleted."""
+    with _signals_blocked():
+        if not os.path.isdir(target):
+            os.rename(tmp, target)
+            with _lock:
+                _live.discard(tmp)
+            return
+        if not _exchange(tmp, target):  # two renames, with the signals held in between
+            old = _temp(path, os.path.dirname(target), _make_folder)
+            os.rename(target, old)
+            try:
+                os.rename(tmp, target)
+            except OSError:
+                os.rename(old, target)
+                raise
+            with _lock:
+                _live.discard(tmp)
+            tmp = old
+    _remove(tmp)  # the old frames (signals allowed again: a stop leaves it to remove_leftovers)
+
+
+def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = ()) -> int:
+    """Fill a new folder with ``fill(tmp_folder)`` and swap it in at ``path`` as a whole.
+
+    Returns what ``fill`` returns (e.g. the number of frames). ``path`` is checked first
+    (:func:`check_folder`): frames of an earlier run are replaced, never mixed with the
+    new ones, and a folder holding anything else is refused.
+    """
+    target = check_folder(path, inputs=inputs)
+    tmp = _temp(path, os.path.dirname(target), _make_folder)
+    try:
+        n = fill(tmp)
+        os.chmod(tmp, _mode(target, 0o777))
+        _swap_in(path, tmp, target)
+        return n
+    except BaseException as e:
+        _remove(tmp)
+        err = _failed(path, e)
+        if err is e:
+            raise
+        raise err from None
+
+
+def save_png(path: str, rgba: np.ndarray, *, inputs: Inputs = ()) -> None:
+    """Write an (h, w, 4) or (h, w, 3) uint8 array as PNG, atomically (see :func:`atomic_write`)."""
+    from PIL import Image
+
+    im = Image.fromarray(np.ascontiguousarray(rgba))
+    atomic_write(path, lambda tmp: im.save(tmp, format="PNG"), inputs=inputs)
+
+
+def write_text(path: str, text: str, *, inputs: Inputs = ()) -> None:
+    """Write UTF-8 text atomically (see :func:`atomic_write`)."""
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+    atomic_write(path, write, inputs=inputs)
