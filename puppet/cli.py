@@ -8,11 +8,15 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 import sys
 
 from puppet.errors import SceneError
 
+#: Largest --size side accepted by the parser (the machine's GL may allow less: checked before drawing).
 MAX_SIZE = 16384
+#: Largest output in pixels (64 megapixels, e.g. 8192x8192): the compositor needs ~36 bytes per pixel.
+MAX_PIXELS = 64 * 1024 * 1024
 
 
 class UsageError(SceneError):
@@ -31,6 +35,8 @@ def _size(text: str) -> tuple[int, int]:
     w, h = int(m.group(1)), int(m.group(2))
     if not (1 <= w <= MAX_SIZE and 1 <= h <= MAX_SIZE):
         raise argparse.ArgumentTypeError(f"--size {text!r}: width and height must be 1..{MAX_SIZE}")
+    if w * h > MAX_PIXELS:
+        raise argparse.ArgumentTypeError(f"--size {text!r}: at most {MAX_PIXELS} pixels ({w * h} asked)")
     return w, h
 
 
@@ -45,9 +51,11 @@ def _time(text: str) -> float:
 
 
 def _fps(text: str) -> float:
+    from puppet.anim.export import MAX_FPS, MIN_FPS
+
     t = _time(text)
-    if not 0 < t <= 240:
-        raise argparse.ArgumentTypeError(f"{text!r}: fps must be in (0, 240]")
+    if not MIN_FPS <= t <= MAX_FPS:
+        raise argparse.ArgumentTypeError(f"{text!r}: fps must be in {MIN_FPS:g}..{MAX_FPS:g}")
     return t
 
 
@@ -98,28 +106,56 @@ def _output_file(path: str, exts: tuple[str, ...]) -> str:
     ext = os.path.splitext(path)[1].lower()
     if ext not in exts:
         raise UsageError(f"-o {path!r}: the output must end in {' or '.join(exts)}")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise UsageError(f"-o {path!r}: folder {folder!r} does not exist")
-    if os.path.isdir(path):
-        raise UsageError(f"-o {path!r}: is a folder")
     return path
+
+
+def _check_size(scene, size: tuple[int, int] | None) -> None:
+    """Refuse an output the machine's OpenGL cannot draw, before anything is drawn."""
+    from puppet.render.context import output_size_problem
+
+    w, h = size or scene.canvas
+    flag = f"--size {w}x{h}" if size else f"the canvas ({w}x{h}; give a smaller --size)"
+    if w * h > MAX_PIXELS:
+        raise UsageError(f"{flag}: at most {MAX_PIXELS} pixels")
+    comp = getattr(scene, "compositor", None)
+    if comp is None:  # an API with one compositor per process
+        from puppet.api import compositor
+
+        comp = compositor()
+    problem = output_size_problem(comp.ctx, (w, h))
+    if problem:
+        raise UsageError(f"{flag}: {problem}")
+
+
+def _gl_allocation_failed(exc: Exception) -> bool:
+    text = str(exc)
+    return "OUT_OF_MEMORY" in text or "framebuffer is not complete" in text
 
 
 def run(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     import puppet
+    from puppet.output import check_file, save_png
+    from puppet.scene.inputs import input_files
 
     if args.command == "render":
         out = _output_file(args.output, (".png",))
         scene = puppet.load_scene(args.scene)
-        rgba = scene.render(pose=args.pose, time=args.time, size=args.size, wireframe=args.wireframe)
-        from puppet.imaging.io import save_png
-
-        save_png(out, rgba)
+        inputs = input_files(scene.data)
+        check_file(out, inputs=inputs)
+        _check_size(scene, args.size)
+        try:
+            rgba = scene.render(pose=args.pose, time=args.time, size=args.size, wireframe=args.wireframe)
+        except Exception as e:
+            if not _gl_allocation_failed(e):
+                raise
+            w, h = args.size or scene.canvas
+            raise UsageError(f"OpenGL could not allocate a {w}x{h} frame ({e}); give a smaller --size") from None
+        save_png(out, rgba, inputs=inputs)
     elif args.command == "mesh":
         out = _output_file(args.output, (".json",))
         scene = puppet.load_scene(args.scene)
+        check_file(out, inputs=input_files(scene.data))
         scene.write_mesh(out, pose=args.pose, time=args.time)
     elif args.command == "check":
         scene = puppet.load_scene(args.scene)
@@ -128,20 +164,75 @@ def run(argv: list[str] | None = None) -> int:
         from puppet.anim.export import animate_to
 
         scene = puppet.load_scene(args.scene)
-        animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
-                   wireframe=args.wireframe, progress=sys.stderr.isatty())
+        _check_size(scene, args.size)
+        try:
+            animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
+                       wireframe=args.wireframe, progress=sys.stderr.isatty())
+        except Exception as e:
+            if not _gl_allocation_failed(e):
+                raise
+            w, h = args.size or scene.canvas
+            raise UsageError(f"OpenGL could not allocate a {w}x{h} frame ({e}); give a smaller --size") from None
     return 0
 
 
+class Stopped(BaseException):
+    """Raised in the main thread when SIGTERM or SIGHUP arrives, so that cleanup runs."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _on_signal(signum, frame):
+    for s in _handled():  # a second signal must not cut the cleanup short
+        signal.signal(s, signal.SIG_IGN)
+    raise Stopped(signum)
+
+
+def _handled() -> list[int]:
+    return [getattr(signal, n) for n in ("SIGTERM", "SIGHUP", "SIGINT") if hasattr(signal, n)]
+
+
+def _install_handlers() -> None:
+    for s in _handled():
+        if s == signal.SIGINT:
+            continue  # Python's KeyboardInterrupt
+        if signal.getsignal(s) is not signal.SIG_IGN:  # keep nohup's choice
+            signal.signal(s, _on_signal)
+
+
+def _say(line: str) -> None:
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):  # no terminal any more (SIGHUP)
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status (SIGTERM/SIGHUP end the process by that signal,
+    after removing temporary files)."""
+    from puppet.output import remove_leftovers
+
+    if argv is None:
+        _install_handlers()
     try:
         return run(argv)
     except SceneError as e:
-        print(f"puppet: error: {e}", file=sys.stderr)
+        _say(f"puppet: error: {e}")
         return 2
     except KeyboardInterrupt:
-        print("puppet: interrupted", file=sys.stderr)
+        remove_leftovers()
+        _say("puppet: interrupted")
         return 130
+    except Stopped as e:
+        remove_leftovers()
+        _say(f"puppet: stopped by {signal.Signals(e.signum).name}")
+        signal.signal(e.signum, signal.SIG_DFL)
+        os.kill(os.getpid(), e.signum)
+        return 128 + e.signum
+    finally:
+        remove_leftovers()
 
 
 if __name__ == "__main__":

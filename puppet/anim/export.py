@@ -1,22 +1,32 @@
 """Export an animation: a folder of PNG frames, a GIF or an H.264 MP4.
 
-Every frame is solved from scratch (trajectory invariance). Outputs are written to a
-temporary name and renamed at the end, so a failure leaves nothing behind.
+Every frame is solved from scratch (trajectory invariance) and streamed to its output
+as soon as it is drawn: memory does not grow with the number of frames. All writing
+goes through :mod:`puppet.output` (checked before the first frame is drawn, temporary
+name or folder, renamed or swapped in at the end, inputs never overwritten).
 """
 from __future__ import annotations
 
+import math
 import os
-import shutil
 import sys
-import tempfile
+from collections.abc import Iterator
 
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.io import atomic_write
-from puppet.scene.timeline import frame_times
+from puppet.output import atomic_write, check_file, check_folder, write_folder
+from puppet.scene.inputs import input_files
 
 KINDS = {".gif": "gif", ".mp4": "mp4"}
+#: Most frames one ``animate`` may write (duration x fps); longer exports are refused up front.
+MAX_FRAMES = 100_000
+#: Frame rates accepted, frames per second.
+MIN_FPS, MAX_FPS = 0.01, 240.0
+#: Frames drawn first to choose a GIF's palette, and the pixels taken from them.
+GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
+#: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
+GIF_SAMPLE_CACHE = 64 << 20
 
 
 def output_kind(path: str) -> str:
@@ -29,108 +39,147 @@ def output_kind(path: str) -> str:
     return KINDS[ext]
 
 
-def _frames(scene, times, size, wireframe, progress):
-    n = len(times)
-    for i, t in enumerate(times):
-        yield scene.render(time=float(t), size=size, wireframe=wireframe)
-        if progress:
-            done = int(30 * (i + 1) / n)
-            sys.stderr.write(f"\r[{'#' * done}{'.' * (30 - done)}] {i + 1}/{n} frames")
+def frame_count(start: float, end: float, fps: float) -> int:
+    """Frames from ``start`` to ``end`` inclusive at ``fps``; refuses more than :data:`MAX_FRAMES`.
+
+    Frame *i* is at ``start + i / fps``; nothing is allocated per frame here.
+    """
+    if end < start:
+        raise SceneError(f"--to {end:g} is before --from {start:g}")
+    span = (end - start) * fps
+    if not math.isfinite(span) or span + 1 > MAX_FRAMES:
+        raise SceneError(f"{end - start:g} s at {fps:g} fps is more than {MAX_FRAMES} frames; "
+                         "export it in parts with --from/--to or lower --fps")
+    return int(math.floor(span + 1e-9)) + 1
+
+
+def _frames(scene, start: float, fps: float, indices, size, wireframe) -> Iterator[np.ndarray]:
+    """Draw frame ``i`` at ``start + i / fps`` for each i in ``indices``, lazily: (H, W, 4) uint8 each."""
+    for i in indices:
+        yield scene.render(time=start + i / fps, size=size, wireframe=wireframe)
+
+
+def _progress(frames: Iterator[np.ndarray], n: int, show: bool) -> Iterator[np.ndarray]:
+    """Pass frames through, drawing a progress bar on stderr when ``show``."""
+    k = 0
+    for k, f in enumerate(frames, 1):
+        yield f
+        if show:
+            done = int(30 * k / n)
+            sys.stderr.write(f"\r[{'#' * done}{'.' * (30 - done)}] {k}/{n} frames")
             sys.stderr.flush()
-    if progress:
+    if show and k:
         sys.stderr.write("\n")
 
 
 def flatten(rgba: np.ndarray) -> np.ndarray:
-    """Composite straight-alpha RGBA over white, for formats without alpha."""
+    """Composite straight-alpha RGBA over white, for formats without alpha: (h, w, 4) -> (h, w, 3) uint8."""
     a = rgba[..., 3:4].astype(np.float32) / 255.0
     rgb = rgba[..., :3].astype(np.float32) * a + 255.0 * (1.0 - a)
     return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
-def write_gif(path: str, frames: list[np.ndarray], fps: float) -> None:
-    """GIF with one palette shared by all frames (adaptive, from a sample of frames)."""
-    from PIL import Image
-
-    rgb = [flatten(f) for f in frames]
-    step = max(1, len(rgb) // 8)
-    sample = np.concatenate(rgb[::step], axis=0)
-    pal = Image.fromarray(sample).quantize(colors=255, method=Image.Quantize.MEDIANCUT)
-    ims = [Image.fromarray(f).quantize(palette=pal, dither=Image.Dither.NONE) for f in rgb]
-    ms = max(10, int(round(100.0 / fps)) * 10)  # GIF stores 10 ms steps
-    atomic_write(path, lambda tmp: ims[0].save(tmp, format="GIF", save_all=True, append_images=ims[1:],
-                                               duration=ms, loop=0, disposal=1))
+def gif_sample(frames: dict[int, np.ndarray]) -> np.ndarray:
+    """Pixels of the sampled frames (strided to at most :data:`GIF_SAMPLE_PIXELS`), flattened: (k, w', 3)."""
+    h, w = next(iter(frames.values())).shape[:2]
+    s = max(1, math.ceil(math.sqrt(h * w * len(frames) / GIF_SAMPLE_PIXELS)))
+    return np.concatenate([flatten(f[::s, ::s]) for f in frames.values()], axis=0)
 
 
-def write_mp4(path: str, frames: list[np.ndarray], fps: float) -> None:
-    """H.264 (yuv420p) MP4 through PyAV; odd sizes are padded to even."""
+def write_gif(path: str, frames, fps: float, palette, *, inputs=()) -> int:
+    """Stream RGBA frames to a looping GIF with one ``palette`` (see :mod:`puppet.anim.gif`)."""
+    from puppet.anim.gif import GifStream, quantize
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as f:
+            gif = None
+            for rgba in frames:
+                if gif is None:
+                    gif = GifStream(f, (rgba.shape[1], rgba.shape[0]), palette, fps)
+                gif.add(quantize(flatten(rgba), palette))
+            gif.close()
+            written[0] = gif.frames_added
+    written = [0]
+    atomic_write(path, write, inputs=inputs)
+    return written[0]
+
+
+def write_mp4(path: str, frames, fps: float, *, inputs=()) -> int:
+    """Stream RGBA frames to H.264 (yuv420p, CRF 18) MP4 through PyAV; odd sizes are padded to even."""
     import av
     from fractions import Fraction
 
-    h, w = frames[0].shape[:2]
-    H, W = h + h % 2, w + w % 2
+    written = [0]
 
-    def write(tmp):
+    def write(tmp: str) -> None:
         with av.open(tmp, mode="w", format="mp4") as box:
-            st = box.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
-            st.width, st.height, st.pix_fmt = W, H, "yuv420p"
-            st.options = {"crf": "18", "preset": "medium"}
-            for f in frames:
-                rgb = flatten(f)
+            st = None
+            for rgba in frames:
+                h, w = rgba.shape[:2]
+                H, W = h + h % 2, w + w % 2
+                if st is None:
+                    st = box.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
+                    st.width, st.height, st.pix_fmt = W, H, "yuv420p"
+                    st.options = {"crf": "18", "preset": "medium"}
+                rgb = flatten(rgba)
                 if (H, W) != (h, w):
                     rgb = np.pad(rgb, ((0, H - h), (0, W - w), (0, 0)), mode="edge")
                 for pkt in st.encode(av.VideoFrame.from_ndarray(rgb, format="rgb24")):
                     box.mux(pkt)
+                written[0] += 1
             for pkt in st.encode():
                 box.mux(pkt)
-    atomic_write(path, write)
+    atomic_write(path, write, inputs=inputs)
+    return written[0]
 
 
-def write_dir(path: str, frames) -> int:
-    """Write ``frame_00000.png``, ... into ``path`` (created), all or nothing."""
-    from puppet.imaging.io import save_png
+def write_dir(path: str, frames, *, inputs=()) -> int:
+    """Write ``frame_00000.png``, ... into a new folder swapped in at ``path`` (all or nothing)."""
+    from PIL import Image
 
-    target = os.path.abspath(path.rstrip("/" + os.sep))
-    parent = os.path.dirname(target)
-    if not os.path.isdir(parent):
-        raise SceneError(f"-o {path!r}: folder {parent!r} does not exist")
-    tmp = tempfile.mkdtemp(prefix=".frames.", dir=parent)
-    try:
+    def fill(tmp: str) -> int:
         n = 0
         for n, f in enumerate(frames, 1):
-            save_png(os.path.join(tmp, f"frame_{n - 1:05d}.png"), f)
-        if not os.path.exists(target):
-            os.replace(tmp, target)
-        else:
-            for name in sorted(os.listdir(tmp)):
-                os.replace(os.path.join(tmp, name), os.path.join(target, name))
-            os.rmdir(tmp)
+            Image.fromarray(np.ascontiguousarray(f)).save(os.path.join(tmp, f"frame_{n - 1:05d}.png"), format="PNG")
         return n
-    finally:
-        if os.path.isdir(tmp):
-            shutil.rmtree(tmp)
+    return write_folder(path, fill, inputs=inputs)
 
 
 def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None, wireframe=False,
                progress=False) -> int:
-    """Render the scene's animation to ``output``; returns the number of frames."""
+    """Render the scene's animation to ``output``; returns the number of frames.
+
+    The output is checked (writable, no input of the scene overwritten) and the frame
+    count bounded (:data:`MAX_FRAMES`) before anything is drawn.
+    """
     anim = scene.data.animation
     if anim is None:
         raise SceneError("the scene has no animation to export", file=scene.file, path="animation")
     kind = output_kind(output)
-    if kind != "dir":
-        folder = os.path.dirname(os.path.abspath(output))
-        if not os.path.isdir(folder):
-            raise SceneError(f"-o {output!r}: folder {folder!r} does not exist")
-    t0 = anim.keys[0].time if start is None else start
-    t1 = anim.keys[-1].time if end is None else end
-    if t1 < t0:
-        raise SceneError(f"--to {t1:g} is before --from {t0:g}")
-    times = frame_times(anim, fps=fps, start=t0, end=t1)
-    rate = fps or anim.fps
-    frames = _frames(scene, times, size, wireframe, progress)
-    if kind == "dir":
-        return write_dir(output, frames)
-    frames = list(frames)
-    (write_gif if kind == "gif" else write_mp4)(output, frames, rate)
-    return len(frames)
+    inputs = input_files(scene.data)
+    (check_folder if kind == "dir" else check_file)(output, inputs=inputs)
+    rate = float(fps or anim.fps)
+    if not MIN_FPS <= rate <= MAX_FPS:
+        raise SceneError(f"{rate:g} fps is outside {MIN_FPS:g}..{MAX_FPS:g}; give --fps",
+                         file=None if fps else scene.file, path=None if fps else "animation.fps")
+    t0 = anim.keys[0].time if start is None else float(start)
+    t1 = anim.keys[-1].time if end is None else float(end)
+    n = frame_count(t0, t1, rate)
+    if kind != "gif":
+        frames = _progress(_frames(scene, t0, rate, range(n), size, wireframe), n, progress)
+        if kind == "dir":
+            return write_dir(output, frames, inputs=inputs)
+        return write_mp4(output, frames, rate, inputs=inputs)
+    from puppet.anim.gif import palette_from_sample
+
+    picks = sorted({int(round(x)) for x in np.linspace(0, n - 1, min(n, GIF_SAMPLE_FRAMES))})
+    sample = dict(zip(picks, _frames(scene, t0, rate, picks, size, wireframe)))
+    palette = palette_from_sample(gif_sample(sample))
+    if sum(f.nbytes for f in sample.values()) > GIF_SAMPLE_CACHE:
+        sample.clear()  # too big to keep: those frames are drawn again
+
+    def frames() -> Iterator[np.ndarray]:
+        drawn = _frames(scene, t0, rate, (i for i in range(n) if i not in sample), size, wireframe)
+        for i in range(n):
+            yield sample.pop(i) if i in sample else next(drawn)
+    return write_gif(output, _progress(frames(), n, progress), rate, palette, inputs=inputs)

@@ -59,3 +59,45 @@ def create_context(*, require: int = GL_REQUIRE) -> moderngl.Context:
     except Exception as exc:  # glcontext raises bare Exception subclasses
         raise RuntimeError(f"cannot create an EGL OpenGL {require // 100}.{require % 100 // 10} "
                            f"context: {exc}") from exc
+
+
+def max_output_size(ctx: moderngl.Context) -> int:
+    """Largest width or height of a frame ``ctx`` can draw into.
+
+    The smallest of ``GL_MAX_RENDERBUFFER_SIZE``, ``GL_MAX_TEXTURE_SIZE`` (the
+    compositor's targets are both) and ``GL_MAX_VIEWPORT_DIMS``; 16384 on llvmpipe.
+    """
+    with ctx:  # the limits are read from the current context
+        info = ctx.info
+    dims = info.get("GL_MAX_VIEWPORT_DIMS") or (0, 0)
+    limits = [info.get("GL_MAX_RENDERBUFFER_SIZE"), info.get("GL_MAX_TEXTURE_SIZE"), *dims]
+    return int(min(v for v in limits if v)) if any(limits) else 0
+
+
+def output_size_problem(ctx: moderngl.Context, size: tuple[int, int]) -> str | None:
+    """Why ``ctx`` cannot draw a frame of ``size`` = (width, height), or None when it can.
+
+    Checks the size against :func:`max_output_size`, then allocates (and releases) a
+    framebuffer of that size with a colour and a depth attachment, so that a driver out
+    of memory is found before any frame is drawn.
+    """
+    w, h = int(size[0]), int(size[1])
+    limit = max_output_size(ctx)
+    if limit and max(w, h) > limit:
+        return f"this machine's OpenGL draws at most {limit}x{limit}"
+    with ctx:
+        ctx.error  # clear a stale error flag
+        objs = []
+        try:
+            objs.append(ctx.renderbuffer((w, h), 4))
+            objs.append(ctx.depth_renderbuffer((w, h)))
+            objs.append(ctx.framebuffer(objs[:1], objs[1]))
+            error = ctx.error
+        except moderngl.Error as exc:
+            error = str(exc)
+        finally:
+            for obj in reversed(objs):
+                obj.release()
+    if error != "GL_NO_ERROR":
+        return f"OpenGL cannot allocate a {w}x{h} frame ({error})"
+    return None
