@@ -1,42 +1,68 @@
-"""The Python API: ``puppet.load_scene(path) -> Scene`` with ``render`` and ``mesh``."""
+"""The Python API: ``puppet.load_scene(path) -> Scene``, an editable scene that can draw
+itself (``render``), give its meshes (``mesh``) and follow a dragged pin (``drag``)."""
 from __future__ import annotations
 
 import numpy as np
 
-from puppet.scene.document import Document
-
-_compositor = None
-
-
-def compositor():
-    """The process's compositor (one EGL context, one GL thread), created on first use."""
-    global _compositor
-    if _compositor is None:
-        from puppet.render.compositor import Compositor
-
-        _compositor = Compositor()
-    return _compositor
+from puppet.scene.document import Document, PoseLike
 
 
 class Scene(Document):
-    """A loaded scene that can also draw itself."""
+    """A loaded, editable scene that can also draw itself.
 
-    def render(self, pose: str | None = None, time: float | None = None, *, size: tuple[int, int] | None = None,
+    It draws with its own compositor (one EGL context, created on first use) unless one
+    is given: ``scene.compositor = Compositor(ctx)`` draws into an app's context.
+    """
+
+    def __init__(self, doc: dict, file: str):
+        super().__init__(doc, file)
+        self._compositor = None
+
+    @property
+    def compositor(self):
+        """The compositor this scene draws with (created on first use)."""
+        if self._compositor is None:
+            from puppet.render.compositor import Compositor
+
+            self._compositor = Compositor()
+        return self._compositor
+
+    @compositor.setter
+    def compositor(self, value) -> None:
+        self._compositor = value
+
+    def render(self, pose: PoseLike = None, time: float | None = None, *, size: tuple[int, int] | None = None,
                wireframe: bool = False) -> np.ndarray:
-        """Draw a pose (or a time on the animation).
+        """Draw a pose: a name, an ad-hoc dict of pin targets (same form as a pose in the
+        file), or None for the active pose; or a time on the animation.
 
         Returns
         -------
         (H, W, 4) uint8 RGBA array (straight alpha), H x W = ``size`` or the canvas.
         """
-        from puppet.render.compositor import DrawLayer
+        return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
 
-        res = self.layers(pose, time)
-        draw = [DrawLayer(key=f"{id(self)}:{r.name}", image=im.rgba, offset=im.offset, rest=r.rest,
-                          deformed=r.deformed, triangles=r.triangles, depth=r.depth)
-                for r, im in zip(res, self.images)]
-        return compositor().render(draw, self.canvas, size=size, background=self.background(),
-                                   wireframe=wireframe)
+    def draw_layers(self, layers, *, size=None, wireframe: bool = False) -> np.ndarray:
+        """Composite already posed layers (:meth:`layers` results) into an RGBA array."""
+        from puppet.render.layers import DrawLayer
+
+        draw = [DrawLayer(key=r.name, image=im.rgba, offset=im.offset, rest=r.rest, deformed=r.deformed,
+                          triangles=r.triangles, depth=r.depth)
+                for r, im in zip(layers, self.built.images)]
+        return self.compositor.render(draw, self.canvas, size=size, background=self.background(),
+                                      wireframe=wireframe)
+
+    def drag(self, pin: str, *, iterations: int = 4, size: tuple[int, int] | None = None):
+        """Start dragging ``pin`` in the active pose (see :class:`puppet.drag.Drag`)."""
+        from puppet.drag import Drag
+
+        return Drag(self, pin, iterations=iterations, size=size)
+
+    def close(self) -> None:
+        """Release the scene's compositor (and its GL context), if it made one."""
+        if self._compositor is not None:
+            self._compositor.release()
+            self._compositor = None
 
 
 def load_scene(path: str) -> Scene:

@@ -90,33 +90,111 @@ def stacking(data: SceneData) -> list[int]:
     return rank
 
 
+def load_source(data: SceneData):
+    """The scene's template image (RGBA), or None."""
+    if data.source is None:
+        return None
+    return load_rgba(data.source, scene_file=data.file, json_path="source")
+
+
+def layer_image(data: SceneData, L: Layer, source) -> LayerImage:
+    """One layer's pixels and mask, before inpainting and masking (see :func:`finish_image`)."""
+    return _image_and_mask(data, L, source)
+
+
+def inpaint_hole(data: SceneData, images: list[LayerImage], k: int, rank: list[int]) -> np.ndarray | None:
+    """Pixels of layer ``k`` taken by layers in front of it from the same source, or None."""
+    L, im = data.layers[k], images[k]
+    if L.inpaint == "none" or not im.from_source:
+        return None
+    hole = np.zeros_like(im.mask)
+    for j, other in enumerate(images):
+        if other.from_source and rank[j] > rank[k]:
+            hole |= other.mask
+    hole &= im.mask
+    return hole if hole.any() else None
+
+
+def finish_image(im: LayerImage, hole: np.ndarray | None, method: str) -> LayerImage:
+    """A new LayerImage refilled where ``hole`` is (by ``method``), alpha zero off the mask."""
+    rgba = inpaint_layer(im.rgba, im.mask, hole, method) if hole is not None else im.rgba.copy()
+    rgba[..., 3] = np.where(im.mask, rgba[..., 3], 0)
+    return LayerImage(rgba=rgba, offset=im.offset, mask=im.mask, from_source=im.from_source)
+
+
 def build_images(data: SceneData) -> list[LayerImage]:
     """Load every layer's pixels and mask; refill inpainted layers; apply masks to alpha."""
-    source = None
-    if data.source is not None:
-        source = load_rgba(data.source, scene_file=data.file, json_path="source")
-    images = [_image_and_mask(data, L, source) for L in data.layers]
+    source = load_source(data)
+    images = [layer_image(data, L, source) for L in data.layers]
     rank = stacking(data)
-    for k, (L, im) in enumerate(zip(data.layers, images)):
-        if L.inpaint == "none" or not im.from_source:
-            continue
-        hole = np.zeros_like(im.mask)
-        for j, other in enumerate(images):
-            if other.from_source and rank[j] > rank[k]:
-                hole |= other.mask
-        hole &= im.mask
-        if hole.any():
-            im.rgba = inpaint_layer(im.rgba, im.mask, hole, L.inpaint)
-    for im in images:
-        rgba = im.rgba.copy()
-        rgba[..., 3] = np.where(im.mask, rgba[..., 3], 0)
-        im.rgba = rgba
-    return images
+    return [finish_image(im, inpaint_hole(data, images, k, rank), L.inpaint)
+            for k, (L, im) in enumerate(zip(data.layers, images))]
 
 
 def default_max_area(mask: np.ndarray) -> float:
     """Triangle area giving about TARGET_TRIANGLES triangles, within [6, 400] px²."""
     return float(np.clip(mask.sum() / TARGET_TRIANGLES, 6.0, 400.0))
+
+
+def link_polylines(data: SceneData, areas: list[float]) -> list[list[tuple[int, int, np.ndarray]]]:
+    """Per layer, its link segments as (link index, segment index, (p, 2) points), each
+    subdivided once with the finer spacing of its two layers (so both meshes share them)."""
+    index = {L.name: L.index for L in data.layers}
+    polylines: list[list[tuple[int, int, np.ndarray]]] = [[] for _ in data.layers]
+    for li, link in enumerate(data.links):
+        a, b = index[link.layers[0]], index[link.layers[1]]
+        h = min(edge_length_for_area(areas[a]), edge_length_for_area(areas[b]))
+        for si, seg in enumerate(link.segments):
+            P = subdivide_segment(seg[0], seg[1], h)
+            polylines[a].append((li, si, P))
+            polylines[b].append((li, si, P))
+    return polylines
+
+
+def layer_pins(data: SceneData, k: int) -> list[tuple[int, object]]:
+    """(scene pin index, pin) of the interior pins on layer ``k``."""
+    name = data.layers[k].name
+    return [(i, p) for i, p in enumerate(data.pins) if p.layer == name and p.kind == "interior"]
+
+
+def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
+               polylines: list[tuple[int, int, np.ndarray]]) -> Mesh:
+    """Triangulate layer ``k``: its mask outline, its pins as vertices, its link segments as edges."""
+    L = data.layers[k]
+    pins = layer_pins(data, k)
+    for i, p in pins:
+        if not im.contains(p.at):
+            raise SceneError(f"pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of layer "
+                             f"{L.name!r}", file=data.file, path=f"pins[{i}].at")
+    for li, si, P in polylines:
+        if not _segment_inside(im, data.links[li].segments[si]):
+            raise SceneError(f"segment leaves the mask of layer {L.name!r} "
+                             "(a link segment must lie inside both layers)",
+                             file=data.file, path=f"links[{li}].segments[{si}]")
+    regions = mask_regions(im.mask, im.offset)
+    pts = np.array([p.at for _, p in pins]).reshape(-1, 2)
+    mesh = triangulate_regions(regions, max_area=area, min_angle=L.mesh.min_angle,
+                               simplify=L.mesh.simplify, points=pts, segments=[P for _, _, P in polylines])
+    if len(mesh.F) == 0:
+        raise SceneError(f"layer {L.name!r} is too small to mesh", file=data.file, path=f"layers[{k}]")
+    return mesh
+
+
+def pin_vertices(data: SceneData, k: int, mesh: Mesh) -> dict[str, int]:
+    """Interior pin name -> vertex index in layer ``k``'s mesh."""
+    found = {}
+    for i, p in layer_pins(data, k):
+        v = _vertex_at(mesh.V, p.at)
+        if v is None:
+            raise SceneError(f"pin {p.name!r} could not be placed in the mesh of layer {data.layers[k].name!r} "
+                             "(too close to the edge?)", file=data.file, path=f"pins[{i}].at")
+        found[p.name] = v
+    return found
+
+
+def layer_areas(data: SceneData, images: list[LayerImage]) -> list[float]:
+    """Triangle area bound of every layer: its ``mesh.max_area`` or one from its size."""
+    return [L.mesh.max_area or default_max_area(im.mask) for L, im in zip(data.layers, images)]
 
 
 def build_meshes(data: SceneData, images: list[LayerImage]) -> tuple[list[Mesh], list[dict[str, int]], list[Group]]:
@@ -127,48 +205,11 @@ def build_meshes(data: SceneData, images: list[LayerImage]) -> tuple[list[Mesh],
     meshes : per layer. pin_vertex : per layer, interior pin name -> vertex index.
     groups : linked groups, each with its merged mesh and pinned vertices.
     """
-    n = len(data.layers)
-    index = {L.name: L.index for L in data.layers}
-    areas = [L.mesh.max_area or default_max_area(im.mask) for L, im in zip(data.layers, images)]
-    # every link segment subdivided once, with the finer spacing of its two layers
-    polylines: list[list[tuple[int, int, np.ndarray]]] = [[] for _ in range(n)]
-    for li, link in enumerate(data.links):
-        a, b = index[link.layers[0]], index[link.layers[1]]
-        h = min(edge_length_for_area(areas[a]), edge_length_for_area(areas[b]))
-        for si, seg in enumerate(link.segments):
-            for k in (a, b):
-                if not _segment_inside(images[k], seg):
-                    raise SceneError(f"segment leaves the mask of layer {data.layers[k].name!r} "
-                                     "(a link segment must lie inside both layers)",
-                                     file=data.file, path=f"links[{li}].segments[{si}]")
-            P = subdivide_segment(seg[0], seg[1], h)
-            polylines[a].append((li, si, P))
-            polylines[b].append((li, si, P))
-    meshes, pin_vertex = [], []
-    for k, (L, im) in enumerate(zip(data.layers, images)):
-        pins = [(i, p) for i, p in enumerate(data.pins) if p.layer == L.name and p.kind == "interior"]
-        for i, p in pins:
-            if not im.contains(p.at):
-                raise SceneError(f"pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of layer "
-                                 f"{L.name!r}", file=data.file, path=f"pins[{i}].at")
-        regions = mask_regions(im.mask, im.offset)
-        pts = np.array([p.at for _, p in pins]).reshape(-1, 2)
-        mesh = triangulate_regions(regions, max_area=areas[k], min_angle=L.mesh.min_angle,
-                                   simplify=L.mesh.simplify, points=pts,
-                                   segments=[P for _, _, P in polylines[k]])
-        if len(mesh.F) == 0:
-            raise SceneError(f"layer {L.name!r} is too small to mesh", file=data.file, path=f"layers[{k}]")
-        found = {}
-        for i, p in pins:
-            v = _vertex_at(mesh.V, p.at)
-            if v is None:
-                raise SceneError(f"pin {p.name!r} could not be placed in the mesh of layer {L.name!r} "
-                                 "(too close to the edge?)", file=data.file, path=f"pins[{i}].at")
-            found[p.name] = v
-        meshes.append(mesh)
-        pin_vertex.append(found)
-    groups = _groups(data, meshes, pin_vertex, polylines)
-    return meshes, pin_vertex, groups
+    areas = layer_areas(data, images)
+    polylines = link_polylines(data, areas)
+    meshes = [mesh_layer(data, k, im, areas[k], polylines[k]) for k, im in enumerate(images)]
+    pin_vertex = [pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
+    return meshes, pin_vertex, build_groups(data, meshes, pin_vertex, polylines)
 
 
 def _segment_inside(im: LayerImage, seg: np.ndarray) -> bool:
@@ -192,7 +233,8 @@ def _vertex_at(V: np.ndarray, xy, tol: float = 1e-7):
     return k if k >= 0 and d[k] <= tol else None
 
 
-def _groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
+def build_groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
+    """Linked groups: union of linked layers, their merged mesh, pins and pinned vertices."""
     n = len(data.layers)
     index = {L.name: L.index for L in data.layers}
     uf = UnionFind(n)

@@ -1,116 +1,208 @@
-"""The scene as a document: validated data plus lazily built layers, meshes and solvers."""
+"""The scene as an editable document: the scene JSON as it is now (the model), with the
+validated :class:`SceneData` and the built :class:`~puppet.scene.rig.Built` derived from
+it, change events, and an undo history.
+
+The document JSON is never changed in place: an edit builds a changed copy, validates
+it (the same checks as loading a file, then the meshes it touches), and only then
+replaces the old one, so a rejected edit leaves nothing half done and every history
+snapshot stays as it was. File paths inside it are kept absolute and written relative
+to the scene's folder by :meth:`Document.save`.
+"""
 from __future__ import annotations
 
-import copy
+import contextlib
 import json
 import os
+from collections.abc import Callable
 
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.io import atomic_write, load_rgba
-from puppet.scene import build, evaluate as ev, timeline
-from puppet.scene.exterior import build_exterior
-from puppet.scene.load import load_scene_data
-from puppet.scene.model import SceneData
+from puppet.imaging.io import load_rgba
+from puppet.output import write_text
+from puppet.scene import evaluate as ev, timeline
+from puppet.scene.cache import file_stamp, fingerprint
+from puppet.scene.edits import Edits
+from puppet.scene.history import Event, Events, History, Step
+from puppet.scene.inputs import input_files
+from puppet.scene.load import Ctx, _pose, parse_scene, read_json
+from puppet.scene.model import SceneData, Target
+from puppet.scene.rig import Built, LayerResult, Rig
+
+PoseLike = str | dict | None
 
 
-class Document:
-    """A loaded scene. Expensive parts (images, meshes, factorisations) are built once,
-    on first use, and reused by every pose."""
+def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
+    """A shallow-copied scene JSON with every file path replaced by ``fn(path)``."""
+    doc = dict(doc)
+    for key in ("source", "background"):
+        if isinstance(doc.get(key), str):
+            doc[key] = fn(doc[key])
+    if not isinstance(doc.get("layers"), list):
+        return doc
+    layers = []
+    for L in doc["layers"]:
+        if isinstance(L, dict):
+            L = dict(L)
+            if isinstance(L.get("image"), str):
+                L["image"] = fn(L["image"])
+            if isinstance(L.get("mask"), dict) and isinstance(L["mask"].get("file"), str):
+                L["mask"] = dict(L["mask"], file=fn(L["mask"]["file"]))
+        layers.append(L)
+    doc["layers"] = layers
+    return doc
 
-    def __init__(self, data: SceneData):
-        self.data = data
-        self._images = None
-        self._meshes = None
-        self._solver = None
-        self._exterior = []
-        self._source_size = None
-        self._background = None
-        #: images this scene owns (not files the user gave): scene-relative name -> (h, w, 4|1) uint8;
-        #: written beside the scene by :meth:`save`
-        self.owned: dict[str, np.ndarray] = {}
+
+class Document(Edits):
+    """An editable scene. Load with :meth:`load`; pose with :meth:`layers` / :meth:`mesh`."""
+
+    def __init__(self, doc: dict, file: str):
+        self.file = os.path.abspath(file)
+        self.events = Events()
+        self.history = History()
+        self.rig = Rig()
+        self._doc: dict = {}
+        self._active = "rest"
+        self._data: SceneData | None = None
+        self._built: Built | None = None
+        self._set(doc, "rest", build=False)
 
     @classmethod
     def load(cls, path: str):
-        """Read, validate and load the pixels of a scene (raises SceneError)."""
-        doc = cls(load_scene_data(path))
-        doc.images  # images and masks are checked at load time: pins need them
-        doc.background()
-        doc._check_pins_in_masks()
-        return doc
+        """Read and validate a scene file (raises SceneError)."""
+        path = os.path.abspath(path)
+        folder = os.path.dirname(path)
+        raw = read_json(path)
+        if isinstance(raw, dict):  # paths absolute inside the model; parse_scene reports bad ones
+            raw = map_paths(raw, lambda p: os.path.normpath(os.path.join(folder, p)))
+        return cls(raw, path)
 
+    # -- the model and what is derived from it -----------------------------------
+    @property
+    def data(self) -> SceneData:
+        """The validated scene as it is now."""
+        return self._data
+
+    @property
+    def built(self) -> Built:
+        """Images, meshes, groups and solver precomputations of the scene as it is now."""
+        if self._built is None:
+            self._built = self.rig.build(self._data)
+        return self._built
+
+    def to_dict(self) -> dict:
+        """The scene JSON as it is now (paths absolute), a copy."""
+        return json.loads(json.dumps(self._doc))
+
+    def _set(self, doc: dict, active: str, *, build: bool = True) -> None:
+        """Make ``doc`` the model after validating it; on SceneError nothing changes."""
+        data = parse_scene(doc, self.file)
+        if active != "rest" and active not in data.poses:
+            active = "rest"
+        built = self.rig.build(data) if build else None
+        self._doc, self._active, self._data, self._built = doc, active, data, built
+
+    def _edit(self, event: Event, mutate: Callable[[dict], str | None]) -> bool:
+        """Apply ``mutate`` to a copy of the document (it may return a new active pose
+        name), validate, record one undo step and emit ``event``. False if nothing changed."""
+        doc = json.loads(json.dumps(self._doc))
+        active = mutate(doc) or self._active
+        if doc == self._doc and active == self._active:
+            return False
+        before = (self._doc, self._active)
+        self._set(doc, active)
+        if not self.history.in_block:
+            self.history.push(Step(event.label or event.type, before, (self._doc, self._active), event))
+        self.events.emit(event)
+        return True
+
+    @contextlib.contextmanager
+    def block(self, label: str):
+        """Record every edit made inside as one undo step (a whole drag, a paste)."""
+        self.history.open((self._doc, self._active), label)
+        try:
+            yield self
+        finally:
+            start = self.history._block[-1][0]
+            self.history.close((self._doc, self._active), (self._doc, self._active) != start)
+
+    def undo(self) -> bool:
+        """Go back one step; False when there is nothing to undo."""
+        if not self.history.can_undo():
+            return False
+        step = self.history.undo_stack.pop()
+        self._set(*step.before)
+        self.history.redo_stack.append(step)
+        self.events.emit(Event("undo", level="mesh", label=step.label))
+        return True
+
+    def redo(self) -> bool:
+        """Redo the last undone step; False when there is nothing to redo."""
+        if not self.history.can_redo():
+            return False
+        step = self.history.redo_stack.pop()
+        self._set(*step.after)
+        self.history.undo_stack.append(step)
+        self.events.emit(Event("redo", level="mesh", label=step.label))
+        return True
+
+    # -- drawing facts -----------------------------------------------------------
     def background(self):
-        """The background: an RGBA colour tuple, or the background image (read once)."""
+        """The background: an RGBA colour tuple, or the background image (read once per file)."""
         bg = self.data.background
         if not isinstance(bg, str):
             return tuple(bg)
-        if self._background is None:
-            self._background = load_rgba(bg, scene_file=self.file, json_path="background")
-        return self._background
-
-    # -- built parts -------------------------------------------------------------
-    @property
-    def file(self) -> str:
-        return self.data.file
+        return self.rig.memo.get("pixels", fingerprint("background", file_stamp(bg)),
+                                 lambda: load_rgba(bg, scene_file=self.file, json_path="background"))
 
     @property
-    def images(self) -> list[build.LayerImage]:
-        if self._images is None:
-            self._images = build.build_images(self.data)
-        return self._images
+    def images(self):
+        return self.built.images
 
     @property
     def canvas(self) -> tuple[int, int]:
         """Output size (W, H): ``canvas``, else the source's size, else the first layer image's."""
-        if self.data.canvas is not None:
-            return self.data.canvas
-        if self.data.source is not None:
-            src = next((im for im in self.images if im.from_source), None)
-            if src is None:  # no layer takes its pixels from the source: read its size once
-                if self._source_size is None:
-                    from PIL import Image
+        d = self.data
+        if d.canvas is not None:
+            return d.canvas
+        if d.source is not None:
+            def size():
+                from PIL import Image
 
-                    with Image.open(self.data.source) as im:
-                        self._source_size = im.size
-                return self._source_size
-            h, w = src.rgba.shape[:2]
-            return (w, h)
-        h, w = self.images[0].rgba.shape[:2]
+                with Image.open(d.source) as im:
+                    return im.size
+            return tuple(self.rig.memo.get("pixels", fingerprint("size", file_stamp(d.source)), size))
+        h, w = self.built.images[0].rgba.shape[:2]
         return (w, h)
 
     @property
     def rank(self) -> list[int]:
-        return build.stacking(self.data)
-
-    def _build_meshes(self):
-        if self._meshes is None:
-            meshes = build.build_meshes(self.data, self.images)
-            self._exterior, _ = build_exterior(self.data, self.images, meshes[2])
-            self._solver = ev.Solver(self.data, meshes[2], self._exterior)
-            self._meshes = meshes
-        return self._meshes
+        return self.built.rank
 
     @property
-    def groups(self) -> list[build.Group]:
-        return self._build_meshes()[2]
-
-    def _check_pins_in_masks(self):
-        index = {L.name: L.index for L in self.data.layers}
-        for i, p in enumerate(self.data.pins):
-            if p.kind == "interior" and not self.images[index[p.layer]].contains(p.at):
-                raise SceneError(f"pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of layer "
-                                 f"{p.layer!r}", file=self.file, path=f"pins[{i}].at")
+    def groups(self):
+        return self.built.groups
 
     # -- poses -------------------------------------------------------------------
+    @property
+    def active_pose(self) -> str:
+        """The pose that :meth:`layers` and ``render()`` show with no argument."""
+        return self._active
+
     def pose_names(self) -> list[str]:
         return ["rest"] + list(self.data.poses)
 
-    def state(self, pose: str | None = None, time: float | None = None) -> ev.PinState:
-        """Pin targets for a named pose or a time on the animation (default: rest)."""
-        self._build_meshes()
+    def parse_pose(self, pose: dict, where: str = "pose") -> dict[str, Target]:
+        """An ad-hoc pose (same form as a pose in the file) checked like one."""
+        d = self.data
+        names = {L.name: L.index for L in d.layers}
+        return _pose(Ctx(self.file), pose, where, {p.name: i for i, p in enumerate(d.pins)}, d.layers, names)
+
+    def state(self, pose: PoseLike = None, time: float | None = None) -> ev.PinState:
+        """Pin targets for a pose (a name, an ad-hoc dict, or None for the active pose) or a time."""
         if pose is not None and time is not None:
             raise SceneError("give a pose or a time, not both", file=self.file)
+        built = self.built
         if time is not None:
             anim = self.data.animation
             if anim is None:
@@ -118,31 +210,35 @@ class Document:
             if not np.isfinite(time) or time < 0:
                 raise SceneError(f"time must be a number >= 0, got {time}", file=self.file)
             a, b, t = timeline.segment_at(anim, float(time))
-            ext_rest = np.concatenate([ge.rest for ge in self._exterior]) if self._exterior else np.zeros((0, 2))
+            ext_rest = np.concatenate([ge.rest for ge in built.exterior]) if built.exterior else np.zeros((0, 2))
             return ev.blend(self._named(a), self._named(b), t, ext_rest)
-        return self._named(pose or "rest")
+        if isinstance(pose, dict):
+            return ev.pose_state(self.data, built.exterior, self.parse_pose(pose))
+        if pose is not None and not isinstance(pose, str):
+            raise SceneError(f"a pose is a name or a dict of pin targets, not {type(pose).__name__}",
+                             file=self.file)
+        return self._named(self._active if pose is None else pose)
 
     def _named(self, pose: str) -> ev.PinState:
         if pose != "rest" and pose not in self.data.poses:
             raise SceneError(f"no pose named {pose!r} (poses: {', '.join(self.pose_names())})", file=self.file)
-        self._build_meshes()
         if pose == "rest":
-            return ev.rest_state(self.data, self._exterior)
-        return ev.pose_state(self.data, self._exterior, self.data.poses[pose])
+            return ev.rest_state(self.data, self.built.exterior)
+        return ev.pose_state(self.data, self.built.exterior, self.data.poses[pose])
 
-    def layers(self, pose: str | None = None, time: float | None = None) -> list[ev.LayerResult]:
+    def layers(self, pose: PoseLike = None, time: float | None = None) -> list[LayerResult]:
         """Deformed meshes and depths of every layer in a pose or at a time."""
-        meshes, pin_vertex, groups = self._build_meshes()
-        return ev.evaluate(self.data, meshes, pin_vertex, groups, self._solver, self.rank,
-                           self.state(pose, time))
+        return self.rig.evaluate(self.built, self.state(pose, time))
 
-    def mesh(self, pose: str | None = None, time: float | None = None) -> dict:
+    def mesh(self, pose: PoseLike = None, time: float | None = None) -> dict:
         """The meshes as data, as ``puppet mesh`` writes them."""
         res = self.layers(pose, time)
         out = {"puppet": 1, "canvas": list(self.canvas)}
-        out["pose"] = pose if pose is not None else ("rest" if time is None else None)
         if time is not None:
+            out["pose"] = None
             out["time"] = float(time)
+        else:
+            out["pose"] = pose if isinstance(pose, str) else (self._active if pose is None else None)
         out["layers"] = [{
             "name": r.name, "group": r.group, "order": r.order,
             "rest": r.rest.tolist(), "deformed": r.deformed.tolist(), "triangles": r.triangles.tolist(),
@@ -152,18 +248,18 @@ class Document:
 
     def summary(self) -> str:
         """A few lines on the scene: layers, groups, vertices, triangles, and what is not applied yet."""
-        meshes, _, groups = self._build_meshes()
-        d = self.data
+        built, d = self.built, self.data
+        self.background()  # a bad background image is reported by `puppet check` too
         W, H = self.canvas
-        lines = [f"{self.file}: canvas {W}x{H}, {len(d.layers)} layer(s), {len(groups)} group(s), "
+        lines = [f"{self.file}: canvas {W}x{H}, {len(d.layers)} layer(s), {len(built.groups)} group(s), "
                  f"{len(d.pins)} pin(s), {len(d.poses)} pose(s)"
                  + (f", animation {timeline.duration(d.animation):g} s at {d.animation.fps:g} fps"
                     if d.animation else "")]
-        for k, (L, m) in enumerate(zip(d.layers, meshes)):
-            gi = next(i for i, g in enumerate(groups) if k in g.layers)
-            lines.append(f"  layer {L.name!r}: order {self.rank[k]}, group {gi}, {len(m.V)} vertices, "
+        for k, (L, m) in enumerate(zip(d.layers, built.meshes)):
+            gi = next(i for i, g in enumerate(built.groups) if k in g.layers)
+            lines.append(f"  layer {L.name!r}: order {built.rank[k]}, group {gi}, {len(m.V)} vertices, "
                          f"{len(m.F)} triangles")
-        for gi, g in enumerate(groups):
+        for gi, g in enumerate(built.groups):
             lines.append(f"  group {gi}: {len(g.layers)} layer(s), {len(g.mesh.V)} vertices, "
                          f"{len(g.mesh.F)} triangles, {len(g.pins)} pin(s)")
         lines += [f"  note: {n}" for n in self.not_applied()]
@@ -179,50 +275,22 @@ class Document:
             notes.append("bones are used by the 'mls-skeleton' method only")
         return notes
 
+    # -- files -------------------------------------------------------------------
     def to_json(self, folder: str) -> dict:
-        """The scene as JSON with every file path relative to ``folder``."""
-        raw = copy.deepcopy(self.data.raw)
-        src = os.path.dirname(self.file)
-
-        def rel(path: str) -> str:
-            if path in self.owned:
-                return path
-            return os.path.relpath(os.path.normpath(os.path.join(src, path)), folder).replace(os.sep, "/")
-
-        for key in ("source", "background"):
-            if isinstance(raw.get(key), str):
-                raw[key] = rel(raw[key])
-        for L in raw["layers"]:
-            if "image" in L:
-                L["image"] = rel(L["image"])
-            if isinstance(L.get("mask"), dict) and "file" in L["mask"]:
-                L["mask"]["file"] = rel(L["mask"]["file"])
-        return raw
+        """The scene JSON as it is now, with every file path relative to ``folder``."""
+        return map_paths(self.to_dict(), lambda p: os.path.relpath(p, folder).replace(os.sep, "/"))
 
     def save(self, path: str) -> None:
-        """Write the scene (and the images it owns, beside it), each file atomically.
+        """Write the scene as it is now, atomically; file paths inside are written relative
+        to the new location, so the saved scene loads and renders the same pixels.
 
-        File paths inside the scene are rewritten relative to the new location, so the
-        saved scene loads and renders the same pixels wherever it is written.
-        """
-        from puppet.imaging.io import save_png
-
-        folder = os.path.dirname(os.path.abspath(path))
-        if not os.path.isdir(folder):
-            raise SceneError(f"cannot save: folder {folder!r} does not exist", file=path)
+        Goes through :mod:`puppet.output`: an image the scene reads is never overwritten
+        (the scene file itself may be), and a write failure raises an OutputError."""
+        folder = os.path.dirname(os.path.realpath(path))
         text = json.dumps(self.to_json(folder), indent=1)
-        for name, img in self.owned.items():
-            save_png(os.path.join(folder, name), img)
+        write_text(path, text + "\n", inputs=input_files(self.data, scene_file=False))
 
-        def write(tmp):
-            with open(tmp, "w") as f:
-                f.write(text + "\n")
-        atomic_write(path, write)
-
-    def write_mesh(self, path: str, pose: str | None = None, time: float | None = None) -> None:
+    def write_mesh(self, path: str, pose: PoseLike = None, time: float | None = None) -> None:
+        """Write :meth:`mesh` as JSON (``puppet mesh``), through :mod:`puppet.output`."""
         text = json.dumps(self.mesh(pose, time), separators=(",", ":"))
-
-        def write(tmp):
-            with open(tmp, "w") as f:
-                f.write(text)
-        atomic_write(path, write)
+        write_text(path, text, inputs=input_files(self.data))

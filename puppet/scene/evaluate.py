@@ -1,30 +1,14 @@
-"""Pose a built scene: pin targets -> per-layer deformed meshes and depths."""
+"""Pin states: a named pose, an ad-hoc pose or a time on the animation -> where every pin is."""
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
+from puppet.errors import SceneError
 from puppet.scene.exterior import GroupExterior
 from puppet.scene.model import SceneData, Target
-from puppet.scene.solve import PinState, Solver
+from puppet.scene.solve import PinState
 
-__all__ = ["PinState", "Solver", "LayerResult", "rest_state", "pose_state", "blend", "evaluate"]
-
-
-@dataclass
-class LayerResult:
-    """One layer in one pose: what `puppet mesh` writes and the renderer draws."""
-
-    name: str
-    group: int
-    order: int
-    rest: np.ndarray
-    deformed: np.ndarray
-    triangles: np.ndarray
-    depth: np.ndarray
-    pins: dict[str, int]
-    exterior: dict[str, list[float]]
+__all__ = ["PinState", "rest_state", "pose_state", "blend"]
 
 
 def exterior_names(exterior: list[GroupExterior]) -> list[str]:
@@ -49,6 +33,9 @@ def pose_state(data: SceneData, exterior: list[GroupExterior], pose: dict[str, T
             if t.to is not None:
                 s.ext_to[ext[name]] = t.to
             continue
+        if name not in index:
+            raise SceneError(f"the pose names {name!r}, which is not a pin or exterior point of the scene",
+                             file=data.file, path=name)
         i = index[name]
         if t.to is not None:
             s.to[i] = t.to
@@ -69,20 +56,3 @@ def blend(a: PinState, b: PinState, t: float, ext_rest: np.ndarray) -> PinState:
     ext[both_free] = np.nan
     return PinState(to=(1 - t) * a.to + t * b.to, angle=(1 - t) * a.angle + t * b.angle,
                     depth=(1 - t) * a.depth + t * b.depth, ext_to=ext)
-
-
-def evaluate(data: SceneData, meshes, pin_vertex, groups, solver: Solver, rank: list[int],
-             state: PinState) -> list[LayerResult]:
-    """Per-layer results of one pose, in scene layer order."""
-    out: list[LayerResult | None] = [None] * len(data.layers)
-    for gi, g in enumerate(groups):
-        U, depth, ext = solver.solve_group(gi, state)
-        ge = solver.exterior[gi]
-        for li, k in enumerate(g.layers):
-            idx = g.mesh.maps[li]
-            L = data.layers[k]
-            exterior = {n: [float(x) for x in ext[j]] for j, n in enumerate(ge.names) if ge.layers[j] == k}
-            out[k] = LayerResult(name=L.name, group=gi, order=rank[k], rest=meshes[k].V, deformed=U[idx],
-                                 triangles=meshes[k].F, depth=rank[k] + depth[idx], pins=dict(pin_vertex[k]),
-                                 exterior=exterior)
-    return out
