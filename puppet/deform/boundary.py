@@ -54,7 +54,6 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy.sparse import csgraph
-from scipy.spatial import cKDTree
 
 from puppet.deform.mls import KINDS, inverse_distance_weights, mls_from_weights
 from puppet.geom.geodesic import edge_graph
@@ -126,6 +125,8 @@ def _frame_from_edges(V, e, a, b) -> ExteriorFrame:
 
 def _nearest_two_vertices(V, e):
     k = min(len(V), 8)
+    from scipy.spatial import cKDTree  # lazily: scipy.spatial costs ~140 ms to import
+
     _, idx = cKDTree(V).query(e, k=k)
     idx = idx.reshape(len(e), k)
     differs = np.any(V[idx] != V[idx[:, :1]], axis=2)
@@ -221,6 +222,8 @@ def default_falloff(V, F, ext_rest) -> float:
     E = boundary_edges(F)
     h = _boundary_edge_length(V, E)
     if len(p) >= 2:
+        from scipy.spatial import cKDTree
+
         dist, _ = cKDTree(p).query(p, k=2)
         f = 0.5 * float(np.median(dist[:, 1]))
     else:
@@ -393,6 +396,8 @@ def _control_distances(V, G, cp, anchors, free, distance):
     if distance == "euclidean":
         return np.hypot(cp[:, 0, None] - V[None, free, 0], cp[:, 1, None] - V[None, free, 1])
     kc = len(cp) - len(anchors)
+    from scipy.spatial import cKDTree
+
     gap, near = cKDTree(V).query(cp)
     near[kc:] = anchors  # anchors are vertices: exact sources
     gap[kc:] = 0.0

@@ -1,0 +1,81 @@
+"""Dragging a pin: fast previews, an exact release equal to render(pose=...), one undo step."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import puppet
+from tests.conftest import SCENES
+
+pytestmark = pytest.mark.gl
+
+
+@pytest.fixture(scope="module")
+def trex():
+    scene = puppet.load_scene(SCENES + "/trex-layers.json")
+    yield scene
+    scene.close()
+
+
+def test_release_is_exactly_the_rendered_pose(trex):
+    trex.set_active_pose("wave")
+    before = trex.to_dict()
+    steps = len(trex.history.undo_stack)
+    d = trex.drag("hand_front")
+    path = [(100 + 5 * i, 200 - 3 * i) for i in range(8)]
+    previews = [d.move(xy) for xy in path]
+    assert all(p.shape == (500, 600, 4) and p.dtype == np.uint8 for p in previews)
+    assert not np.array_equal(previews[0], previews[-1])
+    final = d.release()
+    pose = trex.to_dict()["poses"]["wave"]
+    assert pose["hand_front"] == list(map(float, path[-1])) or pose["hand_front"]["to"] == list(map(float, path[-1]))
+    np.testing.assert_array_equal(final, trex.render(pose=pose))
+    np.testing.assert_array_equal(final, trex.render())
+    # a fresh scene given the same targets draws the same pixels (trajectory invariance)
+    fresh = puppet.load_scene(SCENES + "/trex-layers.json")
+    try:
+        np.testing.assert_array_equal(final, fresh.render(pose=pose))
+    finally:
+        fresh.close()
+    # the whole drag is one undo step
+    assert len(trex.history.undo_stack) == steps + 1
+    trex.undo()
+    assert trex.to_dict() == before
+
+
+def test_preview_follows_the_pin(trex):
+    trex.set_active_pose("wave")
+    d = trex.drag("hand_front")
+    xy = np.array([150.0, 180.0])
+    for k in range(6):
+        d.move(xy + k)
+    built = trex.built
+    i = [p.name for p in trex.data.pins].index("hand_front")
+    gi = built.group_of_pin(i)
+    g = built.groups[gi]
+    U = d._U
+    np.testing.assert_allclose(U[g.b[g.pins.index(i)]], xy + 5, atol=1e-9)
+    d.cancel()
+    assert not d.open
+
+
+def test_drag_at_rest_makes_a_new_active_pose(trex):
+    trex.set_active_pose("rest")
+    names = trex.pose_names()
+    d = trex.drag("hand_front")
+    d.move((120, 230))
+    d.release()
+    assert trex.active_pose not in names and trex.active_pose in trex.data.poses
+    trex.undo()
+    assert trex.active_pose == "rest" and trex.pose_names() == names
+
+
+def test_bad_drags_are_user_errors(trex):
+    with pytest.raises(puppet.SceneError, match="no pin"):
+        trex.drag("nobody")
+    d = trex.drag("hand_front")
+    with pytest.raises(puppet.SceneError, match="finite"):
+        d.move((np.nan, 1))
+    d.release()
+    with pytest.raises(puppet.SceneError, match="released"):
+        d.move((1, 1))
