@@ -99,6 +99,24 @@ def run(path: str, pin: str, steps: int, radius: float) -> dict:
             "solve": 1000 * np.median(solves), "composite": 1000 * np.median(comp), "floor": 1000 * floor}
 
 
+def edit_cost(path: str, layer: str) -> tuple[float, float, dict]:
+    """Median times (ms) of a full load (images, meshes, precompute) and of one layer's
+    mesh-option edit, and the parts that edit rebuilt."""
+    loads, edits = [], []
+    for k in range(3):
+        t0 = time.perf_counter()
+        scene = puppet.load_scene(path)
+        scene.built
+        loads.append(time.perf_counter() - t0)
+        before = dict(scene.rig.memo.builds)
+        t0 = time.perf_counter()
+        scene.set_mesh_options(layer, max_area=40.0 + k)
+        edits.append(time.perf_counter() - t0)
+        rebuilt = {kind: n - before.get(kind, 0) for kind, n in scene.rig.memo.builds.items()
+                   if n != before.get(kind, 0)}
+    return 1000 * float(np.median(loads)), 1000 * float(np.median(edits)), rebuilt
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--steps", type=int, default=120)
@@ -116,6 +134,9 @@ def main() -> None:
     for r in rows:
         print(f"{r['scene']:22s} {r['vertices']:6d} {r['size']:>8s} {r['move_med']:9.1f} {r['move_p95']:9.1f} "
               f"{r['release']:8.1f} {r['solve']:6.1f} {r['composite']:8.1f} {r['floor']:6.1f}")
+    load, edit, rebuilt = edit_cost(os.path.join(SCENES, "trex-layers.json"), "toparm")
+    print(f"\nT-rex: full load {load:.0f} ms; mesh options of one layer {edit:.0f} ms = {edit / load:.2f}x "
+          f"(target <= 0.5x); rebuilt: {rebuilt}")
 
 
 if __name__ == "__main__":

@@ -26,7 +26,12 @@ class UnionFind:
 
     def labels(self) -> np.ndarray:
         """Dense component label per element, in order of first appearance."""
-        roots = np.array([self.find(i) for i in range(len(self.parent))], np.int64)
+        roots = self.parent.copy()
+        while True:  # pointer jumping, vectorised: every element to its root
+            up = roots[roots]
+            if np.array_equal(up, roots):
+                break
+            roots = up
         _, lab = np.unique(roots, return_inverse=True)
         return lab
 

@@ -158,8 +158,9 @@ def layer_pins(data: SceneData, k: int) -> list[tuple[int, object]]:
 
 
 def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
-               polylines: list[tuple[int, int, np.ndarray]]) -> Mesh:
-    """Triangulate layer ``k``: its mask outline, its pins as vertices, its link segments as edges."""
+               polylines: list[tuple[int, int, np.ndarray]], regions=None) -> Mesh:
+    """Triangulate layer ``k``: its mask outline (``regions``, from the mask when None),
+    its pins as vertices, its link segments as edges."""
     L = data.layers[k]
     pins = layer_pins(data, k)
     for i, p in pins:
@@ -171,7 +172,8 @@ def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
             raise SceneError(f"segment leaves the mask of layer {L.name!r} "
                              "(a link segment must lie inside both layers)",
                              file=data.file, path=f"links[{li}].segments[{si}]")
-    regions = mask_regions(im.mask, im.offset)
+    if regions is None:
+        regions = mask_regions(im.mask, im.offset)
     pts = np.array([p.at for _, p in pins]).reshape(-1, 2)
     mesh = triangulate_regions(regions, max_area=area, min_angle=L.mesh.min_angle,
                                simplify=L.mesh.simplify, points=pts, segments=[P for _, _, P in polylines])

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from puppet.geom.contour import mask_regions
 from puppet.scene import build
 from puppet.scene.cache import Memo, file_stamp, fingerprint
 from puppet.scene.exterior import GroupExterior, build_exterior
@@ -25,7 +26,7 @@ from puppet.scene.model import SceneData
 from puppet.scene.solve import GroupPose, GroupPre, PinState, precompute_group, preview_group, solve_group
 
 #: how many of each kind of built part are kept (least recently used dropped first)
-CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "exterior": 8, "precompute": 16, "solve": 64}
+CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64}
 
 
 @dataclass
@@ -111,10 +112,13 @@ class Rig:
             segs = [(data.links[li].segments[si], P) for li, si, P in polylines[k]]
             key = fingerprint(base_keys[k], L.mesh, areas[k], pins, segs)
             mesh_keys.append(key)
-            meshes.append(memo.get("mesh", key, lambda k=k: build.mesh_layer(
-                data, k, images[k], areas[k], polylines[k])))
+            regions = memo.get("outline", base_keys[k], lambda k=k: mask_regions(images[k].mask, images[k].offset))
+            meshes.append(memo.get("mesh", key, lambda k=k, regions=regions: build.mesh_layer(
+                data, k, images[k], areas[k], polylines[k], regions)))
         pin_vertex = [build.pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
-        groups = build.build_groups(data, meshes, pin_vertex, polylines)
+        groups_key = fingerprint(mesh_keys, [(k.layers, k.segments) for k in data.links],
+                                 [(p.name, p.layer, p.at, p.kind) for p in data.pins])
+        groups = memo.get("groups", groups_key, lambda: build.build_groups(data, meshes, pin_vertex, polylines))
         group_keys = [fingerprint([mesh_keys[k] for k in g.layers], g.mesh.V.shape, g.b) for g in groups]
         ext_key = fingerprint(group_keys, [(L.exterior, base_keys[k]) for k, L in enumerate(data.layers)],
                               [(p.name, p.layer, p.at) for p in data.pins if p.kind == "exterior"],
