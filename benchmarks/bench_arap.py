@@ -19,6 +19,10 @@ What each row measures:
 - "(1 thread)": the same with `puppet.deform.arap.THREADS = False` (libigl is single
   threaded; puppet's default uses the second core for the factorisation and, from
   `PARALLEL_MIN_FREE` free vertices, for the second coordinate's solve).
+- obtuse meshes (a star polygon, a disc stretched 1.25 x 0.8) have negative cotangent
+  weights: puppet's default clamps them at 0, `weights="cotangent-raw"` keeps them as
+  libigl does; |U - U_igl| after 20 and 200 iterations from the same start for both, and
+  both energies with libigl's (raw) weights.
 The issue's targets: precompute <= 1.0x and iteration <= 0.4x at 5k and 20k, full pose
 <= 0.5x at 20k (shown at 5k too), |U - U_igl| <= 1e-3 px from the same start (after 20
 iterations and after 200, near convergence), energy after 10 iterations within 0.1%,
@@ -34,7 +38,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from benchmarks.common import best, disc, pins_and_targets  # noqa: E402
+from benchmarks.common import best, disc, pins_and_targets, star  # noqa: E402
 
 import puppet.deform.factor as factor_mod  # noqa: E402
 from puppet.deform import arap_energy, arap_precompute, arap_solve  # noqa: E402
@@ -132,6 +136,34 @@ def bench_mesh(label, V, F, table):
                 "<= 1e-3", rel <= 1e-3)
 
 
+def bench_obtuse(label, V, F, table):
+    """Parity on a mesh with negative cotangent weights: raw weights equal libigl."""
+    from puppet.geom.laplacian import cotangent_weights
+
+    mesh = f"{label} ({len(V)} v)"
+    neg = int((cotangent_weights(V, F).data < 0).sum() // 2)
+    table.value(mesh, "edges with negative cotangent weight", f"{neg}", "", "", "", None)
+    if igl is None:
+        return
+    b, bc = pins_and_targets(V)
+    raw = arap_precompute(V, F, b, weights="cotangent-raw")
+    U0 = arap_solve(raw, bc, iterations=0)
+    Vc, Fc = np.ascontiguousarray(V), np.ascontiguousarray(F)
+    for its in (20, 200):
+        Ui = igl.arap_solve(bc, igl_data(Vc, Fc, b, its), U0)
+        Ei = arap_energy(raw, Ui)
+        for weights in ("cotangent-raw", "cotangent"):
+            data = raw if weights == "cotangent-raw" else arap_precompute(V, F, b, weights=weights)
+            Up = arap_solve(data, bc, iterations=its, U0=U0)
+            dmax = np.abs(Up - Ui).max()
+            Ep = arap_energy(raw, Up)
+            ok = dmax <= 1e-6 if weights == "cotangent-raw" else None
+            table.value(mesh, f"{weights}: max |U - U_igl| px, {its} it", "", "", f"{dmax:.1e}",
+                        "<= 1e-6" if ok is not None else "", ok)
+            table.value(mesh, f"{weights}: igl energy after {its} it, dE / E", f"{Ep:.4f}",
+                        f"{Ei:.4f}", f"{(Ep - Ei) / abs(Ei):+.1e}", "", None)
+
+
 def bench_factorisations(V, F, table):
     b, bc = pins_and_targets(V)
     start = factor_mod.FACTORIZATIONS
@@ -193,6 +225,9 @@ def main():
     table = Table()
     for label in ("5k", "20k"):
         bench_mesh(label, *meshes[label], table)
+    bench_obtuse("star", *star(), table)
+    V, F = meshes["5k"]
+    bench_obtuse("stretched 5k", V * [1.25, 0.8], F, table)
     bench_factorisations(*meshes["5k"], table)
     bench_product("10k", *meshes["10k"], table)
     kind = arap_precompute(*meshes["5k"], [0]).factor.kind

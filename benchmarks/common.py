@@ -16,6 +16,26 @@ def disc(n_boundary: int, max_area: float, radius: float = 100.0):
     return T["vertices"], T["triangles"].astype(np.int64)
 
 
+def star(spikes: int = 5, r_in: float = 35.0, r_out: float = 100.0, step: float = 4.0,
+         max_area: float = 1.6):
+    """A star polygon (boundary split every ``step``), quality-triangulated without
+    Steiner points on the boundary: obtuse triangles along it give negative cotangent
+    weights (156 edges at the defaults, 4.9k vertices). V (n, 2), F (m, 3)."""
+    k = 2 * spikes
+    t = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    r = np.where(np.arange(k) % 2 == 0, r_out, r_in)
+    corners = np.c_[r * np.cos(t), r * np.sin(t)]
+    pts = []
+    for i in range(k):
+        a, b = corners[i], corners[(i + 1) % k]
+        m = int(np.ceil(np.linalg.norm(b - a) / step))
+        pts += [a + (b - a) * s for s in np.arange(m) / m]
+    pts = np.array(pts)
+    seg = np.c_[np.arange(len(pts)), (np.arange(len(pts)) + 1) % len(pts)]
+    T = triangle.triangulate({"vertices": pts, "segments": seg}, f"pq30Ya{max_area}Q")
+    return T["vertices"], T["triangles"].astype(np.int64)
+
+
 def pins_and_targets(V):
     """Five pins spread over a radius-100 disc and a pose for them."""
     spots = np.array([[0, 0], [70, 0], [-70, 0], [0, 70], [0, -70]], float)

@@ -34,7 +34,10 @@ from scipy.sparse import csgraph
 from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
 
-__all__ = ["ArapData", "arap_precompute", "arap_solve", "arap_energy"]
+__all__ = ["ArapData", "arap_precompute", "arap_solve", "arap_energy", "WEIGHTS"]
+
+#: Edge weights ``arap_precompute`` accepts.
+WEIGHTS = ("cotangent", "cotangent-raw", "uniform")
 
 @dataclass(eq=False)
 class ArapData:
@@ -49,7 +52,7 @@ class ArapData:
     b : (k,) int
         Pinned vertex indices (hard constraints).
     weights : str
-        ``"cotangent"`` or ``"uniform"``.
+        ``"cotangent"`` (clamped at 0), ``"cotangent-raw"`` or ``"uniform"``.
     alpha : float
         Exponent of the MLS initial guess weights.
     W : (n, n) csr
@@ -175,13 +178,13 @@ def _edge_weights(V, F, weights: str) -> sp.csr_matrix:
     """Symmetric edge weights W (n, n) from one pass over the triangles' corners.
 
     Cotangent: ``(cot a + cot b) / 2`` (one angle on the boundary, 0 for a degenerate
-    triangle), as ``puppet.geom.laplacian.cotangent_weights``, clamped at 0; uniform: 1
-    per edge.
+    triangle), as ``puppet.geom.laplacian.cotangent_weights``, clamped at 0;
+    cotangent-raw: the same unclamped (libigl's weights); uniform: 1 per edge.
     """
     n = V.shape[0]
     T = F.T.astype(np.int32)  # n < 2^31 for any mesh that fits in memory here
     w = np.ones((3, len(F)))  # w[c]: weight of the edge opposite corner c
-    if weights == "cotangent":
+    if weights in ("cotangent", "cotangent-raw"):
         X, Y = V[:, 0].copy(), V[:, 1].copy()
         x, y = [X[t] for t in T], [Y[t] for t in T]
         dx = [x[2] - x[1], x[0] - x[2], x[1] - x[0]]  # edge c is opposite corner c
@@ -200,7 +203,7 @@ def _edge_weights(V, F, weights: str) -> sp.csr_matrix:
     W.sum_duplicates()
     if weights == "uniform":
         W.data[:] = 1.0
-    else:
+    elif weights == "cotangent":
         # Obtuse triangles beside constrained edges (links, thin parts) give negative
         # cotangent weights; a cell whose weights sum negative would fit a 180-degree
         # "rotation" even at rest. Clamping at 0 keeps every cell well posed and L an
@@ -263,8 +266,12 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         Triangles.
     b : (k,) int
         Pinned vertex indices, distinct (may be empty: everything stays at rest).
-    weights : {"cotangent", "uniform"}
-        Edge weights of the cells.
+    weights : {"cotangent", "cotangent-raw", "uniform"}
+        Edge weights of the cells. "cotangent" clamps negative cotangent weights
+        (obtuse triangles) at 0, which keeps every cell well posed; "cotangent-raw"
+        keeps them as they are, like libigl's ``arap_precomputation`` (SPOKES), whose
+        results it reproduces from the same start; it may leave the free block
+        indefinite (then factorised by SuperLU).
     alpha : float
         Weight exponent of the MLS initial guess used by :func:`arap_solve`.
     solver : {"qdldl", "cholespy", "splu"}
@@ -279,8 +286,8 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
     data : ArapData
         Vertices of connected components that contain no pin are held at rest.
     """
-    if weights not in ("cotangent", "uniform"):
-        raise ValueError(f"weights must be 'cotangent' or 'uniform', got {weights!r}")
+    if weights not in WEIGHTS:
+        raise ValueError(f"weights must be one of {WEIGHTS}, got {weights!r}")
     if solver not in factor.SOLVERS:
         raise ValueError(f"solver must be one of {factor.SOLVERS}, got {solver!r}")
     V, F, b = _check_inputs(V, F, b)

@@ -8,7 +8,7 @@ import numpy as np
 MASK_KINDS = ("alpha", "threshold", "polygon", "rect", "file", "grabcut")
 INPAINT_METHODS = ("none", "pyramid", "telea", "ns", "fsr")
 METHODS = ("arap", "igarashi", "mls", "mls-skeleton")
-WEIGHTS = ("cotangent", "uniform")
+WEIGHTS = ("cotangent", "cotangent-raw", "uniform")
 INITS = ("mls", "rest")
 EASES = ("linear", "smooth", "step")
 

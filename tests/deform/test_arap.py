@@ -199,14 +199,15 @@ def test_errors_on_the_second_thread_reach_the_caller(monkeypatch):
         arap_solve(data, V_L[B_L] + 1.0, iterations=3)
 
 
-@pytest.mark.parametrize("weights", ["cotangent", "uniform"])
+@pytest.mark.parametrize("weights", ["cotangent", "cotangent-raw", "uniform"])
 def test_one_pass_build_matches_puppet_geom(weights):
     V1, F1 = rectangle(4.0, 4.0, 0.5)
     V = np.r_[V_L, V1 + [30.0, 0.0]]  # + a component without pins: D = inf there
     F = np.r_[F_L, F1 + len(V_L)]
     data = arap_precompute(V, F, B_L, weights=weights)
-    W = cotangent_weights(V, F) if weights == "cotangent" else uniform_weights(V, F)
-    W.data = np.maximum(W.data, 0.0)  # ARAP clamps negative cotangent weights
+    W = uniform_weights(V, F) if weights == "uniform" else cotangent_weights(V, F)
+    if weights == "cotangent":
+        W.data = np.maximum(W.data, 0.0)  # ARAP clamps negative cotangent weights
     W.eliminate_zeros()
     assert abs(data.W - W).max() < 1e-12
     assert abs(data.L - laplacian_from_weights(W)).max() < 1e-12
@@ -312,3 +313,42 @@ def test_negative_cotangent_weights_do_not_flip_cells_at_rest():
     assert (data.W.data >= 0).all() and (data.S0 > 0).all()
     U = arap_solve(data, V[b])
     assert np.abs(U - V).max() < 1e-9
+
+
+def _obtuse_mesh():
+    """A rectangle stretched after meshing: non-Delaunay, with negative cotangent weights."""
+    V, F = rectangle(20.0, 20.0, 1.0)
+    return V * [1.6, 0.6], F
+
+
+def test_raw_cotangent_weights_keep_negative_weights():
+    V, F = _obtuse_mesh()
+    b = nearest(V, [[1, 1], [31, 1], [16, 11]])
+    raw = arap_precompute(V, F, b, weights="cotangent-raw")
+    clamped = arap_precompute(V, F, b, weights="cotangent")
+    assert (raw.W.data < 0).sum() > 10
+    assert (clamped.W.data >= 0).all()
+    bc = V[b] + [[0, 0], [4, -6], [-3, 5]]
+    np.testing.assert_array_equal(arap_solve(raw, bc)[b], bc)
+    # rest pins: the clamped weights give the rest mesh back; raw ones need not (a cell
+    # whose weights sum negative fits a half turn at rest, as in libigl)
+    assert np.abs(arap_solve(clamped, V[b]) - V).max() < 1e-9
+    with pytest.raises(ValueError, match="weights"):
+        arap_precompute(V, F, b, weights="cot")
+
+
+def test_raw_cotangent_weights_equal_libigl():
+    igl = pytest.importorskip("igl")
+    V, F = _obtuse_mesh()
+    b = nearest(V, [[1, 1], [31, 1], [16, 11], [5, 10]])
+    bc = V[b] + [[0, 0], [4, -6], [-3, 5], [2, 2]]
+    raw = arap_precompute(V, F, b, weights="cotangent-raw")
+    U0 = arap_solve(raw, bc, iterations=0)
+    ref = igl.ARAPData()
+    ref.energy = igl.ARAPEnergyType.ARAP_ENERGY_TYPE_SPOKES
+    ref.max_iter = 30
+    igl.arap_precomputation(V, F.astype(np.int64), 2, b.astype(np.int32), ref)
+    U_igl = igl.arap_solve(bc, ref, U0)
+    assert np.abs(arap_solve(raw, bc, iterations=30, U0=U0) - U_igl).max() <= 1e-6
+    clamped = arap_precompute(V, F, b, weights="cotangent")
+    assert np.abs(arap_solve(clamped, bc, iterations=30, U0=U0) - U_igl).max() > 1e-3
