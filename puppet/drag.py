@@ -60,6 +60,11 @@ class Drag:
 
     def move(self, xy) -> np.ndarray:
         """Put the pin at canvas point ``xy``; returns a preview frame (H, W, 4) uint8."""
+        return self.scene.draw_layers(self.move_layers(xy), size=self.size)
+
+    def move_layers(self, xy) -> list:
+        """Put the pin at canvas point ``xy``; returns the preview's posed layers
+        (:class:`~puppet.scene.rig.LayerResult`), for a caller that draws them itself."""
         if not self.open:
             raise SceneError("this drag has been released")
         xy = np.asarray(xy, float).reshape(2)
@@ -68,15 +73,14 @@ class Drag:
         self._last = xy
         scene, built = self.scene, self._built
         if self._group is None:  # an exterior point: solve exactly
-            return scene.render(pose=self._pose_with(xy), size=self.size)
+            return scene.layers(self._pose_with(xy))
         self._state.to[self._index] = xy
         solved = scene.rig.preview(built, self._group, self._state, self._U, iterations=self.iterations)
         self._U = solved[0]
-        layers = scene.rig.evaluate(built, self._state, solved={self._group: solved})
-        return scene.draw_layers(layers, size=self.size)
+        return scene.rig.evaluate(built, self._state, solved={self._group: solved})
 
-    def release(self) -> np.ndarray:
-        """End the drag: record the pin's target (one undo step) and return the exact frame."""
+    def commit(self) -> None:
+        """End the drag: record the pin's target in the active pose (one undo step)."""
         if not self.open:
             raise SceneError("this drag has been released")
         try:
@@ -84,6 +88,10 @@ class Drag:
                 self.scene.set_target(self.pin, self._last)
         finally:
             self._close()
+
+    def release(self) -> np.ndarray:
+        """End the drag (:meth:`commit`) and return the exact frame."""
+        self.commit()
         return self.scene.render(size=self.size)
 
     def cancel(self) -> None:
