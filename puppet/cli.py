@@ -132,15 +132,33 @@ def _gl_allocation_failed(exc: Exception) -> bool:
     return "OUT_OF_MEMORY" in text or "framebuffer is not complete" in text
 
 
+def _gl_failure(scene, size, exc: Exception) -> UsageError:
+    w, h = size or scene.canvas
+    return UsageError(f"OpenGL could not allocate a {w}x{h} frame ({exc}); give a smaller --size")
+
+
 def run(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from puppet.output import check_file, check_folder
+
+    # what can be checked without the scene is checked first (fast); again with its inputs after loading
+    if args.command in ("render", "mesh"):
+        out = _output_file(args.output, (".png",) if args.command == "render" else (".json",))
+        check_file(out, probe=True)
+    elif args.command == "animate":
+        from puppet.anim.export import output_kind
+
+        if output_kind(args.output) == "dir":
+            check_folder(args.output, probe=True, contents=False)
+        else:
+            check_file(args.output, probe=True)
+
     import puppet
-    from puppet.output import check_file, save_png
+    from puppet.output import save_png
     from puppet.scene.inputs import input_files
 
+    scene = puppet.load_scene(args.scene)
     if args.command == "render":
-        out = _output_file(args.output, (".png",))
-        scene = puppet.load_scene(args.scene)
         inputs = input_files(scene.data)
         check_file(out, inputs=inputs)
         _check_size(scene, args.size)
@@ -149,21 +167,16 @@ def run(argv: list[str] | None = None) -> int:
         except Exception as e:
             if not _gl_allocation_failed(e):
                 raise
-            w, h = args.size or scene.canvas
-            raise UsageError(f"OpenGL could not allocate a {w}x{h} frame ({e}); give a smaller --size") from None
+            raise _gl_failure(scene, args.size, e) from None
         save_png(out, rgba, inputs=inputs)
     elif args.command == "mesh":
-        out = _output_file(args.output, (".json",))
-        scene = puppet.load_scene(args.scene)
         check_file(out, inputs=input_files(scene.data))
         scene.write_mesh(out, pose=args.pose, time=args.time)
     elif args.command == "check":
-        scene = puppet.load_scene(args.scene)
         print(scene.summary())
     elif args.command == "animate":
         from puppet.anim.export import animate_to
 
-        scene = puppet.load_scene(args.scene)
         _check_size(scene, args.size)
         try:
             animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
@@ -171,8 +184,7 @@ def run(argv: list[str] | None = None) -> int:
         except Exception as e:
             if not _gl_allocation_failed(e):
                 raise
-            w, h = args.size or scene.canvas
-            raise UsageError(f"OpenGL could not allocate a {w}x{h} frame ({e}); give a smaller --size") from None
+            raise _gl_failure(scene, args.size, e) from None
     return 0
 
 

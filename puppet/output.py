@@ -29,8 +29,6 @@ import tempfile
 import threading
 from collections.abc import Callable, Iterable
 
-import numpy as np
-
 from puppet.errors import SceneError
 
 #: Names a frame folder may already hold to be replaced as a whole by a new run.
@@ -91,13 +89,19 @@ def _check_inputs(path: str, target: str, inputs: Inputs, *, folder: bool) -> No
             raise OutputError(path, f"it is a file the scene reads: '{src}' ({what})")
 
 
-def check_file(path: str, *, inputs: Inputs = ()) -> str:
+def _probe(path: str, folder: str) -> None:
+    """Create and remove an empty temporary file in ``folder`` (finds /proc, sysfs, ... early)."""
+    _remove(_temp(path, folder, _make_file))
+
+
+def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
     """Check that ``path`` can be written as a file, without writing anything.
 
     Parameters
     ----------
     path : the output as the user gave it.
     inputs : (path, description) of every file the scene reads; none may be overwritten.
+    probe : also create and remove an empty temporary file beside the output.
 
     Returns
     -------
@@ -125,14 +129,17 @@ def check_file(path: str, *, inputs: Inputs = ()) -> str:
         if not os.access(target, os.W_OK):
             raise OutputError(path, "the file is read-only")
     _check_inputs(path, target, inputs, folder=False)
+    if probe:
+        _probe(path, os.path.dirname(target))
     return target
 
 
-def check_folder(path: str, *, inputs: Inputs = ()) -> str:
+def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, contents: bool = True) -> str:
     """Check that ``path`` can be (re)placed by a frame folder; returns its real path.
 
     A folder that exists may hold only frames of an earlier run (``frame_*.png``): they
-    are replaced as a whole. Any other file in it is refused rather than deleted.
+    are replaced as a whole. Any other file in it is refused rather than deleted
+    (``contents=False`` skips looking inside, for a first check before the inputs are known).
     """
     target = os.path.realpath(path.rstrip("/" + os.sep) or os.sep)
     if os.path.lexists(target) and not os.path.isdir(target):
@@ -141,7 +148,7 @@ def check_folder(path: str, *, inputs: Inputs = ()) -> str:
     if why:
         raise OutputError(path, why)
     _check_inputs(path, target, inputs, folder=True)
-    if os.path.isdir(target):
+    if contents and os.path.isdir(target):
         try:
             others = sorted(n for n in os.listdir(target) if not FRAME_NAME.fullmatch(n))
         except OSError as e:
@@ -151,6 +158,8 @@ def check_folder(path: str, *, inputs: Inputs = ()) -> str:
                               "give a new or an empty folder")
         if not os.access(target, os.W_OK):
             raise OutputError(path, "the folder is read-only")
+    if probe:
+        _probe(path, os.path.dirname(target))
     return target
 
 
@@ -324,8 +333,9 @@ def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = ()) 
         raise err from None
 
 
-def save_png(path: str, rgba: np.ndarray, *, inputs: Inputs = ()) -> None:
+def save_png(path: str, rgba, *, inputs: Inputs = ()) -> None:
     """Write an (h, w, 4) or (h, w, 3) uint8 array as PNG, atomically (see :func:`atomic_write`)."""
+    import numpy as np
     from PIL import Image
 
     im = Image.fromarray(np.ascontiguousarray(rgba))
