@@ -1,6 +1,8 @@
 """The files a scene reads, so that no output ever overwrites one of them."""
 from __future__ import annotations
 
+import os
+
 from puppet.scene.model import SceneData
 
 
@@ -29,4 +31,20 @@ def input_files(data: SceneData, *, scene_file: bool = True) -> list[tuple[str, 
         mask = layer.mask
         if mask is not None and getattr(mask, "file", None):
             out.append((mask.file, f"layers[{i}].mask.file"))
+    underlay = _underlay(data)
+    if underlay:
+        out.append((underlay, "app.underlay.image"))
     return out
+
+
+def _underlay(data: SceneData) -> str | None:
+    """The app's reference picture (``app.underlay.image``), absolute, if the scene names one."""
+    app = getattr(data, "app", None)
+    if not isinstance(app, dict):
+        raw = getattr(data, "raw", None)
+        app = raw.get("app") if isinstance(raw, dict) else None
+    u = app.get("underlay") if isinstance(app, dict) else None
+    image = u.get("image") if isinstance(u, dict) else None
+    if not isinstance(image, str) or not image:
+        return None
+    return os.path.normpath(os.path.join(os.path.dirname(data.file or ""), image))
