@@ -9,7 +9,7 @@ import numpy as np
 from puppet.errors import SceneError
 from puppet.geom.contour import mask_regions, subdivide_segment
 from puppet.geom.merge import GroupMesh, UnionFind, merge_meshes
-from puppet.geom.triangulate import Mesh, edge_length_for_area, triangulate_regions
+from puppet.geom.triangulate import MAX_TRIANGLES, Mesh, MeshTooLarge, edge_length_for_area, triangulate_regions
 from puppet.imaging import masks as mk
 from puppet.imaging.inpaint import inpaint_layer
 from puppet.imaging.io import load_mask_image, load_rgba
@@ -145,6 +145,10 @@ def link_polylines(data: SceneData, areas: list[float]) -> list[list[tuple[int, 
         a, b = index[link.layers[0]], index[link.layers[1]]
         h = min(edge_length_for_area(areas[a]), edge_length_for_area(areas[b]))
         for si, seg in enumerate(link.segments):
+            n = float(np.linalg.norm(seg[1] - seg[0])) / h  # bounded before allocating
+            if n > MAX_TRIANGLES:
+                raise SceneError(f"segment would be split into {n:,.0f} mesh edges at this density (at most "
+                                 f"{MAX_TRIANGLES:,})", file=data.file, path=f"links[{li}].segments[{si}]")
             P = subdivide_segment(seg[0], seg[1], h)
             polylines[a].append((li, si, P))
             polylines[b].append((li, si, P))
@@ -175,8 +179,13 @@ def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
     if regions is None:
         regions = mask_regions(im.mask, im.offset)
     pts = np.array([p.at for _, p in pins]).reshape(-1, 2)
-    mesh = triangulate_regions(regions, max_area=area, min_angle=L.mesh.min_angle,
-                               simplify=L.mesh.simplify, points=pts, segments=[P for _, _, P in polylines])
+    try:
+        mesh = triangulate_regions(regions, max_area=area, min_angle=L.mesh.min_angle,
+                                   simplify=L.mesh.simplify, points=pts, segments=[P for _, _, P in polylines])
+    except MeshTooLarge as e:  # estimated before Triangle runs
+        given = L.mesh.max_area is not None
+        raise SceneError(str(e) if given else f"the default mesh would be too large: {e}", file=data.file,
+                         path=f"layers[{k}].mesh.max_area" if given else f"layers[{k}]") from None
     if len(mesh.F) == 0:
         raise SceneError(f"layer {L.name!r} is too small to mesh", file=data.file, path=f"layers[{k}]")
     return mesh
@@ -218,6 +227,10 @@ def _segment_inside(im: LayerImage, seg: np.ndarray) -> bool:
     """All points of the segment (sampled every 0.25 px) on mask pixels, with 1 px tolerance."""
     import cv2
 
+    h, w = im.mask.shape
+    E = np.asarray(seg, np.float64) - np.asarray(im.offset)
+    if not ((E >= -1).all() and (E[:, 0] <= w + 1).all() and (E[:, 1] <= h + 1).all()):
+        return False  # an end off the image: never sample a long segment
     grown = cv2.dilate(im.mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
     n = max(2, int(np.ceil(np.linalg.norm(seg[1] - seg[0]) / 0.25)) + 1)
     t = np.linspace(0.0, 1.0, n)[:, None]
