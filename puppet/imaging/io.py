@@ -1,17 +1,22 @@
 """Image loading with limits (writing lives in :mod:`puppet.output`, re-exported here).
 
-Every image a user names goes through :func:`load_rgba`, which refuses missing, corrupt,
+Every image a user names goes through :func:`decode_image` (:func:`load_rgba`,
+:func:`load_mask_image`), which refuses missing, non-regular (FIFO, device), corrupt,
 non-image and absurdly large files (decompression bombs) with an :class:`ImageError`
-naming the file, before any pixel is decoded.
+naming the file, before any pixel is decoded, and converts every pixel format to 8-bit
+RGBA as the image looks (:mod:`puppet.imaging.decode`).
 """
 from __future__ import annotations
 
 import os
+import stat
+import struct
 import warnings
 
 import numpy as np
 
 from puppet.errors import ImageError
+from puppet.imaging.decode import array_to_rgba, luma, orient, pillow_to_rgba
 from puppet.output import atomic_write, save_png  # noqa: F401  (re-exported: one output mechanism)
 
 #: Largest side we accept: the GL texture limit we can count on everywhere.
@@ -20,38 +25,151 @@ MAX_SIDE = 16384
 MAX_PIXELS = 64 * 1024 * 1024
 
 
-def _open(path: str, *, scene_file: str | None, json_path: str | None):
-    from PIL import Image, UnidentifiedImageError
-
+def _fail_for(path: str, scene_file: str | None, json_path: str | None):
     def fail(msg: str) -> ImageError:
         return ImageError(f"image {path!r}: {msg}", file=scene_file, path=json_path)
+    return fail
 
-    if not os.path.exists(path):
-        raise fail("no such file")
-    if os.path.isdir(path):
+
+def _check_stat(st: os.stat_result, fail) -> None:
+    if stat.S_ISDIR(st.st_mode):
         raise fail("is a folder, not an image")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", Image.DecompressionBombWarning)
-            im = Image.open(path)
-    except UnidentifiedImageError:
-        raise fail("not an image file (PNG, JPEG, ... expected)") from None
-    except Image.DecompressionBombError as e:
-        raise fail(f"too large ({e})") from None
-    except Image.DecompressionBombWarning:
-        raise fail(f"too large (more than {MAX_PIXELS} pixels)") from None
-    except OSError as e:
-        raise fail(f"cannot be read ({e})") from None
-    w, h = im.size
+    if not stat.S_ISREG(st.st_mode):
+        raise fail("is not a regular file (a FIFO, device or socket cannot be an image)")
+
+
+def _check_size(w: int, h: int, fail) -> None:
     if w < 1 or h < 1:
         raise fail(f"empty image ({w}x{h})")
     if w > MAX_SIDE or h > MAX_SIDE or w * h > MAX_PIXELS:
         raise fail(f"too large ({w}x{h}; at most {MAX_SIDE} per side and {MAX_PIXELS} pixels)")
-    return im, fail
+
+
+def _open_regular(path: str, fail):
+    """An unbuffered-safe binary file object on a regular file; never blocks (a FIFO or
+    device is refused by ``stat`` before opening and by ``fstat`` after)."""
+    try:
+        _check_stat(os.stat(path), fail)
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        raise fail("no such file") from None
+    except OSError as e:
+        raise fail(f"cannot be read ({e.strerror})") from None
+    try:
+        _check_stat(os.fstat(fd), fail)
+    except BaseException:
+        os.close(fd)
+        raise
+    return os.fdopen(fd, "rb")
+
+
+def decode_image(path: str, *, scene_file: str | None = None,
+                 json_path: str | None = None) -> tuple[np.ndarray, bool]:
+    """Read an image file as 8-bit RGBA, as it looks (see :mod:`puppet.imaging.decode`).
+
+    Returns
+    -------
+    rgba : (h, w, 4) uint8, straight alpha, EXIF orientation applied.
+    has_alpha : whether the file has an alpha channel or a transparent colour.
+
+    Raises
+    ------
+    ImageError
+        Missing, not a regular file, not an image, corrupt or too large (checked from
+        the header, before any pixel is decoded).
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    fail = _fail_for(path, scene_file, json_path)
+    with _open_regular(path, fail) as f, warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # decoder chatter must not reach the user's terminal
+        warnings.simplefilter("error", Image.DecompressionBombWarning)
+        try:
+            im = Image.open(f)
+        except UnidentifiedImageError:
+            f.seek(0)
+            if f.read(4) in (b"II*\x00", b"MM\x00*"):  # float colour TIFFs: Pillow has no mode for them
+                return _decode_with_opencv(f, _tiff_size(f, fail), 0, fail)
+            raise fail("not an image file (PNG, JPEG, ... expected)") from None
+        except (Image.DecompressionBombError, Image.DecompressionBombWarning):
+            raise fail(f"too large (more than {MAX_PIXELS} pixels)") from None
+        except (OSError, ValueError, SyntaxError, EOFError) as e:
+            raise fail(f"cannot be read ({e})") from None
+        _check_size(*im.size, fail)
+        try:
+            orientation = int(im.getexif().get(0x0112, 1))
+        except Exception:  # a broken EXIF block only loses the orientation
+            orientation = 1
+        try:
+            if _wide_colour(im, f):  # 16-bit colour: Pillow would keep only the high byte
+                return _decode_with_opencv(f, im.size, orientation, fail)
+            im.load()
+            rgba, has_alpha = pillow_to_rgba(im)
+        except ImageError:
+            raise
+        except (OSError, ValueError, SyntaxError, EOFError, struct.error) as e:
+            raise fail(f"corrupt or truncated ({e})") from None
+    return np.ascontiguousarray(orient(rgba, orientation)), has_alpha
+
+
+def _wide_colour(im, f) -> bool:
+    """A 16-bit-per-sample colour or grey+alpha PNG or TIFF."""
+    if im.mode not in ("RGB", "RGBA", "LA"):
+        return False
+    if im.format == "PNG":
+        f.seek(24)
+        return f.read(1) == b"\x10"  # IHDR bit depth
+    if im.format == "TIFF":
+        bits = im.tag_v2.get(258, (8,))
+        return max(bits if isinstance(bits, tuple) else (bits,)) == 16
+    return False
+
+
+def _tiff_size(f, fail) -> tuple[int, int]:
+    """Width and height from the first directory of a classic TIFF."""
+    f.seek(0)
+    head = f.read(8)
+    bo = "<" if head[:2] == b"II" else ">"
+    try:
+        f.seek(struct.unpack(bo + "I", head[4:8])[0])
+        n = struct.unpack(bo + "H", f.read(2))[0]
+        size = {}
+        for _ in range(min(n, 4096)):
+            tag, typ, _count, value = struct.unpack(bo + "HHI4s", f.read(12))
+            if tag in (256, 257):
+                size[tag] = struct.unpack(bo + ("H" if typ == 3 else "I"), value[:2 if typ == 3 else 4])[0]
+    except struct.error:
+        raise fail("corrupt or truncated TIFF header") from None
+    if len(size) != 2:
+        raise fail("not an image file (TIFF without a size)")
+    return size[256], size[257]
+
+
+def _decode_with_opencv(f, size: tuple[int, int], orientation: int, fail) -> tuple[np.ndarray, bool]:
+    import cv2
+
+    w, h = size
+    _check_size(w, h, fail)
+    f.seek(0, os.SEEK_END)
+    n = f.tell()
+    if n > w * h * 4 * 8 + (16 << 20):  # more than raw 64-bit RGBA plus metadata: not this image
+        raise fail(f"file too large for a {w}x{h} image ({n} bytes)")
+    f.seek(0)
+    data = np.frombuffer(f.read(), np.uint8)
+    a = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    if a is None:
+        raise fail("corrupt or truncated (the decoder gave no pixels)")
+    if a.shape[:2] != (h, w):
+        raise fail(f"corrupt (header says {w}x{h}, pixels are {a.shape[1]}x{a.shape[0]})")
+    try:
+        rgba, has_alpha = array_to_rgba(a)
+    except ValueError as e:
+        raise fail(str(e)) from None
+    return np.ascontiguousarray(orient(rgba, orientation)), has_alpha
 
 
 def load_rgba(path: str, *, scene_file: str | None = None, json_path: str | None = None) -> np.ndarray:
-    """Read an image file as RGBA.
+    """Read an image file as RGBA (see :func:`decode_image`).
 
     Returns
     -------
@@ -63,29 +181,16 @@ def load_rgba(path: str, *, scene_file: str | None = None, json_path: str | None
         Missing, unreadable, corrupt or too large file; the message names ``path`` and,
         when given, the scene file and JSON path that referred to it.
     """
-    im, fail = _open(path, scene_file=scene_file, json_path=json_path)
-    try:
-        with im:
-            im.load()
-            return np.array(im.convert("RGBA"))
-    except (OSError, ValueError, SyntaxError) as e:
-        raise fail(f"corrupt or truncated ({e})") from None
+    return decode_image(path, scene_file=scene_file, json_path=json_path)[0]
 
 
 def load_mask_image(path: str, *, scene_file: str | None = None, json_path: str | None = None) -> np.ndarray:
-    """Read a mask file: alpha > 0 when it has alpha, else non-zero grey is object.
+    """Read a mask file: alpha > 0 when it has alpha, else non-zero grey (as Pillow's
+    ``convert("L")`` computes it from the 8-bit colour) is object.
 
     Returns
     -------
     (h, w) bool array.
     """
-    im, fail = _open(path, scene_file=scene_file, json_path=json_path)
-    try:
-        with im:
-            im.load()
-            has_alpha = im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info)
-            if has_alpha:
-                return np.array(im.convert("RGBA"))[..., 3] > 0
-            return np.array(im.convert("L")) > 0
-    except (OSError, ValueError, SyntaxError) as e:
-        raise fail(f"corrupt or truncated ({e})") from None
+    rgba, has_alpha = decode_image(path, scene_file=scene_file, json_path=json_path)
+    return rgba[..., 3] > 0 if has_alpha else luma(rgba) > 0

@@ -35,38 +35,79 @@ def threshold_mask(rgba: np.ndarray, threshold: float, invert: bool = False) -> 
     return m & (rgba[..., 3] > 0)
 
 
+#: Most row crossings a polygon mask may need (edges x pixel rows they span).
+MAX_CROSSINGS = 10_000_000
+#: Crossings rasterised at a time (bounds the memory of one step).
+CHUNK = 1 << 22
+
+
+def _edges(polygon, offset):
+    P = np.asarray(polygon, np.float64).reshape(-1, 2) - np.asarray(offset, np.float64)
+    A, B = P, np.roll(P, -1, axis=0)
+    keep = A[:, 1] != B[:, 1]
+    return A[keep], B[keep]
+
+
+def _row_spans(A: np.ndarray, B: np.ndarray, h: int) -> tuple[np.ndarray, np.ndarray]:
+    """First row and number of rows whose centre line y = i + 0.5 each edge crosses
+    (half-open in y, so a vertex on a centre line counts once), clipped to [0, h)."""
+    y0 = np.minimum(A[:, 1], B[:, 1])
+    y1 = np.maximum(A[:, 1], B[:, 1])
+    r0 = np.clip(np.ceil(y0 - 0.5), 0, h).astype(np.int64)
+    r1 = np.clip(np.ceil(y1 - 0.5), 0, h).astype(np.int64)
+    return r0, np.maximum(r1 - r0, 0)
+
+
+def polygon_crossings(polygon: np.ndarray, offset=(0.0, 0.0), height: int = 16384) -> int:
+    """Row crossings :func:`polygon_mask` computes for an image ``height`` rows tall
+    (its work and memory), without computing them."""
+    A, B = _edges(polygon, offset)
+    return int(_row_spans(A, B, height)[1].sum())
+
+
 def polygon_mask(shape: tuple[int, int], polygon: np.ndarray, offset=(0.0, 0.0)) -> np.ndarray:
     """Pixels whose centre lies inside a polygon given in canvas coordinates.
 
-    Even-odd rule, scanline by scanline: every pixel row's centre line is cut with the
-    polygon's edges (half-open in y, so a vertex on the line counts once) and the runs
-    between pairs of crossings are filled (a centre exactly on an edge counts as inside
-    on the left edge, outside on the right one).
+    Even-odd rule, so a self-intersecting polygon is filled like SVG's ``evenodd``: a
+    centre is inside when a ray from it crosses the outline an odd number of times (the
+    lobes of a figure eight are inside, the doubly wound core of a pentagram is not).
+    Each pixel row's centre line is cut with the edges (half-open in y, so a vertex on
+    the line counts once) and the parity of crossings at or left of a pixel centre
+    decides (a centre exactly on an edge counts as inside on the left edge, outside on
+    the right one). Memory is O(h w) bytes whatever the polygon: crossings are
+    rasterised in chunks of :data:`CHUNK`.
+
+    Parameters
+    ----------
+    shape : (h, w) of the image grid. polygon : (p, 2) canvas coordinates.
+    offset : canvas position of the grid's top-left corner.
+
+    Returns
+    -------
+    (h, w) bool.
     """
     h, w = shape
-    P = np.asarray(polygon, np.float64) - np.asarray(offset, np.float64)
-    A, B = P, np.roll(P, -1, axis=0)
-    keep = A[:, 1] != B[:, 1]
-    A, B = A[keep], B[keep]
-    y0 = np.minimum(A[:, 1], B[:, 1])
-    y1 = np.maximum(A[:, 1], B[:, 1])
-    # rows whose centre y = i + 0.5 satisfies y0 <= y < y1
-    r0 = np.clip(np.ceil(y0 - 0.5), 0, h).astype(np.int64)
-    r1 = np.clip(np.ceil(y1 - 0.5), 0, h).astype(np.int64)
-    counts = np.maximum(r1 - r0, 0)
-    edge = np.repeat(np.arange(len(A)), counts)
-    row = np.repeat(r0, counts) + (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts))
-    y = row + 0.5
-    a, b = A[edge], B[edge]
-    x = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-    order = np.lexsort((x, row))
-    row, x = row[order], x[order]
-    diff = np.zeros((h, w + 1), np.int32)
-    # crossings come in pairs per row (closed polygon): fill [x_start, x_end)
-    col = np.clip(np.ceil(x - 0.5), 0, w).astype(np.int64)
-    sign = np.where(np.arange(len(x)) % 2 == 0, 1, -1)
-    np.add.at(diff, (row, col), sign)
-    return np.cumsum(diff[:, :w], axis=1) > 0
+    A, B = _edges(polygon, offset)
+    r0, counts = _row_spans(A, B, h)
+    toggles = np.zeros((h, w + 1), np.uint8)  # parity of crossings at each (row, col)
+    ends = np.cumsum(counts)
+    e = 0
+    while e < len(A):
+        stop = int(np.searchsorted(ends, (ends[e - 1] if e else 0) + CHUNK, side="right"))
+        stop = max(stop, e + 1)
+        sl = slice(e, stop)
+        c = counts[sl]
+        edge = np.repeat(np.arange(e, stop), c)
+        row = np.repeat(r0[sl], c) + (np.arange(c.sum()) - np.repeat(np.cumsum(c) - c, c))
+        a, b = A[edge], B[edge]
+        x = a[:, 0] + (row + 0.5 - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+        col = np.clip(np.ceil(x - 0.5), 0, w).astype(np.int64)
+        flat = np.sort(row * (w + 1) + col)
+        first = np.nonzero(np.r_[True, flat[1:] != flat[:-1]])[0]
+        odd = np.diff(np.r_[first, len(flat)]) & 1 == 1
+        toggles.ravel()[flat[first[odd]]] ^= 1
+        e = stop
+    return (np.cumsum(toggles[:, :w], axis=1, dtype=np.uint8) & 1).astype(bool)  # mod 256 keeps parity
 
 
 def rect_mask(shape: tuple[int, int], rect, offset=(0.0, 0.0)) -> np.ndarray:

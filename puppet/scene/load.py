@@ -5,46 +5,31 @@ pixels (pins inside masks, links inside both masks) are made when the layers are
 """
 from __future__ import annotations
 
-import json
 import os
 import re
 
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.imaging import masks as mk
+from puppet.imaging.io import MAX_SIDE
 from puppet.scene import model as m
+from puppet.scene.reader import parse_text, read_text
 from puppet.scene.schema import (Ctx, expect_bool, expect_list, expect_number, expect_object,
                                  expect_point, expect_string, join)
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
             "deformer", "poses", "animation")
 MAX_CANVAS = 16384
+#: Most points a polygon mask may have.
+MAX_POLYGON_POINTS = 100_000
 EXTERIOR_NAME = re.compile(r"^(?P<layer>.+):ext(?P<i>\d+)$")
 
 
-def read_json(path: str) -> dict:
-    """Parse a scene file; every failure becomes a SceneError naming the file."""
-    if not os.path.exists(path):
-        raise SceneError("no such scene file", file=path)
-    if os.path.isdir(path):
-        raise SceneError("is a folder, not a scene file", file=path)
-    try:
-        with open(path, "rb") as f:
-            text = f.read().decode("utf-8")
-    except UnicodeDecodeError:
-        raise SceneError("not a text (UTF-8) file", file=path) from None
-    except OSError as e:
-        raise SceneError(f"cannot be read ({e.strerror})", file=path) from None
-
-    def no_constants(name):
-        raise ValueError(f"{name} is not allowed in a scene")
-
-    try:
-        return json.loads(text, parse_constant=no_constants)
-    except json.JSONDecodeError as e:
-        raise SceneError(f"invalid JSON at line {e.lineno} column {e.colno}: {e.msg}", file=path) from None
-    except ValueError as e:
-        raise SceneError(f"invalid JSON: {e}", file=path) from None
+def read_json(path: str):
+    """Parse a scene file strictly (see :mod:`puppet.scene.reader`); every failure
+    becomes a SceneError naming the file and, where there is one, the JSON path."""
+    return parse_text(read_text(path), path)
 
 
 def load_scene_data(path: str) -> m.SceneData:
@@ -139,7 +124,7 @@ def _layer(c, v, p, index, file_path, source) -> m.Layer:
     if image is None and source is None:
         raise c.fail(join(p, "image"), f"layer {name!r} has no image and the scene has no 'source' to take pixels from")
     offset = expect_point(c, v["offset"], join(p, "offset")) if "offset" in v else (0.0, 0.0)
-    mask = _mask(c, v["mask"], join(p, "mask"), file_path) if "mask" in v else None
+    mask = _mask(c, v["mask"], join(p, "mask"), file_path, offset) if "mask" in v else None
     order = expect_number(c, v["order"], join(p, "order")) if "order" in v else None
     inpaint = expect_string(c, v.get("inpaint", "none"), join(p, "inpaint"), choices=m.INPAINT_METHODS)
     mesh = m.MeshOptions()
@@ -163,7 +148,7 @@ def _layer(c, v, p, index, file_path, source) -> m.Layer:
                    mesh=mesh, exterior=exterior, index=index)
 
 
-def _mask(c, v, p, file_path) -> m.Mask:
+def _mask(c, v, p, file_path, offset=(0.0, 0.0)) -> m.Mask:
     if isinstance(v, str):
         if v != "alpha":
             raise c.fail(p, f"{v!r} is not a mask; use \"alpha\" or an object with one of: "
@@ -183,11 +168,16 @@ def _mask(c, v, p, file_path) -> m.Mask:
         return m.Mask("threshold", threshold=expect_number(c, v[kind], kp, lo=0, hi=256),
                       invert=expect_bool(c, v.get("invert", False), join(p, "invert")))
     if kind == "polygon":
-        pts = [expect_point(c, q, join(kp, i)) for i, q in enumerate(expect_list(c, v[kind], kp, min_len=3))]
-        P = np.array(pts)
-        area = 0.5 * abs(np.dot(P[:, 0], np.roll(P[:, 1], -1)) - np.dot(np.roll(P[:, 0], -1), P[:, 1]))
-        if area < 1.0:
-            raise c.fail(kp, f"polygon encloses no area ({area:.3g} px²)")
+        pts = expect_list(c, v[kind], kp, min_len=3, max_len=MAX_POLYGON_POINTS)
+        P = np.array([expect_point(c, q, join(kp, i)) for i, q in enumerate(pts)])
+        # filled by the even-odd rule, so it may cross itself; only a flat one is refused
+        spread = np.linalg.svd(P - P.mean(axis=0), compute_uv=False)
+        if spread[1] <= 1e-9 * max(spread[0], 1.0):
+            raise c.fail(kp, "polygon encloses no area (its points lie on one line)")
+        n = mk.polygon_crossings(P, offset, MAX_SIDE)
+        if n > mk.MAX_CROSSINGS:
+            raise c.fail(kp, f"polygon too intricate to fill: its edges cross {n:,} pixel rows "
+                             f"(at most {mk.MAX_CROSSINGS:,})")
         return m.Mask("polygon", polygon=P)
     if kind in ("rect", "grabcut"):
         expect_list(c, v[kind], kp, length=4)

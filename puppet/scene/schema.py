@@ -10,6 +10,10 @@ from typing import Any
 
 from puppet.errors import SceneError
 
+#: Every number in a scene lies within +-MAX_COORD unless its key has a tighter range:
+#: coordinates, offsets, pose targets, rectangles, orders (canvas pixels or plain numbers).
+MAX_COORD = 1e6
+
 
 class Ctx:
     """The scene file being read, to build errors."""
@@ -41,9 +45,12 @@ def expect_object(c: Ctx, v: Any, path: str, *, required=(), optional=()) -> dic
     return v
 
 
-def expect_list(c: Ctx, v: Any, path: str, *, min_len: int = 0, length: int | None = None) -> list:
+def expect_list(c: Ctx, v: Any, path: str, *, min_len: int = 0, length: int | None = None,
+                max_len: int | None = None) -> list:
     if not isinstance(v, list):
         raise c.fail(path, f"expected a list, got {_kind(v)}")
+    if max_len is not None and len(v) > max_len:
+        raise c.fail(path, f"expected at most {max_len} items, got {len(v)}")
     if length is not None and len(v) != length:
         raise c.fail(path, f"expected a list of {length} items, got {len(v)}")
     if len(v) < min_len:
@@ -51,16 +58,19 @@ def expect_list(c: Ctx, v: Any, path: str, *, min_len: int = 0, length: int | No
     return v
 
 
-def expect_number(c: Ctx, v: Any, path: str, *, lo=None, hi=None, lo_open=False, integer=False) -> float:
+def expect_number(c: Ctx, v: Any, path: str, *, lo=-MAX_COORD, hi=MAX_COORD, lo_open=False,
+                  integer=False) -> float:
+    """A finite number in [lo, hi] (``(lo, hi]`` with ``lo_open``); by default within
+    +-MAX_COORD, so no solver ever sees a huge value."""
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise c.fail(path, f"expected a number, got {_kind(v)}")
     if not math.isfinite(v):
         raise c.fail(path, f"expected a finite number, got {v}")
     if integer and float(v) != int(v):
         raise c.fail(path, f"expected a whole number, got {v}")
-    if lo is not None and (v < lo or (lo_open and v == lo)):
+    if v < lo or (lo_open and v == lo):
         raise c.fail(path, f"must be {'>' if lo_open else '>='} {lo:g}, got {v:g}")
-    if hi is not None and v > hi:
+    if v > hi:
         raise c.fail(path, f"must be <= {hi:g}, got {v:g}")
     return int(v) if integer else float(v)
 
