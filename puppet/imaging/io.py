@@ -8,9 +8,13 @@ RGBA as the image looks (:mod:`puppet.imaging.decode`).
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
 import struct
+import sys
+import tempfile
+import threading
 import warnings
 
 import numpy as np
@@ -103,13 +107,47 @@ def decode_image(path: str, *, scene_file: str | None = None,
         try:
             if _wide_colour(im, f):  # 16-bit colour: Pillow would keep only the high byte
                 return _decode_with_opencv(f, im.size, orientation, fail)
-            im.load()
-            rgba, has_alpha = pillow_to_rgba(im)
+            with _c_stderr_captured(im.format == "TIFF") as said:
+                try:
+                    im.load()
+                    rgba, has_alpha = pillow_to_rgba(im)
+                except (OSError, ValueError, SyntaxError, EOFError, struct.error) as e:
+                    error = e
+                else:
+                    error = None
+            if error is not None:
+                detail = f"{error}: {said[0]}" if said and said[0] else str(error)
+                raise fail(f"corrupt or truncated ({detail})") from None
         except ImageError:
             raise
         except (OSError, ValueError, SyntaxError, EOFError, struct.error) as e:
             raise fail(f"corrupt or truncated ({e})") from None
     return np.ascontiguousarray(orient(rgba, orientation)), has_alpha
+
+
+_STDERR_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _c_stderr_captured(active: bool):
+    """While decoding, send what C libraries write to file descriptor 2 (libtiff's
+    messages, which Pillow does not silence) to a temporary file instead of the user's
+    terminal; yields a list that receives the first line written."""
+    said: list[str] = []
+    if not active:
+        yield said
+        return
+    with _STDERR_LOCK, tempfile.TemporaryFile() as tmp:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield said
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            said.append(tmp.read(4096).decode("utf-8", "replace").strip().split("\n")[0][:200])
 
 
 def _wide_colour(im, f) -> bool:
@@ -156,7 +194,12 @@ def _decode_with_opencv(f, size: tuple[int, int], orientation: int, fail) -> tup
         raise fail(f"file too large for a {w}x{h} image ({n} bytes)")
     f.seek(0)
     data = np.frombuffer(f.read(), np.uint8)
-    a = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)  # the error below says it all
+    try:
+        a = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    finally:
+        cv2.utils.logging.setLogLevel(level)
     if a is None:
         raise fail("corrupt or truncated (the decoder gave no pixels)")
     if a.shape[:2] != (h, w):
