@@ -1,0 +1,335 @@
+"""The app's state and actions, apart from GL and pyglet: the mode, the selection, the
+view, the status line, and every action as a job for the scene thread.
+
+The window calls :meth:`App.sync` once a frame (picks up the latest snapshot and status
+messages), feeds canvas events to the tools (:mod:`puppet.app.tools`) and key presses to
+:mod:`puppet.app.keymap`; panels call the actions below.
+"""
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+from puppet.app import pick
+from puppet.app.view import View
+from puppet.app.worker import Message, Snapshot, Worker
+
+MODES = ("pin", "pose")
+
+
+class App:
+    """Everything the window shows besides pixels; the scene itself lives on the worker."""
+
+    def __init__(self, worker: Worker | None = None):
+        self.worker = worker or Worker()
+        self.snap: Snapshot = self.worker.latest
+        self.view = View()
+        self.area = (0.0, 0.0, 1.0, 1.0)  # canvas area in the window (x, y, w, h)
+        self.mode = "pose"
+        self.pin_kind = "interior"  # kind of the pins the Pin tool adds
+        self.selection: list[str] = []  # selected pin names, in order
+        self.selected_layer: str | None = None
+        self.hidden: set[str] = set()  # layers hidden in the app (not saved)
+        self.show_pins = True
+        self.show_mesh = False
+        self.depth_view = False
+        self.show_links = False
+        self.show_help = False
+        self.status = Message("Open a scene with File > Open (Ctrl+O)")
+        self.overrides: dict[str, tuple[float, float]] = {}  # marker positions during a gesture
+        self._overrides_until = 0  # job id whose snapshot ends the overrides
+        self.fit_pending = True
+        self.quit_now = False
+        self.dialog: str | None = None  # "open", "save_as", "unsaved", "recover", "rename_pose"
+        self.after_dialog = None  # what a "Don't save" / "Save" in the unsaved dialog goes on with
+        self.path_field = ""
+        self.recover_path: str | None = None
+        self._markers: list[pick.Marker] = []
+        self._marker_version = -1
+        self._layer_names: dict[str, int] = {}
+
+    # -- per frame ---------------------------------------------------------------
+    def sync(self) -> bool:
+        """Take the worker's latest snapshot and messages; True when the snapshot changed."""
+        snap = self.worker.latest
+        while self.worker.messages:
+            self.status = self.worker.messages.popleft()
+        changed = snap is not self.snap
+        if changed:
+            file_changed = snap.file != self.snap.file
+            self.snap = snap
+            if snap.done >= self._overrides_until:
+                self.overrides = {}
+            if snap.loaded:
+                pins = {m.name for m in self.markers()}
+                self.selection = [n for n in self.selection if n in pins]
+                names = {L.name for L in snap.data.layers}
+                if self.selected_layer not in names:
+                    self.selected_layer = None
+                self.hidden &= names
+                if file_changed:
+                    self.fit_pending = True
+        if self.fit_pending and snap.loaded:
+            self.fit()
+        return changed
+
+    @property
+    def title(self) -> str:
+        if not self.snap.loaded:
+            return "puppet"
+        return f"puppet — {os.path.basename(self.snap.file)}" + (" *" if self.snap.dirty else "")
+
+    @property
+    def busy(self) -> bool:
+        return not self.worker.idle()
+
+    def say(self, text: str, level: str = "info") -> None:
+        self.status = Message(text, level)
+
+    # -- view --------------------------------------------------------------------
+    def fit(self) -> None:
+        if self.snap.loaded and self.area[2] > 1 and self.area[3] > 1:
+            self.view.fit(self.snap.canvas, self.area)
+            self.fit_pending = False
+
+    def zoom(self, cursor, notches: float) -> None:
+        from puppet.app.view import WHEEL_STEP
+
+        self.view.zoom_at(cursor, WHEEL_STEP ** notches)
+
+    # -- markers -------------------------------------------------------------------
+    def markers(self) -> list[pick.Marker]:
+        """Pins and exterior points where the shown pose puts them (cached per snapshot)."""
+        if self._marker_version != self.snap.version:
+            self._markers = pick.markers(self.snap.data, self.snap.layers) if self.snap.loaded else []
+            self._marker_version = self.snap.version
+            self._layer_names = {L.name: k for k, L in enumerate(self.snap.data.layers)} if self.snap.loaded else {}
+        return self._markers
+
+    def marker_xy(self, m: pick.Marker) -> tuple[float, float]:
+        return self.overrides.get(m.name, m.xy)
+
+    def marker(self, name: str) -> pick.Marker | None:
+        return next((m for m in self.markers() if m.name == name), None)
+
+    def marker_at(self, cursor, radius: float = 9.0) -> pick.Marker | None:
+        if not self.show_pins:
+            return None
+        ms = self.markers()
+        if not ms:
+            return None
+        pts = self.view.to_screen(np.array([self.marker_xy(m) for m in ms]))
+        return pick.marker_at(ms, pts, cursor, radius)
+
+    def layer_index(self, name: str | None) -> int | None:
+        self.markers()
+        return self._layer_names.get(name)
+
+    def hidden_indices(self) -> set[int]:
+        return {k for k, L in enumerate(self.snap.data.layers) if L.name in self.hidden} if self.snap.loaded else set()
+
+    def select(self, name: str, extend: bool = False) -> None:
+        """Select pin ``name`` (Shift: toggle it in the selection)."""
+        if extend:
+            if name in self.selection:
+                self.selection.remove(name)
+            else:
+                self.selection.append(name)
+        elif name not in self.selection:
+            self.selection = [name]
+
+    def hold_markers(self, positions: dict, job_id: int) -> None:
+        """Show markers at ``positions`` until the snapshot of job ``job_id`` arrives."""
+        self.overrides = dict(positions)
+        self._overrides_until = job_id
+
+    # -- jobs ----------------------------------------------------------------------
+    def edit(self, fn, *, key: str | None = None) -> int:
+        """Run ``fn(scene)`` on the scene thread (an edit; errors go to the status line)."""
+        def job(w):
+            if w.scene is None:
+                return "no scene is open"
+            return fn(w.scene)
+        return self.worker.submit(job, key=key)
+
+    def undo(self) -> None:
+        self.edit(lambda s: None if s.undo() else "nothing to undo")
+
+    def redo(self) -> None:
+        self.edit(lambda s: None if s.redo() else "nothing to redo")
+
+    def set_mode(self, mode: str) -> None:
+        if mode not in MODES or mode == self.mode:
+            return
+        self.mode = mode
+
+        def job(w):
+            w.show_rest = mode == "pin"
+        self.worker.submit(job)
+
+    def begin_block(self, key: str, label: str) -> None:
+        self.worker.submit(lambda w: w.begin_block(key, label), publish=False)
+
+    def end_block(self, key: str) -> int:
+        return self.worker.submit(lambda w: w.end_block(key))
+
+    # -- pins ----------------------------------------------------------------------
+    def new_pin_name(self, kind: str | None = None) -> str:
+        prefix = "epin" if (kind or self.pin_kind) == "exterior" else "pin"
+        names = {m.name for m in self.markers()}
+        k = 1
+        while f"{prefix}{k}" in names:
+            k += 1
+        return f"{prefix}{k}"
+
+    def add_pin_at(self, xy) -> str | None:
+        """Add a pin where the canvas point ``xy`` is: on the selected layer when the point
+        is on its mask (even under other layers), else on the top-most layer there."""
+        snap = self.snap
+        if not snap.loaded:
+            return None
+        hidden = self.hidden_indices()
+        k = self.layer_index(self.selected_layer)
+        at = None
+        if k is not None and k not in hidden:
+            rest = pick.rest_point(snap.layers[k], xy)
+            if rest is not None and snap.images[k].contains(rest):
+                at = rest
+        if at is None:
+            hit = pick.layer_at(snap.layers, snap.images, xy, hidden)
+            if hit is not None:
+                k, at = hit.layer, hit.rest
+        if at is None:
+            if k is None:
+                self.say("no layer under the cursor: click on a layer, or select one in the Layers panel", "error")
+                return None
+            at = tuple(map(float, xy))  # the selected layer; the scene says if the point is not allowed
+        name, kind = self.new_pin_name(), self.pin_kind
+        layer = snap.data.layers[k].name
+        self.selected_layer = layer
+        self.edit(lambda s: s.add_pin(name, layer, at, kind=kind) and None)
+        self.selection = [name]
+        return name
+
+    def remove_pins(self, names) -> None:
+        names = [n for n in names if (m := self.marker(n)) is not None and m.kind != "auto"]
+        if not names:
+            self.say("automatic exterior points cannot be removed (turn the layer's exterior off)", "error")
+            return
+
+        def fn(s):
+            with s.block("remove pins" if len(names) > 1 else f"remove pin {names[0]}"):
+                for n in names:
+                    s.remove_pin(n)
+        self.edit(fn)
+        self.selection = [n for n in self.selection if n not in names]
+
+    def move_pins(self, positions: dict) -> None:
+        """Move pins' rest positions (Pin mode); one undo step; nothing moves if one cannot."""
+        if not positions:
+            return
+
+        def fn(s):
+            before = s.to_dict()
+            try:
+                with s.block("move pins" if len(positions) > 1 else f"move pin {next(iter(positions))}"):
+                    for n, xy in positions.items():
+                        s.move_pin(n, xy)
+            except Exception:
+                if s.to_dict() != before:
+                    s.undo()
+                raise
+        self.hold_markers(positions, self.edit(fn))
+
+    def set_targets(self, positions: dict, label: str = "move pins") -> None:
+        """Targets of pins in the active pose (Pose mode); one undo step."""
+        def fn(s):
+            with s.block(label):
+                for n, xy in positions.items():
+                    s.set_target(n, xy)
+        self.hold_markers(positions, self.edit(fn))
+
+    def nudge(self, dx: float, dy: float) -> None:
+        names = [n for n in self.selection if self.marker(n) is not None]
+        if not names:
+            return
+        pos = {n: (self.marker(n).xy[0] + dx, self.marker(n).xy[1] + dy) for n in names}
+        if self.mode == "pin":
+            self.move_pins({n: xy for n, xy in pos.items() if self.marker(n).kind != "auto"})
+        else:
+            self.set_targets(pos, "nudge pins")
+
+    def change_depth(self, delta: float) -> None:
+        """``]`` / ``[``: pins' depth (Pin mode) or their depth in the pose (Pose mode)."""
+        names = [n for n in self.selection if (m := self.marker(n)) is not None and m.kind != "auto"]
+        if not names:
+            self.say("select pins first (click a pin; Shift-click adds)", "error")
+            return
+        data, active, pin_mode = self.snap.data, self.snap.active, self.mode == "pin"
+        rest = {p.name: p.depth for p in data.pins}
+
+        def fn(s):
+            with s.block("pin depth"):
+                for n in names:
+                    if pin_mode:
+                        s.set_pin(n, depth=rest[n] + delta)
+                    else:
+                        t = s.data.poses.get(s.active_pose, {}).get(n)
+                        base = t.depth if t is not None and t.depth is not None else rest[n]
+                        s.set_target(n, depth=base + delta)
+            d = [p.depth for p in s.data.pins if p.name in names] if pin_mode else \
+                [s.data.poses[s.active_pose][n].depth for n in names]
+            return "depth " + ", ".join(f"{n} {v:g}" for n, v in zip(names, d))
+        self.edit(fn)
+
+    def target_angle(self, name: str) -> float:
+        t = self.snap.data.poses.get(self.snap.active, {}).get(name) if self.snap.loaded else None
+        return float(t.angle) if t is not None else 0.0
+
+    # -- files ---------------------------------------------------------------------
+    def open(self, path: str, *, recover_from: str | None = None) -> None:
+        """Open a scene (or its autosave ``recover_from``) on the scene thread."""
+        path = os.path.abspath(os.path.expanduser(path))
+
+        def job(w):
+            import puppet
+
+            t = time.perf_counter()
+            scene = puppet.load_scene(path)
+            saved = scene.to_dict()
+            if recover_from is not None:
+                scene = puppet.load_scene(recover_from)
+                scene.file = path
+            scene.built  # build (images, meshes, groups) here, not in the first frame
+            w.set_scene(scene, saved)
+            w.show_rest = self.mode == "pin"
+            return f"opened {path} in {time.perf_counter() - t:.1f} s" + (" (recovered)" if recover_from else "")
+        self.selection, self.selected_layer, self.hidden = [], None, set()
+        self.worker.submit(job)
+
+    def save(self, path: str | None = None) -> None:
+        """Save to the scene's file (or ``path``: Save As), atomically."""
+        if not self.snap.loaded:
+            return
+        target = os.path.abspath(os.path.expanduser(path)) if path else self.snap.file
+
+        def job(w):
+            from puppet.app import autosave
+
+            s = w.scene
+            s.save(target)
+            if target != s.file:
+                autosave.remove(s.file)
+                s.file = target
+            w.saved_doc = s.to_dict()
+            autosave.remove(target)
+            return f"saved {target}"
+        self.worker.submit(job)
+
+    def request_quit(self) -> None:
+        if self.snap.loaded and self.snap.dirty:
+            self.dialog, self.after_dialog = "unsaved", "quit"
+        else:
+            self.quit_now = True

@@ -1,0 +1,323 @@
+"""The canvas, drawn with GL on the window's context: a checkerboard behind transparency,
+the scene background, the reference underlay, the composited layers, and the mesh views
+(wireframe, colour by interpolated depth).
+
+The layers are composited by puppet's :class:`~puppet.render.compositor.Compositor`
+(the same depth peeling as ``puppet render``) at window resolution over the visible
+part of the canvas only, and composited again only when the shown layers or the view
+change; every other frame redraws a cached texture.
+"""
+from __future__ import annotations
+
+import time
+
+import moderngl
+import numpy as np
+
+from puppet.render.layers import DrawLayer, mesh_edges
+
+_QUAD_VS = """
+#version 330
+uniform vec2 u_screen;
+in vec2 in_pos;
+in vec2 in_uv;
+out vec2 v_uv;
+void main() {
+    v_uv = in_uv;
+    gl_Position = vec4(in_pos.x / u_screen.x * 2.0 - 1.0, 1.0 - in_pos.y / u_screen.y * 2.0, 0.0, 1.0);
+}
+"""
+_TEX_FS = """
+#version 330
+uniform sampler2D u_texture;
+uniform float u_alpha;
+in vec2 v_uv;
+out vec4 f_color;
+void main() {
+    vec4 c = texture(u_texture, v_uv);
+    f_color = vec4(c.rgb, c.a * u_alpha);
+}
+"""
+_CHECKER_FS = """
+#version 330
+uniform float u_cell;
+out vec4 f_color;
+void main() {
+    vec2 k = floor(gl_FragCoord.xy / u_cell);
+    float g = mod(k.x + k.y, 2.0) < 0.5 ? 1.0 : 0.8;
+    f_color = vec4(g, g, g, 1.0);
+}
+"""
+_MESH_VS = """
+#version 330
+uniform vec2 u_screen;
+uniform float u_scale;
+uniform vec2 u_origin;
+uniform vec2 u_range;
+in vec2 in_pos;
+in float in_depth;
+out float v_t;
+void main() {
+    vec2 s = in_pos * u_scale + u_origin;
+    v_t = clamp((in_depth - u_range.x) / max(u_range.y - u_range.x, 1e-6), 0.0, 1.0);
+    gl_Position = vec4(s.x / u_screen.x * 2.0 - 1.0, 1.0 - s.y / u_screen.y * 2.0, 1.0 - v_t * 1.98 - 0.01, 1.0);
+}
+"""
+_DEPTH_FS = """
+#version 330
+in float v_t;
+out vec4 f_color;
+void main() {  // blue (back) -> cyan -> yellow -> red (front)
+    vec3 a = vec3(0.15, 0.25, 0.85), b = vec3(0.1, 0.8, 0.85), c = vec3(0.95, 0.85, 0.15), d = vec3(0.9, 0.15, 0.1);
+    vec3 col = v_t < 0.33 ? mix(a, b, v_t / 0.33) : v_t < 0.66 ? mix(b, c, (v_t - 0.33) / 0.33) : mix(c, d, (v_t - 0.66) / 0.34);
+    f_color = vec4(col, 1.0);
+}
+"""
+_WIRE_VS = """
+#version 330
+uniform vec2 u_screen;
+uniform float u_scale;
+uniform vec2 u_origin;
+in vec2 in_pos;
+void main() {
+    vec2 s = in_pos * u_scale + u_origin;
+    gl_Position = vec4(s.x / u_screen.x * 2.0 - 1.0, 1.0 - s.y / u_screen.y * 2.0, 0.0, 1.0);
+}
+"""
+_WIRE_FS = """
+#version 330
+uniform vec4 u_color;
+out vec4 f_color;
+void main() { f_color = u_color; }
+"""
+
+
+def depth_range(layers) -> tuple[float, float]:
+    """Lowest and highest drawn depth over ``layers`` (LayerResults)."""
+    ds = [np.asarray(r.depth) for r in layers if len(r.depth)]
+    if not ds:
+        return (0.0, 1.0)
+    return (float(min(d.min() for d in ds)), float(max(d.max() for d in ds)))
+
+
+class CanvasRenderer:
+    """GL drawing of the canvas area (main thread only).
+
+    Attributes
+    ----------
+    composite_ms : float
+        Time of the last composite (0 when the cached texture was reused).
+    composites : int
+        How many composites have been made (tests check the cache with it).
+    """
+
+    def __init__(self, ctx: moderngl.Context, compositor=None):
+        from puppet.render.compositor import Compositor
+
+        self.ctx = ctx
+        self.compositor = compositor or Compositor(ctx)
+        self.tex_prog = ctx.program(vertex_shader=_QUAD_VS, fragment_shader=_TEX_FS)
+        self.checker_prog = ctx.program(vertex_shader=_QUAD_VS, fragment_shader=_CHECKER_FS)
+        self.depth_prog = ctx.program(vertex_shader=_MESH_VS, fragment_shader=_DEPTH_FS)
+        self.wire_prog = ctx.program(vertex_shader=_WIRE_VS, fragment_shader=_WIRE_FS)
+        self.quad_vbo = ctx.buffer(reserve=4 * 4 * 4)
+        self.quads = {self.tex_prog: ctx.vertex_array(self.tex_prog, [(self.quad_vbo, "2f 2f", "in_pos", "in_uv")]),
+                      self.checker_prog: ctx.vertex_array(self.checker_prog, [(self.quad_vbo, "2f 8x", "in_pos")])}
+        self.mesh_vbo = ctx.buffer(reserve=1 << 16, dynamic=True)
+        self.mesh_ibo = ctx.buffer(reserve=1 << 16, dynamic=True)
+        self.solid = ctx.texture((1, 1), 4)
+        self.textures: dict[str, tuple[object, moderngl.Texture]] = {}
+        self.frame_tex: moderngl.Texture | None = None
+        self._frame_key = None
+        self._frame_rect = None
+        self.composite_ms = 0.0
+        self.composites = 0
+        self._edges: dict[int, tuple] = {}
+
+    # -- helpers ------------------------------------------------------------------
+    def _quad(self, prog, screen, rect, uv=(0, 0, 1, 1)) -> None:
+        x0, y0, x1, y1 = rect
+        u0, v0, u1, v1 = uv
+        self.quad_vbo.write(np.array([x0, y0, u0, v0, x1, y0, u1, v0, x0, y1, u0, v1, x1, y1, u1, v1],
+                                     np.float32))
+        prog["u_screen"].value = screen
+        self.quads[prog].render(moderngl.TRIANGLE_STRIP)
+
+    def _texture(self, key: str, image: np.ndarray) -> moderngl.Texture:
+        entry = self.textures.get(key)
+        if entry is not None and entry[0] is image:
+            return entry[1]
+        if entry is not None:
+            entry[1].release()
+        h, w = image.shape[:2]
+        tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(image).tobytes())
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        self.textures[key] = (image, tex)
+        return tex
+
+    def _image(self, screen, view, image, offset, size, alpha: float, key: str) -> None:
+        """Draw ``image`` over canvas rect at ``offset`` with ``size`` (canvas units)."""
+        tex = self._texture(key, image)
+        tex.use(0)
+        self.tex_prog["u_texture"].value = 0
+        self.tex_prog["u_alpha"].value = float(alpha)
+        p0 = view.to_screen(offset)
+        p1 = view.to_screen((offset[0] + size[0], offset[1] + size[1]))
+        self._quad(self.tex_prog, screen, (p0[0], p0[1], p1[0], p1[1]))
+
+    # -- the frame ----------------------------------------------------------------
+    def draw(self, snap, view, area, screen, *, hidden=frozenset(), depth_view=False, wireframe=False,
+             fb_height: int | None = None) -> None:
+        """Draw the canvas of snapshot ``snap`` into window rect ``area`` (x, y, w, h)."""
+        ctx = self.ctx
+        fb_h = int(fb_height or screen[1])
+        ax, ay, aw, ah = area
+        ctx.viewport = (0, 0, int(screen[0]), int(screen[1]))
+        ctx.scissor = (int(ax), int(fb_h - ay - ah), int(aw), int(ah))
+        ctx.clear(0.16, 0.16, 0.17, 1.0)
+        self.composite_ms = 0.0
+        if not snap.loaded:
+            ctx.scissor = None
+            return
+        vis = view.visible(snap.canvas, area)
+        if vis is None:
+            ctx.scissor = None
+            return
+        (x0, y0, x1, y1), crect = vis
+        ctx.enable_only(moderngl.BLEND)
+        ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
+        self.checker_prog["u_cell"].value = 8.0
+        self._quad(self.checker_prog, screen, (x0, y0, x1, y1))
+        cw, ch = snap.canvas
+        bg = snap.background
+        if isinstance(bg, np.ndarray):
+            self._image(screen, view, bg, (0, 0), (cw, ch), 1.0, "\0background")
+        else:
+            self.solid.write(np.asarray(bg, np.uint8).tobytes())
+            self.solid.use(0)
+            self.tex_prog["u_texture"].value = 0
+            self.tex_prog["u_alpha"].value = 1.0
+            self._quad(self.tex_prog, screen, (x0, y0, x1, y1))
+        u = snap.underlay
+        if u is not None and snap.underlay_image is not None:
+            h, w = snap.underlay_image.shape[:2]
+            s = float(u.get("scale", 1.0))
+            self._image(screen, view, snap.underlay_image, u.get("offset", (0, 0)), (w * s, h * s),
+                        float(u.get("opacity", 0.5)), "\0underlay")
+        shown = [(r, im) for k, (r, im) in enumerate(zip(snap.layers, snap.images)) if r.name not in hidden]
+        if depth_view:
+            self._draw_depth(shown, snap, view, screen)
+        else:
+            tex = self._composite(shown, view, (x0, y0, x1, y1), snap)
+            if tex is not None:
+                ctx.enable_only(moderngl.BLEND)
+                tex.use(0)
+                self.tex_prog["u_texture"].value = 0
+                self.tex_prog["u_alpha"].value = 1.0
+                self._quad(self.tex_prog, screen, (x0, y0, x1, y1))
+        if wireframe:
+            self._draw_wire(shown, view, screen)
+        ctx.enable_only(moderngl.NOTHING)
+        ctx.scissor = None
+
+    def _composite(self, shown, view, rect, snap) -> moderngl.Texture | None:
+        """The visible layers composited at window resolution (cached)."""
+        x0, y0, x1, y1 = rect
+        key = (snap.version, snap.file, view.scale, view.origin, rect, tuple(r.name for r, _ in shown))
+        if key == self._frame_key and self.frame_tex is not None:
+            return self.frame_tex
+        t = time.perf_counter()
+        origin = np.asarray(view.origin, float) - (x0, y0)
+        draw = [DrawLayer(key=r.name, image=im.rgba, offset=im.offset, rest=r.rest,
+                          deformed=np.asarray(r.deformed, float) * view.scale + origin, triangles=r.triangles,
+                          depth=r.depth) for r, im in shown]
+        size = (x1 - x0, y1 - y0)
+        rgba = self.compositor.render(draw, size, background=(0, 0, 0, 0))
+        self.ctx.error  # the compositor leaves GL state; clear any flag it did not raise on
+        if self.frame_tex is None or self.frame_tex.size != size:
+            if self.frame_tex is not None:
+                self.frame_tex.release()
+            self.frame_tex = self.ctx.texture(size, 4)
+            self.frame_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.frame_tex.write(rgba.tobytes())
+        self.ctx.screen.use()
+        self._frame_key = key
+        self.composite_ms = (time.perf_counter() - t) * 1000
+        self.composites += 1
+        return self.frame_tex
+
+    def _mesh_arrays(self, shown):
+        """Joint vertex arrays of the shown layers: positions (n, 2), depths (n,), and each
+        layer's first vertex index."""
+        if not shown:
+            return None
+        pos = np.concatenate([np.asarray(r.deformed, np.float32) for r, _ in shown])
+        dep = np.concatenate([np.asarray(r.depth, np.float32) for r, _ in shown])
+        bases = np.cumsum([0] + [len(r.deformed) for r, _ in shown])[:-1]
+        return pos, dep, bases
+
+    def _upload(self, pos, dep, indices) -> moderngl.VertexArray:
+        data = np.empty((len(pos), 3), np.float32)
+        data[:, :2], data[:, 2] = pos, dep
+        for buf, arr in ((self.mesh_vbo, data), (self.mesh_ibo, indices)):
+            if buf.size < arr.nbytes:
+                buf.orphan(arr.nbytes * 2)
+            buf.write(np.ascontiguousarray(arr))
+        return data
+
+    def _set_view(self, prog, view, screen, rng=(0.0, 1.0)) -> None:
+        prog["u_screen"].value = screen
+        prog["u_scale"].value = float(view.scale)
+        prog["u_origin"].value = tuple(map(float, view.origin))
+        if "u_range" in prog:
+            prog["u_range"].value = rng
+
+    def _draw_depth(self, shown, snap, view, screen) -> None:
+        arrays = self._mesh_arrays(shown)
+        if arrays is None:
+            return
+        pos, dep, bases = arrays
+        tri = np.concatenate([np.asarray(r.triangles, np.int32) + b for (r, _), b in zip(shown, bases)])
+        self._upload(pos, dep, tri)
+        ctx = self.ctx
+        ctx.clear(depth=1.0)  # inside the scissor box
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        self._set_view(self.depth_prog, view, screen, depth_range([r for r, _ in shown]))
+        vao = ctx.vertex_array(self.depth_prog, [(self.mesh_vbo, "2f 1f", "in_pos", "in_depth")],
+                               index_buffer=self.mesh_ibo, index_element_size=4)
+        vao.render(moderngl.TRIANGLES, vertices=tri.size)
+        vao.release()
+        ctx.enable_only(moderngl.BLEND)
+
+    def _draw_wire(self, shown, view, screen) -> None:
+        arrays = self._mesh_arrays(shown)
+        if arrays is None:
+            return
+        pos, dep, bases = arrays
+        edges = np.concatenate([self._edges_of(r) + b for (r, _), b in zip(shown, bases)]).astype(np.int32)
+        self._upload(pos, dep, edges)
+        ctx = self.ctx
+        ctx.enable_only(moderngl.BLEND)
+        self._set_view(self.wire_prog, view, screen)
+        self.wire_prog["u_color"].value = (0.1, 0.1, 0.12, 0.75)
+        vao = ctx.vertex_array(self.wire_prog, [(self.mesh_vbo, "2f 4x", "in_pos")],
+                               index_buffer=self.mesh_ibo, index_element_size=4)
+        vao.render(moderngl.LINES, vertices=edges.size)
+        vao.release()
+
+    def _edges_of(self, r) -> np.ndarray:
+        """Unique edges (k, 2) of one layer's triangles, cached per triangle array."""
+        e = self._edges.get(id(r.triangles))
+        if e is None or e[0] is not r.triangles:
+            e = self._edges[id(r.triangles)] = (r.triangles, mesh_edges(r.triangles))
+        return e[1]
+
+    def release(self) -> None:
+        for _, tex in self.textures.values():
+            tex.release()
+        self.textures.clear()
+        if self.frame_tex is not None:
+            self.frame_tex.release()
+        self.compositor.release()

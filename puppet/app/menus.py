@@ -1,0 +1,199 @@
+"""Menu bar, toolbar, status line, the modal dialogs (open, save as, unsaved changes,
+recover an autosave) and the keys overlay."""
+from __future__ import annotations
+
+import os
+
+from imgui_bundle import imgui
+
+from puppet.app.keymap import KEYS
+from puppet.app.widgets import button, toggle
+
+ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
+
+
+def menu_bar(app, win) -> float:
+    """The main menu bar; returns its height."""
+    if imgui.begin_main_menu_bar():
+        if imgui.begin_menu("File"):
+            if imgui.menu_item_simple("Open...", "Ctrl+O"):
+                win.open_dialog("open")
+            if imgui.menu_item_simple("Save", "Ctrl+S", enabled=app.snap.loaded):
+                app.save()
+            if imgui.menu_item_simple("Save As...", "Ctrl+Shift+S", enabled=app.snap.loaded):
+                win.open_dialog("save_as")
+            imgui.separator()
+            if imgui.menu_item_simple("Quit", "Ctrl+Q"):
+                app.request_quit()
+            imgui.end_menu()
+        if imgui.begin_menu("Edit"):
+            u, r = app.snap.undo_label, app.snap.redo_label
+            if imgui.menu_item_simple(f"Undo {u or ''}", "Ctrl+Z", enabled=u is not None):
+                app.undo()
+            if imgui.menu_item_simple(f"Redo {r or ''}", "Ctrl+Shift+Z", enabled=r is not None):
+                app.redo()
+            imgui.separator()
+            if imgui.menu_item_simple("Remove selected pins", "Delete", enabled=bool(app.selection)):
+                app.remove_pins(list(app.selection))
+            imgui.end_menu()
+        if imgui.begin_menu("View"):
+            if imgui.menu_item_simple("Fit", "F"):
+                app.fit()
+            _, app.show_pins = imgui.menu_item("Pins", "H", app.show_pins)
+            _, app.show_mesh = imgui.menu_item("Mesh wireframe", "M", app.show_mesh)
+            _, app.depth_view = imgui.menu_item("Depth view", "D", app.depth_view)
+            _, app.show_links = imgui.menu_item("Link segments", "L", app.show_links)
+            imgui.separator()
+            _, app.show_help = imgui.menu_item("Keys", "?", app.show_help)
+            imgui.end_menu()
+        h = imgui.get_window_height()
+        imgui.end_main_menu_bar()
+        return h
+    return 0.0
+
+
+def toolbar(app) -> None:
+    """Mode buttons and view toggles (inside the toolbar window)."""
+    for mode, label, tip in (("pin", "Pin mode", "edit pins on the rest pose: click adds, drag moves (1 / Tab)"),
+                             ("pose", "Pose mode", "drag pins to pose the puppet in the active pose (2 / Tab)")):
+        active = app.mode == mode
+        if active:
+            imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.2, 0.45, 0.8, 1.0))
+        if button(label, tip):
+            app.set_mode(mode)
+        if active:
+            imgui.pop_style_color()
+        imgui.same_line()
+    imgui.text("|")
+    imgui.same_line()
+    app.show_pins = toggle("pins", app.show_pins, "show pins (H)")
+    imgui.same_line()
+    app.show_mesh = toggle("mesh", app.show_mesh, "mesh wireframe over the canvas (M)")
+    imgui.same_line()
+    app.depth_view = toggle("depth", app.depth_view, "colour the layers by interpolated depth: blue back, red front (D)")
+    imgui.same_line()
+    app.show_links = toggle("links", app.show_links, "show link segments (L)")
+    imgui.same_line()
+    if button("Fit", "fit the canvas in the window (F)"):
+        app.fit()
+    imgui.same_line()
+    if button("Undo", "undo " + (app.snap.undo_label or "") + " (Ctrl+Z)", enabled=app.snap.undo_label is not None):
+        app.undo()
+    imgui.same_line()
+    if button("Redo", "redo " + (app.snap.redo_label or "") + " (Ctrl+Shift+Z)", enabled=app.snap.redo_label is not None):
+        app.redo()
+    imgui.same_line()
+    if button("?", "keys (? or F1)"):
+        app.show_help = not app.show_help
+    if app.snap.loaded:
+        imgui.same_line()
+        imgui.text_disabled(f"  pose: {app.snap.shown}")
+
+
+def status_line(app, cursor_xy) -> None:
+    """The last message (errors in red) and, at the right, pose, zoom, cursor position."""
+    msg = app.status
+    if msg is not None:
+        if msg.level == "error":
+            imgui.text_colored(ERROR, msg.text)
+        else:
+            imgui.text(msg.text)
+    right = f"{'solving...  ' if app.busy else ''}zoom {app.view.scale * 100:.0f}%"
+    if cursor_xy is not None:
+        right += f"  x {cursor_xy[0]:.0f} y {cursor_xy[1]:.0f}"
+    w = imgui.calc_text_size(right).x
+    imgui.same_line(max(imgui.get_window_width() - w - 12, imgui.get_cursor_pos_x() + 20))
+    imgui.text_disabled(right)
+
+
+def dialogs(app, win) -> None:
+    """The modal dialog the app asks for, if any."""
+    kind = app.dialog
+    if kind is None:
+        return
+    titles = {"open": "Open scene", "save_as": "Save scene as", "unsaved": "Unsaved changes",
+              "recover": "Recover unsaved work"}
+    title = titles[kind]
+    if not imgui.is_popup_open(title):
+        imgui.open_popup(title)
+    imgui.set_next_window_size(imgui.ImVec2(460, 0))
+    opened, _ = imgui.begin_popup_modal(title, None, imgui.WindowFlags_.always_auto_resize)
+    if not opened:
+        return
+    if kind in ("open", "save_as"):
+        _path_dialog(app, win, kind)
+    elif kind == "unsaved":
+        imgui.text_wrapped(f"Save the changes to {os.path.basename(app.snap.file or '')} first?")
+        if button("Save", "save, then go on"):
+            app.save()
+            _close(app, win, proceed=True, saved=True)
+        imgui.same_line()
+        if button("Don't save", "lose the changes and go on"):
+            _close(app, win, proceed=True)
+        imgui.same_line()
+        if button("Cancel", "keep working"):
+            _close(app, win, proceed=False)
+    elif kind == "recover":
+        imgui.text_wrapped(f"An autosave newer than the scene was found:\n{app.recover_path}\n"
+                           "(the app did not close normally). Recover it?")
+        if button("Recover", "open the autosaved work (the scene file is unchanged until you save)"):
+            win.recover(True)
+            imgui.close_current_popup()
+        imgui.same_line()
+        if button("Discard", "open the scene as saved and delete the autosave"):
+            win.recover(False)
+            imgui.close_current_popup()
+    imgui.end_popup()
+
+
+def _path_dialog(app, win, kind: str) -> None:
+    imgui.text("Scene file path:")
+    imgui.set_next_item_width(440)
+    if imgui.is_window_appearing():
+        imgui.set_keyboard_focus_here()
+    enter, app.path_field = imgui.input_text("##path", app.path_field, imgui.InputTextFlags_.enter_returns_true)
+    imgui.set_item_tooltip("absolute, or relative to the folder the app was started in")
+    go = enter or button("Open" if kind == "open" else "Save", "do it (Enter)")
+    imgui.same_line()
+    if button("Cancel", "close this dialog (Esc)"):
+        app.dialog = None
+        imgui.close_current_popup()
+        return
+    path = app.path_field.strip()
+    if go and path:
+        app.dialog = None
+        imgui.close_current_popup()
+        if kind == "open":
+            win.open_scene(path)
+        else:
+            app.save(path if path.lower().endswith(".json") else path + ".json")
+
+
+def _close(app, win, *, proceed: bool, saved: bool = False) -> None:
+    after, app.after_dialog = app.after_dialog, None
+    app.dialog = None
+    imgui.close_current_popup()
+    if proceed and after is not None:
+        win.proceed(after, require_saved=saved)
+
+
+def help_overlay(app) -> None:
+    """The keys overlay (? / F1)."""
+    if not app.show_help:
+        return
+    vp = imgui.get_main_viewport()
+    imgui.set_next_window_pos(imgui.ImVec2(vp.size.x / 2, vp.size.y / 2), imgui.Cond_.always, imgui.ImVec2(0.5, 0.5))
+    imgui.set_next_window_bg_alpha(0.92)
+    opened, app.show_help = imgui.begin("Keys", True, imgui.WindowFlags_.always_auto_resize
+                                        | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
+    if opened:
+        if imgui.begin_table("keys", 2, imgui.TableFlags_.row_bg):
+            for k, what in KEYS:
+                imgui.table_next_row()
+                imgui.table_next_column()
+                imgui.text(k)
+                imgui.table_next_column()
+                imgui.text(what)
+            imgui.end_table()
+        imgui.text_disabled("Press ? or Esc to close.")
+    imgui.end()

@@ -1,0 +1,334 @@
+"""The pyglet window: a moderngl context on the window's own GL context, ImGui panels,
+the canvas. It only translates pyglet events (to ImGui's input) and lays out a frame;
+the tools, panels and actions do the rest.
+
+Set ``pyglet.options["headless"]`` before importing this module to get an EGL window
+with no X server (tests, benchmarks).
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+
+import moderngl
+import pyglet
+import pyglet.window
+import imgui_bundle
+from imgui_bundle import imgui
+
+from puppet.app import autosave, keymap, menus, overlay
+from puppet.app.app import App
+from puppet.app.canvas import CanvasRenderer, depth_range
+from puppet.app.imgui_gl import ImGuiRenderer
+from puppet.app.keys import ImGuiInput
+from puppet.app.panels import Panels
+from puppet.app.tools import CanvasEvent, choose_tool
+from puppet.app.widgets import Thumbs
+
+PANEL_WIDTH = 330
+FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
+         | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings
+         | imgui.WindowFlags_.no_bring_to_front_on_focus)
+FONT = os.path.join(os.path.dirname(imgui_bundle.__file__), "assets", "fonts", "DroidSans.ttf")
+
+
+class _Input(ImGuiInput):
+    """ImGui input that also notes that something happened (so the loop draws)."""
+
+    touched = True
+
+    def __getattribute__(self, name):
+        if name.startswith("on_"):
+            object.__setattr__(self, "touched", True)
+        return object.__getattribute__(self, name)
+
+
+class AppWindow:
+    """``puppet app``: one window on one scene (or none, with File > Open).
+
+    Parameters
+    ----------
+    path : str, optional
+        Scene to open (offering to recover its autosave if one is newer).
+    size : (int, int)
+        Window size.
+    visible : bool
+        Show the window (False in tests: a headless window is never shown).
+    ready : callable, optional
+        Called once with a dict (canvas rect, scale, window size) after the first frame
+        that shows the scene; the CLI prints it as the ready line.
+    """
+
+    def __init__(self, path: str | None = None, *, size=(1280, 800), visible: bool = True, ready=None,
+                 autosave_interval: float = autosave.INTERVAL):
+        config = pyglet.gl.Config(double_buffer=True, red_size=8, green_size=8, blue_size=8, alpha_size=8,
+                                  depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
+        self.win = pyglet.window.Window(int(size[0]), int(size[1]), caption="puppet", resizable=True,
+                                        config=config, visible=visible)
+        self.win.switch_to()
+        moderngl.init_context()
+        self.ctx = moderngl.get_context()
+        self.imgui_ctx = imgui.create_context()
+        io = imgui.get_io()
+        io.set_ini_filename("")
+        io.config_windows_move_from_title_bar_only = True
+        if os.path.exists(FONT):
+            io.fonts.add_font_from_file_ttf(FONT, 15.0)
+        imgui.style_colors_dark()
+        self.gui = ImGuiRenderer(self.ctx)
+        self.input = _Input(self.win)
+        self.win.push_handlers(self.input)
+        self.win.push_handlers(on_close=self._on_close)
+        self.app = App()
+        self.canvas = CanvasRenderer(self.ctx)
+        self.thumbs = Thumbs(self.ctx, self.gui)
+        self.panels = Panels(self.app, self.thumbs)
+        self.ready = ready
+        self.autosave_interval = autosave_interval
+        self._ready_sent = False
+        self._gesture = None
+        self._last = time.perf_counter()
+        self._autosaved_at = time.monotonic()
+        self._autosaved_version = -1
+        self._caption = ""
+        self.frames = 0
+        self.frame_ms = 0.0
+        self.closed = False
+        self._then = None  # what to do once a dialog's jobs have run
+        self._expect_scene = path is not None
+        if path is not None:
+            self.open_scene(path)
+
+    # -- files and dialogs ------------------------------------------------------------
+    def open_scene(self, path: str) -> None:
+        app = self.app
+        if app.snap.loaded and app.snap.dirty:
+            app.dialog, app.after_dialog = "unsaved", ("open", path)
+            return
+        pending = autosave.pending(path) if os.path.isfile(path) else None
+        if pending:
+            app.recover_path, app.path_field = pending, path
+            app.dialog = "recover"
+            return
+        app.open(path)
+
+    def recover(self, yes: bool) -> None:
+        app = self.app
+        path, auto = app.path_field, app.recover_path
+        app.dialog = None
+        if yes:
+            app.open(path, recover_from=auto)
+        else:
+            autosave.remove(os.path.abspath(path))
+            app.open(path)
+
+    def open_dialog(self, kind: str) -> None:
+        app = self.app
+        app.dialog = kind
+        app.path_field = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
+            os.path.dirname(app.snap.file) + os.sep if app.snap.file else os.getcwd() + os.sep)
+
+    def proceed(self, after, require_saved: bool = False) -> None:
+        """Go on after the unsaved-changes dialog: quit, or open ``("open", path)``; with
+        ``require_saved`` only once the save posted before has succeeded."""
+        def job(w):
+            if require_saved and w.scene is not None and w.saved_doc != w.scene.to_dict():
+                return None  # the save failed: stay (its error is on the status line)
+            self._then = after
+        self.app.worker.submit(job, publish=False)
+
+    def _on_close(self):
+        self.app.request_quit()
+        return True  # the app decides (unsaved changes)
+
+    # -- one frame --------------------------------------------------------------------
+    def frame(self, dispatch: bool = True) -> None:
+        """Handle pending input and draw one frame."""
+        t0 = time.perf_counter()
+        win, app = self.win, self.app
+        win.switch_to()
+        if dispatch:
+            win.dispatch_events()
+        self._follow_up()
+        app.sync()
+        if app.title != self._caption:
+            self._caption = app.title
+            win.set_caption(self._caption)
+        io = imgui.get_io()
+        w, h = win.get_size()
+        fb = win.get_framebuffer_size()
+        io.display_size = imgui.ImVec2(w, h)
+        io.display_framebuffer_scale = imgui.ImVec2(fb[0] / max(w, 1), fb[1] / max(h, 1))
+        io.delta_time = max(t0 - self._last, 1e-4)
+        self._last = t0
+        imgui.new_frame()
+        top = menus.menu_bar(app, self)
+        tool_h = imgui.get_frame_height() + 2 * imgui.get_style().window_padding.y
+        status_h = imgui.get_frame_height() + 2 * imgui.get_style().window_padding.y
+        imgui.set_next_window_pos(imgui.ImVec2(0, top))
+        imgui.set_next_window_size(imgui.ImVec2(w, tool_h))
+        imgui.begin("##toolbar", None, FIXED)
+        menus.toolbar(app)
+        imgui.end()
+        body = h - top - tool_h - status_h
+        imgui.set_next_window_pos(imgui.ImVec2(w - PANEL_WIDTH, top + tool_h))
+        imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, body))
+        imgui.begin("##panels", None, FIXED)
+        self.panels.draw()
+        imgui.end()
+        app.area = (0.0, float(top + tool_h), float(w - PANEL_WIDTH), float(body))
+        cursor = self._canvas_window()
+        imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
+        imgui.set_next_window_size(imgui.ImVec2(w, status_h))
+        imgui.begin("##status", None, FIXED)
+        menus.status_line(app, cursor)
+        imgui.end()
+        keymap.handle_keys(app, self)
+        menus.dialogs(app, self)
+        menus.help_overlay(app)
+        imgui.render()
+        ctx = self.ctx
+        ctx.error  # a stale flag would make the next GL call fail
+        ctx.screen.use()
+        ctx.viewport = (0, 0, fb[0], fb[1])
+        ctx.clear(0.12, 0.12, 0.13, 1.0)
+        self.canvas.draw(app.snap, app.view, app.area, (w, h), hidden=app.hidden, depth_view=app.depth_view,
+                         wireframe=app.show_mesh, fb_height=fb[1])
+        self.gui.render(imgui.get_draw_data(), fb)
+        win.flip()
+        self.frames += 1
+        self.frame_ms = (time.perf_counter() - t0) * 1000
+        self._autosave()
+        if not self._ready_sent and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
+            self._ready_sent = True
+            if self.ready is not None:
+                x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
+                self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
+                            "file": app.snap.file})
+
+    def _canvas_window(self):
+        """The canvas area: an invisible button that takes the pointer (so a click on a
+        panel never reaches the canvas), the tools, and the overlay. Returns the cursor's
+        canvas position when it is over the canvas."""
+        app = self.app
+        x, y, w, h = app.area
+        imgui.set_next_window_pos(imgui.ImVec2(x, y))
+        imgui.set_next_window_size(imgui.ImVec2(w, h))
+        imgui.push_style_var(imgui.StyleVar_.window_padding, imgui.ImVec2(0, 0))
+        imgui.begin("##canvas", None, FIXED | imgui.WindowFlags_.no_background | imgui.WindowFlags_.no_scrollbar
+                    | imgui.WindowFlags_.no_scroll_with_mouse)
+        imgui.invisible_button("canvas", imgui.ImVec2(max(w, 1), max(h, 1)),
+                               imgui.ButtonFlags_.mouse_button_left | imgui.ButtonFlags_.mouse_button_right
+                               | imgui.ButtonFlags_.mouse_button_middle)
+        io = imgui.get_io()
+        pos = (float(io.mouse_pos.x), float(io.mouse_pos.y))
+        hovered = imgui.is_item_hovered()
+        if imgui.is_item_activated() and app.snap.loaded:
+            button = next((b for b in (0, 2, 1) if imgui.is_mouse_clicked(b)), 0)
+            ev = self._event("press", pos, button)
+            tool = choose_tool(app, ev, imgui.is_key_down(imgui.Key.space))
+            self._gesture = tool(app, ev) if tool else None
+            self._send(None)
+        elif self._gesture is not None and imgui.is_item_active() and (io.mouse_delta.x or io.mouse_delta.y):
+            self._send(self._event("drag", pos))
+        if self._gesture is not None and imgui.is_item_deactivated():
+            self._send(self._event("release", pos))
+            if self._gesture is not None:
+                self._gesture.close()
+                self._gesture = None
+        if hovered and io.mouse_wheel:
+            app.zoom(pos, io.mouse_wheel)
+        dl = imgui.get_window_draw_list()
+        if app.snap.loaded:
+            if app.show_links:
+                overlay.draw_links(dl, app)
+            if app.show_pins:
+                hover = app.marker_at(pos) if hovered and self._gesture is None else None
+                overlay.draw_pins(dl, app, hover)
+            if app.depth_view:
+                overlay.draw_depth_legend(dl, app, *depth_range(app.snap.layers))
+        imgui.end()
+        imgui.pop_style_var()
+        return tuple(app.view.to_canvas(pos)) if hovered and app.snap.loaded else None
+
+    def _event(self, kind, pos, button=0) -> CanvasEvent:
+        io = imgui.get_io()
+        xy = self.app.view.to_canvas(pos)
+        return CanvasEvent(kind, pos, (float(xy[0]), float(xy[1])), button, io.key_shift, io.key_ctrl, io.key_alt)
+
+    def _send(self, ev) -> None:
+        try:
+            if ev is None:
+                next(self._gesture)
+            else:
+                self._gesture.send(ev)
+        except StopIteration:
+            self._gesture = None
+
+    def _follow_up(self) -> None:
+        then = self._then
+        if then is None:
+            return
+        self._then = None
+        if then == "quit":
+            self.app.quit_now = True
+        elif isinstance(then, tuple) and then[0] == "open":
+            self.app.worker.submit(lambda w: w.set_scene(None, None))
+            self.open_scene(then[1])
+
+    def _autosave(self) -> None:
+        snap = self.app.snap
+        now = time.monotonic()
+        if now - self._autosaved_at < self.autosave_interval:
+            return
+        self._autosaved_at = now
+        if snap.loaded and snap.dirty and snap.version != self._autosaved_version:
+            self._autosaved_version = snap.version
+            self.app.worker.submit(lambda w: None if w.scene is None else (autosave.write(w.scene) and None),
+                                   publish=False)
+
+    # -- the loop ---------------------------------------------------------------------
+    def run(self, max_fps: float = 60.0) -> None:
+        """Draw frames until the app quits: every frame while something happens, a few a
+        second when idle (so the scene thread keeps the CPU)."""
+        idle_frames, last = 0, 0.0
+        try:
+            while not self.app.quit_now:
+                t = time.perf_counter()
+                self.win.switch_to()
+                self.win.dispatch_events()
+                active = (self.input.touched or self.app.worker.latest is not self.app.snap
+                          or self._gesture is not None or not self.app.worker.idle())
+                self.input.touched = False
+                idle_frames = 0 if active else idle_frames + 1
+                if idle_frames < 4 or t - last > 0.25:
+                    self.frame(dispatch=False)
+                    last = t
+                time.sleep(max(0.0, 1.0 / max_fps - (time.perf_counter() - t)))
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Finish pending jobs (a save), remove the autosave, release GL and the window."""
+        if self.closed:
+            return
+        self.closed = True
+        worker = self.app.worker
+        worker.wait_idle(30)
+        if worker.scene is not None:
+            autosave.remove(worker.scene.file)
+        worker.stop()
+        self.win.switch_to()
+        self.thumbs.release()
+        self.canvas.release()
+        self.gui.release()
+        imgui.destroy_context(self.imgui_ctx)
+        self.win.close()
+
+
+def print_ready(info: dict) -> None:
+    """The ready line on stdout (tests wait for it before sending input)."""
+    print("puppet app: ready " + json.dumps(info), flush=True)
+    sys.stdout.flush()
