@@ -38,6 +38,9 @@ def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
     for key in ("source", "background"):
         if isinstance(doc.get(key), str):
             doc[key] = fn(doc[key])
+    app = doc.get("app")
+    if isinstance(app, dict) and isinstance(app.get("underlay"), dict) and isinstance(app["underlay"].get("image"), str):
+        doc["app"] = dict(app, underlay=dict(app["underlay"], image=fn(app["underlay"]["image"])))
     if not isinstance(doc.get("layers"), list):
         return doc
     layers = []
@@ -154,6 +157,24 @@ class Document(Edits):
             return tuple(bg)
         return self.rig.memo.get("pixels", fingerprint("background", file_stamp(bg)),
                                  lambda: load_rgba(bg, scene_file=self.file, json_path="background"))
+
+    @property
+    def underlay(self) -> dict | None:
+        """The app's reference picture: ``{"image": abs path, "opacity", "offset", "scale"}`` or None."""
+        u = self._doc.get("app", {}).get("underlay")
+        if u is None:
+            return None
+        from puppet.scene.extensions import UNDERLAY_DEFAULTS
+
+        return {**UNDERLAY_DEFAULTS, **u}
+
+    def underlay_image(self):
+        """The underlay picture as (h, w, 4) uint8 RGBA (read once per file), or None."""
+        u = self.underlay
+        if u is None:
+            return None
+        return self.rig.memo.get("pixels", fingerprint("underlay", file_stamp(u["image"])),
+                                 lambda: load_rgba(u["image"], scene_file=self.file, json_path="app.underlay.image"))
 
     @property
     def images(self):

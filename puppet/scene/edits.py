@@ -304,6 +304,26 @@ class Edits:
         if not any(pin in ge.names for ge in self.built.exterior):
             raise self._fail(f"no pin or exterior point named {pin!r}")
 
+    # app-only settings ----------------------------------------------------------------
+    def set_underlay(self, image: str | None, *, opacity: float = 0.5, offset=(0.0, 0.0), scale: float = 1.0) -> bool:
+        """The reference picture drawn under the canvas by the app (None removes it);
+        stored under the scene's ``app`` key, which render ignores."""
+        from puppet.imaging.io import load_rgba
+        from puppet.scene.extensions import underlay_json
+
+        if image is not None:  # a missing or bad picture is refused before anything changes
+            load_rgba(os.path.abspath(image), scene_file=self.file, json_path="app.underlay.image")
+
+        def m(doc):
+            app = doc.setdefault("app", {})
+            if image is None:
+                app.pop("underlay", None)
+            else:
+                app["underlay"] = underlay_json(image, opacity, offset, scale)
+            if not app:
+                del doc["app"]
+        return self._edit(Event("app", "underlay", "none", "set underlay"), m)
+
     # deformer and animation -------------------------------------------------------------
     def set_deformer(self, **options) -> bool:
         """Deformer options: ``method``, ``weights``, ``init``, ``iterations``, ``alpha``, ``relax_foldovers``."""

@@ -14,12 +14,13 @@ from puppet.errors import SceneError
 from puppet.imaging import masks as mk
 from puppet.imaging.io import MAX_SIDE
 from puppet.scene import model as m
+from puppet.scene.extensions import parse_app
 from puppet.scene.reader import parse_text, read_text
 from puppet.scene.schema import (Ctx, expect_bool, expect_list, expect_number, expect_object,
                                  expect_point, expect_string, join)
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
-            "deformer", "poses", "animation")
+            "deformer", "poses", "animation", "app")
 MAX_CANVAS = 16384
 #: Most points a polygon mask may have.
 MAX_POLYGON_POINTS = 100_000
@@ -111,6 +112,8 @@ def parse_scene(raw, file: str) -> m.SceneData:
     animation = None
     if "animation" in raw:
         animation = _animation(c, raw["animation"], "animation", poses)
+    if "app" in raw:  # app-only settings (a compatible extension; render ignores them)
+        parse_app(c, raw["app"], "app", file_path)
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
                        links=links, pins=pins, bones=bones, deformer=deformer, poses=poses,
                        animation=animation, raw=raw)

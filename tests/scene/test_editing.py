@@ -267,3 +267,27 @@ def test_random_edits_save_and_reload_equal(bars, tmp_path, ops):
     again = reloaded(doc, tmp_path)
     for pose in doc.pose_names():
         same_layers(again.layers(pose), doc.layers(pose))
+
+
+def test_underlay_is_an_app_only_key(bars, tmp_path):
+    from PIL import Image
+    Image.fromarray(bar_image(colour=(0, 0, 200))).save(tmp_path / "photo.png")
+    doc = Document.load(bars)
+    rest = doc.layers()
+    assert doc.underlay is None
+    assert doc.set_underlay(str(tmp_path / "photo.png"), opacity=0.25)
+    assert doc.underlay["opacity"] == 0.25 and doc.underlay["scale"] == 1.0
+    assert doc.underlay_image().shape == (40, 120, 4)
+    (tmp_path / "sub").mkdir()
+    again = reloaded(doc, tmp_path / "sub")
+    assert again.underlay["image"] == str(tmp_path / "photo.png")
+    assert json.loads((tmp_path / "sub" / "saved.json").read_text())["app"]["underlay"]["image"] == "../photo.png"
+    same_layers(again.layers(), rest)
+    with pytest.raises(puppet.SceneError, match="app.underlay.image"):
+        doc.set_underlay(str(tmp_path / "missing.png"))
+    doc.undo()
+    assert doc.underlay is None and "app" not in doc.to_dict()
+    bad = dict(three_bars(), app={"underlay": {"image": "photo.png", "opacity": 2}})
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    with pytest.raises(puppet.SceneError, match=r"app\.underlay\.opacity"):
+        Document.load(str(tmp_path / "bad.json"))
