@@ -1,10 +1,10 @@
-#version 330 core
-// Mesh edges as lines of one premultiplied colour (debug wireframe).
+#version 430 core
+// Mesh edges as lines of one premultiplied colour (debug wireframe), over the composite.
 #if defined VERTEX_SHADER
-uniform vec2 u_canvas;
+uniform vec4 u_ndc;  // canvas px -> NDC: pos * u_ndc.xy + u_ndc.zw
 in vec2 in_pos;
 void main() {
-    gl_Position = vec4(in_pos / u_canvas * 2.0 - 1.0, 0.0, 1.0);
+    gl_Position = vec4(in_pos * u_ndc.xy + u_ndc.zw, 0.0, 1.0);
 }
 #elif defined FRAGMENT_SHADER
 uniform vec4 u_color;

@@ -1,168 +1,172 @@
-"""Per-pixel depth compositing of textured layer meshes (front-to-back depth peeling).
+"""Per-pixel depth compositing of textured layer meshes: one opaque pass, then the soft
+edges sorted per pixel.
 
 Each layer is a textured triangle mesh with a per-vertex depth (higher = in front),
 interpolated across each triangle: which layer is in front is decided per pixel, so a
 limb can pass behind the body and in front again, and a layer can overlap itself.
-Edge pixels are semi-transparent, so a depth test with blending would leave halos.
-Instead, front-to-back depth peeling (Everitt 2001) into a premultiplied accumulation
-``A`` (half-float, two textures used in turn):
+Textures are premultiplied. A frame is:
 
-1. peel *k* draws every layer (nearest first) with depth test LESS into an RGBA8 colour
-   and a depth target; the shader discards fragments whose texture alpha is below
-   :data:`ALPHA_MIN` and, from the second peel on, those not behind peel *k-1*'s depth,
-   so each pixel gets its *k*-th nearest fragment;
-2. one full-screen pass puts the peel under the accumulation,
-   ``A' = A + (1 - A.a) * peel``, and writes the next peel's depth buffer: 0 where
-   ``A'`` is opaque (>= :data:`OPAQUE`), so nothing is drawn there again, 1 elsewhere.
+1. the background (a clear, or a full-screen quad for an image), depth cleared;
+2. **opaque pass**: every non-empty triangle, depth test LEQUAL with depth write,
+   fragments with alpha < :data:`ALPHA_OPAQUE` discarded. This is a plain depth-tested
+   draw: it costs what a frame without any transparency costs;
+3. **edge pass**: only the *edge triangles* (those whose texture reach holds a texel with
+   alpha < 255, found once per mesh, see :func:`~puppet.render.layers.classify_triangles`),
+   early depth test LESS against the opaque depth, fragments with
+   :data:`ALPHA_MIN` <= alpha < :data:`ALPHA_OPAQUE` kept. They go either
 
-Peeling stops when an occlusion query counts no sample in a peel, or after
-``max_peels`` peels (fragments beyond are dropped). The optional wireframe goes over
-``A``; a last pass puts the background under it and writes straight-alpha RGBA8.
+   * into a per-pixel **K-buffer** (``kbuffer``, needs ``GL_EXT_shader_framebuffer_fetch``,
+     which Mesa llvmpipe has): each fragment reads the pixel's K sorted entries and the
+     colour found under them, inserts itself and rewrites the composite. Exact up to K
+     translucent fragments in front of the nearest opaque one (K = 3); beyond, the two
+     farthest are merged and an overflow is counted; or
+   * into an **A-buffer** (``abuffer``, any GL 4.3): per-pixel linked lists of nodes in a
+     storage buffer, then the edge triangles again, the first fragment at a pixel sorting
+     its list (up to :data:`MAX_FRAGMENTS`) and blending it over the opaque colour.
 
-Depths map to window depth normalised over the frame's min/max with a margin. Exact
-ties between layers go to the later one in the list (a bias of a few depth-buffer
-steps per list position); within one layer they are arbitrary.
+   ``method="auto"`` uses the K-buffer where it exists. :meth:`Compositor.render` reads a
+   counter after its read-back (no extra wait) and redraws with the A-buffer when the
+   K-buffer overflowed, so its output is always exact; :meth:`Compositor.draw` switches
+   to the A-buffer from the next frame on (and back when no pixel needs it).
+
+No step waits for the GPU; :meth:`~Compositor.render` reads back once at the end.
+
+Tie rule (the CPU reference ``tests/render/reference.py`` follows it):
+    * the larger depth is in front;
+    * equal depths in two layers: the later layer in the list is in front (each list
+      position moves a layer :data:`~puppet.render.layers.TIE_BIAS` of the window depth
+      range nearer, so depths closer than that count as equal);
+    * equal depths inside one layer (a limb folded over itself at one pin depth): an
+      opaque fragment hides the layer's translucent ones; of opaque fragments the later
+      triangle wins; translucent ones are composited in triangle order, the later over
+      the earlier. Nothing at a tie is dropped, so no background shows through.
 """
 from __future__ import annotations
 
 import contextlib
+from typing import Sequence
 
 import moderngl
 import numpy as np
 
-from .context import create_context
-from .layers import (EPSILON, DrawLayer, _check_background, _check_layer, mesh_edges,  # noqa: F401
-                     premultiply, window_depths)
+from .context import GL_REQUIRE, create_context, is_current
+from .gpu import OWN, FrameTargets, LayerMesh
+from .layers import (ALPHA_MIN, ALPHA_OPAQUE, TIE_BIAS, Z_MAX, Z_MIN, DrawLayer,  # noqa: F401
+                     check_background, check_layer, check_vertices, depth_window,
+                     mesh_edges, premultiply)
 from .programs import load_program, set_uniform
 
-#: Fragments whose premultiplied texture alpha is below this are discarded (peel.glsl).
-ALPHA_MIN = 0.5 / 255.0
-#: Accumulated alpha from which a pixel is final and later peels skip it.
-OPAQUE = 1.0 - 1.0 / 1024.0
+#: Translucent fragments in front of the nearest opaque one that the K-buffer holds exactly.
+K = 3
+#: Translucent fragments per pixel the A-buffer sorts (the nearest ones are kept).
+MAX_FRAGMENTS = 16
 #: Wireframe colour, straight RGBA in 0..1.
 WIRE_COLOR = (0.08, 0.08, 0.08, 0.7)
-
-_OWN = object()  # tag in the .extra of the compositor's own framebuffers
-#: Texture formats of the accumulation and of one peel (moderngl dtypes).
-ACCUM_DTYPE = "f2"
-PEEL_DTYPE = "f1"
-
-
-class _Targets:
-    """Render targets of one output size."""
-
-    def __init__(self, ctx: moderngl.Context, size: tuple[int, int]):
-        self.size = size
-        self.accums = [ctx.texture(size, 4, dtype=ACCUM_DTYPE) for _ in range(2)]
-        self.peel = ctx.texture(size, 4, dtype=PEEL_DTYPE)
-        self.depths = [ctx.depth_texture(size) for _ in range(2)]
-        for tex in self.depths:
-            tex.compare_func = ""  # sample raw depth, not a comparison (texelFetch only)
-        self.peel_fbos = [ctx.framebuffer([self.peel], d) for d in self.depths]
-        self.peel_color_fbo = ctx.framebuffer([self.peel])  # to clear the colour only
-        # under_fbos[i][j] writes accumulation i and the depth buffer j of the next peel
-        self.under_fbos = [[ctx.framebuffer([a], d) for d in self.depths] for a in self.accums]
-        self.out = ctx.renderbuffer(size, 4)
-        self.out_fbo = ctx.framebuffer([self.out])
-        for fbo in self._fbos():
-            fbo.extra = _OWN  # never rebound as "the caller's" framebuffer
-
-    def _fbos(self):
-        return (*self.peel_fbos, self.peel_color_fbo, *self.under_fbos[0],
-                *self.under_fbos[1], self.out_fbo)
-
-    def release(self) -> None:
-        for obj in (*self._fbos(), *self.accums, self.peel, *self.depths, self.out):
-            obj.release()
-
-
-class _Mesh:
-    """GPU buffers of one layer key: vertices rewritten each frame, indices kept."""
-
-    def __init__(self, ctx: moderngl.Context, tri: np.ndarray, nbytes: int, peel_programs):
-        self.triangles = tri.copy()
-        self.vbo = ctx.buffer(reserve=nbytes)
-        self.ibo = ctx.buffer(np.ascontiguousarray(tri, np.int32))
-        self.vaos = {p: ctx.vertex_array(p, [(self.vbo, "2f 2f 1f", "in_pos", "in_uv", "in_z")],
-                                         index_buffer=self.ibo, index_element_size=4)
-                     for p in peel_programs}
-        self.edge_ibo = self.edge_vao = None  # made on the first wireframe
-
-    def fits(self, tri: np.ndarray, nbytes: int) -> bool:
-        return self.vbo.size == nbytes and np.array_equal(self.triangles, tri)
-
-    def edges(self, ctx: moderngl.Context, wire_program) -> moderngl.VertexArray:
-        if self.edge_vao is None:
-            self.edge_ibo = ctx.buffer(mesh_edges(self.triangles))
-            self.edge_vao = ctx.vertex_array(wire_program, [(self.vbo, "2f 12x", "in_pos")],
-                                             index_buffer=self.edge_ibo, index_element_size=4)
-        return self.edge_vao
-
-    def release(self) -> None:
-        for obj in (*self.vaos.values(), self.edge_vao, self.vbo, self.ibo, self.edge_ibo):
-            if obj is not None:
-                obj.release()
+#: Most A-buffer nodes (16 bytes each) the compositor allocates.
+MAX_NODES = 1 << 23
+METHODS = ("auto", "kbuffer", "abuffer")
+FETCH = "GL_EXT_shader_framebuffer_fetch"
+_PASSES = {"opaque": "OPAQUE_PASS", "kbuffer": "KBUFFER_PASS", "append": "APPEND_PASS",
+           "resolve": "RESOLVE_PASS"}
 
 
 class Compositor:
-    """Composite :class:`DrawLayer` meshes by per-pixel depth into RGBA images.
+    """Composite :class:`DrawLayer` meshes by per-pixel depth.
 
     Parameters
     ----------
     ctx : moderngl.Context, optional
-        Context to draw with (current on this thread). When None, an EGL standalone
-        context is created, owned and released by the compositor.
-    max_peels : int, optional
-        Most depth peels per frame (default 6): the number of fragments, nearest
-        first, that can show through one another at a pixel.
+        Context to draw with (current on this thread, OpenGL >= 4.3). When None, an EGL
+        standalone context is created, owned and released by the compositor.
+    method : {"auto", "kbuffer", "abuffer"}
+        How soft-edge fragments are sorted (see the module notes). ``"kbuffer"`` raises
+        RuntimeError when the context lacks framebuffer fetch.
 
     Attributes
     ----------
-    last_peels : int
-        Peels that drew something in the last :meth:`render` (early stop by occlusion
-        query); equal to ``max_peels`` when fragments may have been dropped.
+    last_method : str or None
+        Edge method of the last frame ("kbuffer" or "abuffer").
+    last_overflow : int
+        Fragments (K-buffer) or pixels (A-buffer) beyond K in the last frame that was
+        checked (render: always; draw: the previous frame, when the next one starts).
 
     Notes
     -----
     Use it from the context's thread only. An owned context is made current around each
     call (several compositors can share a thread); a context passed in must be current.
-    ``render`` changes GL state (enable flags, blend and depth functions, line width,
-    texture units 0-3) and rebinds the caller's framebuffer, if one was bound.
+    ``render`` and ``draw`` change GL state (enable flags, blend and depth functions,
+    line width, texture unit 0-1, image unit 0, storage bindings 0-1), clear a pending GL
+    error first, and rebind the caller's framebuffer if one was bound.
     """
 
-    def __init__(self, ctx: moderngl.Context | None = None, *, max_peels: int = 6):
-        if max_peels < 1:
-            raise ValueError(f"max_peels must be at least 1, got {max_peels}")
+    def __init__(self, ctx: moderngl.Context | None = None, *, method: str = "auto"):
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         self._own_ctx = ctx is None
         self.ctx = create_context() if ctx is None else ctx
-        self.max_peels = int(max_peels)
-        self.last_peels = 0
+        if self.ctx.version_code < GL_REQUIRE:
+            raise RuntimeError(f"the compositor needs OpenGL {GL_REQUIRE // 100}."
+                               f"{GL_REQUIRE % 100 // 10}, the context has {self.ctx.version_code}")
+        self._fetch = FETCH in self.ctx.extensions
+        if method == "kbuffer" and not self._fetch:
+            raise RuntimeError(f"method 'kbuffer' needs {FETCH}")
+        self.method = method
+        self.last_method: str | None = None
+        self.last_overflow = 0
+        self._prefer_abuffer = False
+        self._pending: str | None = None  # method of a frame whose counters are unread
+        self._frame = 0.0
+        consts = {"ALPHA_MIN": ALPHA_MIN, "ALPHA_OPAQUE": ALPHA_OPAQUE, "Z_MIN": Z_MIN,
+                  "Z_MAX": Z_MAX, "K": K, "K_STATE": K + 2, "MAX_FRAGMENTS": MAX_FRAGMENTS}
         with self._current():
             ctx = self.ctx
-            self._peel_first = load_program(ctx, "peel", defines={"FIRST_PEEL": 1})
-            self._peel_next = load_program(ctx, "peel")
-            self._under_prog = load_program(ctx, "under")
-            self._resolve_prog = load_program(ctx, "resolve")
+            self._programs = {name: load_program(ctx, "layer", defines={**consts, define: 1})
+                              for name, define in _PASSES.items()
+                              if name != "kbuffer" or self._fetch}
             self._wire = load_program(ctx, "wire")
+            self._background_prog = load_program(ctx, "background")
+            self._straight = load_program(ctx, "straight")
             self._fullscreen = {p: ctx.vertex_array(p, []) for p in
-                                (self._under_prog, self._resolve_prog)}
-            self._query = ctx.query(samples=True)
-            self._bg_color = self._make_texture(np.zeros((1, 1, 4), np.uint8))
-        self._textures: dict[str, tuple[np.ndarray, moderngl.Texture]] = {}
-        self._meshes: dict[str, _Mesh] = {}
-        self._targets: _Targets | None = None
+                                (self._background_prog, self._straight)}
+            self._counters = ctx.buffer(reserve=16)
+            self._nodes: moderngl.Buffer | None = None
+            self._textures: dict[str, tuple[np.ndarray, moderngl.Texture]] = {}
+        self._meshes: dict[str, LayerMesh] = {}
+        self._targets: FrameTargets | None = None
 
     # -- public -------------------------------------------------------------------
-    def render(self, layers: list[DrawLayer], canvas: tuple[int, int], *,
+    def upload(self, layer: DrawLayer) -> None:
+        """Upload (or refresh) a layer: texture, mesh buffers, positions and depths.
+
+        The texture is re-uploaded only for a new image array; the index buffers only
+        when the rest mesh, offset or image changed; positions and depths are written.
+        """
+        with self._current():
+            self._upload(layer)
+
+    def update(self, key: str, *, deformed: np.ndarray | None = None,
+               depth: np.ndarray | None = None) -> None:
+        """Write new deformed positions (n, 2) and/or depths (n,) of an uploaded layer:
+        one vertex-buffer write, nothing re-created (the cheap path of a drag)."""
+        mesh = self._meshes.get(key)
+        if mesh is None:
+            raise KeyError(f"layer {key!r} is not uploaded")
+        deformed, depth = check_vertices(key, len(mesh.posz), deformed, depth)
+        with self._current():
+            mesh.write(deformed, depth)
+
+    def render(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int], *,
                size: tuple[int, int] | None = None,
                background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0),
                wireframe: bool = False) -> np.ndarray:
-        """Composite ``layers`` over ``background``.
+        """Composite ``layers`` over ``background`` and read the result back.
 
         Parameters
         ----------
-        layers : list of DrawLayer
-            Keys must be unique within the call; list order only breaks exact depth ties.
+        layers : sequence of DrawLayer or str
+            Back-to-front stacking list; list order only breaks exact depth ties. A
+            DrawLayer is uploaded first (see :meth:`upload`); a str names a layer uploaded
+            before, drawn as it is. Keys must be unique within the call.
         canvas : (int, int)
             Canvas (width, height) in the pixels the layer coordinates use.
         size : (int, int), optional
@@ -177,17 +181,61 @@ class Compositor:
         ndarray, shape (H_out, W_out, 4), uint8
             Straight-alpha RGBA, row 0 = top.
         """
-        cw, ch = (int(v) for v in canvas)
-        size = (cw, ch) if size is None else (int(size[0]), int(size[1]))
-        if min(cw, ch, *size) <= 0:
-            raise ValueError(f"canvas {canvas} and size {size} must be positive")
-        if len({layer.key for layer in layers}) != len(layers):
-            raise ValueError("layer keys must be unique within one render call")
-        for layer in layers:
-            _check_layer(layer)
-        background = _check_background(background)
+        size = _sizes(canvas, size)
+        background = check_background(background)
         with self._current():
-            return self._render(layers, (float(cw), float(ch)), size, background, wireframe)
+            previous = self.ctx.fbo
+            draws = self._prepare(layers)
+            # half-float composite when the background is an image or not opaque: its
+            # colours then survive to the straight-alpha output within 1 grey level
+            precise = background.shape[:2] != (1, 1) or int(background[0, 0, 3]) < 255
+            targets = self._targets_for(size, dtype="f2" if precise else "f1")
+            method = self._choose()
+            for _attempt in range(3):
+                self._frame_passes(draws, canvas, targets, background, wireframe, method, False)
+                out = self._read(targets, precise)
+                overflow, used, lost = self._take_counters()
+                if method == "kbuffer" and overflow:
+                    method = "abuffer"  # exact instead: redraw (rare)
+                elif not (method == "abuffer" and lost and self._grow(used)):
+                    break
+            self._finish(previous)
+            return out
+
+    def draw(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int], *,
+             target: moderngl.Framebuffer | moderngl.Texture,
+             background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0),
+             wireframe: bool = False, flip_y: bool = False) -> None:
+        """Composite into ``target`` without reading back (the app's preview path).
+
+        Parameters
+        ----------
+        layers, canvas, background, wireframe
+            As in :meth:`render`.
+        target : moderngl.Texture or moderngl.Framebuffer
+            An RGBA8 texture (drawn into directly) or a framebuffer (``ctx.screen`` too:
+            composited at its size, then copied with a blit). Receives premultiplied RGBA;
+            over an opaque background that is the same as straight.
+        flip_y : bool
+            False: canvas top in row 0 (as :meth:`render`'s array); True: canvas top in
+            the last row, the right way up on a window.
+        """
+        direct = isinstance(target, moderngl.Texture)
+        if direct and (target.components != 4 or target.dtype != "f1" or target.samples):
+            raise ValueError("a target texture must be RGBA8 (components 4, dtype 'f1')")
+        size = _sizes(canvas, tuple(target.size))
+        background = check_background(background)
+        with self._current():
+            if self._pending is not None:
+                self._take_counters()  # the previous frame's (done by now, in the app)
+            draws = self._prepare(layers)
+            targets = self._targets_for(size, target if direct else None)
+            previous = self.ctx.fbo
+            self._frame_passes(draws, canvas, targets, background, wireframe, self._choose(),
+                               flip_y)
+            if not direct:
+                self.ctx.copy_framebuffer(target, targets.write_fbo)
+            self._finish(previous)
 
     def invalidate(self, key: str | None = None) -> None:
         """Forget the cached texture and buffers of ``key`` (all keys when None)."""
@@ -206,123 +254,211 @@ class Compositor:
 
         The compositor cannot be used afterwards; a second call does nothing.
         """
-        if self._bg_color is None:
+        if self._counters is None:
             return
         self.invalidate()
         with self._current():
-            if self._targets is not None:
-                if self.ctx.fbo is not None and self.ctx.fbo.extra is _OWN:
-                    self.ctx.detect_framebuffer(0).use()  # the default framebuffer
-                self._targets.release()
-                self._targets = None
-            for vao in self._fullscreen.values():
-                vao.release()
-            self._fullscreen = {}
-            self._bg_color.release()
-            self._bg_color = None
+            self._drop_targets()
+            for obj in (*self._fullscreen.values(), self._counters, self._nodes):
+                if obj is not None:
+                    obj.release()
+            self._fullscreen, self._counters, self._nodes = {}, None, None
         if self._own_ctx:
             self.ctx.release()
 
-    # -- passes -------------------------------------------------------------------
+    # -- a frame ------------------------------------------------------------------
     def _current(self):
-        """Make an owned context current for a block (several may live in one thread)."""
-        return self.ctx if self._own_ctx else contextlib.nullcontext()
+        """Make an owned context current for a block (several may live in one thread);
+        nothing when it already is (``with ctx:`` must not nest)."""
+        if not self._own_ctx or is_current(self.ctx):
+            return contextlib.nullcontext()
+        return self.ctx
 
-    def _render(self, layers, canvas, size, background, wireframe) -> np.ndarray:
+    def _choose(self) -> str:
+        if self.method != "auto":
+            return self.method
+        return "abuffer" if (self._prefer_abuffer or not self._fetch) else "kbuffer"
+
+    def _prepare(self, layers) -> list[tuple[int, LayerMesh, moderngl.Texture]]:
+        """(list position, mesh, texture) of every layer, uploading DrawLayers."""
+        keys = [item if isinstance(item, str) else item.key for item in layers]
+        if len(set(keys)) != len(keys):
+            raise ValueError("layer keys must be unique within one call")
+        for item in layers:
+            if isinstance(item, str):
+                if item not in self._meshes:
+                    raise KeyError(f"layer {item!r} is not uploaded")
+            else:
+                self._upload(item)
+        self.ctx.error  # noqa: B018 - clears a GL error left by the caller
+        return [(i, self._meshes[k], self._textures[k][1]) for i, k in enumerate(keys)]
+
+    def _upload(self, layer: DrawLayer) -> None:
+        check_layer(layer)
+        self._texture(layer.key, layer.image)
+        mesh = self._meshes.get(layer.key)
+        if mesh is None or not mesh.fits(layer):
+            if mesh is not None:
+                mesh.release()
+            mesh = self._meshes[layer.key] = LayerMesh(self.ctx, layer, self._programs)
+        mesh.write(np.asarray(layer.deformed, np.float64), np.asarray(layer.depth, np.float64))
+
+    def _frame_passes(self, draws, canvas, targets: FrameTargets, background, wireframe,
+                      method: str, flip: bool) -> None:
         ctx = self.ctx
-        previous_fbo = ctx.fbo
-        targets = self._targets_for(size)
-        drawn = [layer for layer in layers if len(layer.triangles) and len(layer.deformed)]
-        draws = [(self._texture(layer.key, layer.image), self._upload(layer, z), float(z.mean()))
-                 for layer, z in zip(drawn, window_depths(drawn))]
-        draws.sort(key=lambda d: d[2])  # nearest first: more early depth-test rejection
-        for prog in (self._peel_first, self._peel_next, self._wire):
-            set_uniform(prog, "u_canvas", canvas)
-        self.last_peels, accum = self._peel([d[:2] for d in draws], targets)
+        cw, ch = float(canvas[0]), float(canvas[1])
+        ndc = (2.0 / cw, 2.0 / ch, -1.0, -1.0) if not flip else (2.0 / cw, -2.0 / ch, -1.0, 1.0)
+        live = [d for d in draws if d[1].vaos]
+        hi, inv = depth_window(min((m.lo for _, m, _ in live), default=0.0),
+                               max((m.hi for _, m, _ in live), default=0.0))
+        depth = {i: (hi, inv, i * TIE_BIAS) for i, _, _ in live}
+        live.sort(key=lambda d: (hi - d[1].mean) * inv - d[0] * TIE_BIAS)  # nearest first
+        for prog in (*self._programs.values(), self._wire):
+            set_uniform(prog, "u_ndc", ndc)
+
+        self._draw_background(targets, background, flip)
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<="
+        self._draw_layers("opaque", live, depth)
+        ctx.depth_func = "<"
+        self._counters.write(bytes(16))
+        self._counters.bind_to_storage_buffer(0)
+        if method == "kbuffer":
+            targets.kbuffer(K).use()
+            self._frame += K + 1
+            if self._frame > 2.0 ** 22:
+                targets.reset_kbuffer()
+                self._frame = float(K + 1)
+            set_uniform(self._programs["kbuffer"], "u_frame", self._frame)
+            self._draw_layers("kbuffer", live, depth)
+        else:
+            scale = (targets.size[0] / cw, targets.size[1] / ch)
+            capacity = self._ensure_nodes(sum(m.fragment_bound(scale) for _, m, _ in live))
+            append_fbo, heads = targets.abuffer()
+            heads.bind_to_image(0, read=True, write=True)
+            self._nodes.bind_to_storage_buffer(1)
+            set_uniform(self._programs["append"], "u_capacity", capacity)
+            append_fbo.use()
+            self._draw_layers("append", live, depth, order=True)
+            ctx.memory_barrier()
+            targets.test_fbo.use()
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_equation = moderngl.FUNC_ADD
+            ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+            self._draw_layers("resolve", live, depth)
+            ctx.memory_barrier()
+        self._pending = self.last_method = method
         if wireframe:
-            self._draw_wireframe([d[1] for d in draws], targets, accum)
-        ctx.enable_only(moderngl.NOTHING)
-        targets.out_fbo.use()
-        targets.accums[accum].use(0)
-        self._background(background).use(1)
-        set_uniform(self._resolve_prog, "u_accum", 0)
-        set_uniform(self._resolve_prog, "u_background", 1)
-        self._fullscreen[self._resolve_prog].render(moderngl.TRIANGLES, vertices=3)
-        out = np.empty((size[1], size[0], 4), np.uint8)
-        targets.out_fbo.read_into(out, components=4)
-        error = ctx.error
-        if previous_fbo is not None and previous_fbo.extra is not _OWN:
-            previous_fbo.use()
-        if error != "GL_NO_ERROR":
-            raise RuntimeError(f"OpenGL error while compositing: {error}")
-        return out
+            self._draw_wireframe(live, targets)
 
-    def _peel(self, draws, targets: _Targets) -> tuple[int, int]:
-        """Peel front to back; return (peels that drew something, index of the result)."""
-        ctx = self.ctx
-        set_uniform(self._peel_first, "u_texture", 0)
-        set_uniform(self._peel_next, "u_texture", 0)
-        set_uniform(self._peel_next, "u_prev_depth", 1)
-        set_uniform(self._peel_next, "u_epsilon", EPSILON)
-        set_uniform(self._under_prog, "u_accum", 2)
-        set_uniform(self._under_prog, "u_peel", 3)
-        set_uniform(self._under_prog, "u_opaque", OPAQUE)
-        targets.under_fbos[0][0].clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        src, peels = 0, 0
-        for k in range(self.max_peels):
-            cur = k % 2
-            targets.peel_color_fbo.clear(0.0, 0.0, 0.0, 0.0)
-            targets.peel_fbos[cur].use()
-            ctx.enable_only(moderngl.DEPTH_TEST)
-            ctx.depth_func = "<"
-            targets.depths[1 - cur].use(1)
-            program = self._peel_first if k == 0 else self._peel_next
-            with self._query:
-                for texture, mesh in draws:
-                    texture.use(0)
-                    mesh.vaos[program].render(moderngl.TRIANGLES)
-            if self._query.samples == 0:
-                break
-            peels += 1
-            # A' = A + (1 - A.a) * peel into the other accumulation, next depth mask
-            targets.under_fbos[1 - src][1 - cur].use()
-            ctx.depth_func = "1"
-            targets.accums[src].use(2)
-            targets.peel.use(3)
-            self._fullscreen[self._under_prog].render(moderngl.TRIANGLES, vertices=3)
-            src = 1 - src
-        return peels, src
+    def _draw_layers(self, name: str, live, depth, *, order: bool = False) -> None:
+        program = self._programs[name]
+        for position, (i, mesh, texture) in enumerate(live):
+            vao = mesh.vaos.get(name)
+            if vao is None:
+                continue
+            set_uniform(program, "u_depth", depth[i])
+            if order:
+                set_uniform(program, "u_order", position << 20)
+            texture.use(0)
+            vao.render(moderngl.TRIANGLES)
 
-    def _draw_wireframe(self, meshes, targets: _Targets, accum: int) -> None:
-        """Lines over the accumulation (so over the background too, as "over" is
-        associative)."""
+    def _draw_background(self, targets: FrameTargets, background: np.ndarray, flip) -> None:
+        targets.write_fbo.use()
+        if background.shape[:2] == (1, 1):
+            r, g, b, a = (premultiply(background)[0, 0] / 255.0).tolist()
+            targets.write_fbo.clear(r, g, b, a, depth=1.0)
+            return
+        targets.write_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.ctx.enable_only(moderngl.NOTHING)
+        self._texture("\0background", background).use(0)
+        set_uniform(self._background_prog, "u_flip", 1.0 if flip else 0.0)
+        self._fullscreen[self._background_prog].render(moderngl.TRIANGLES, vertices=3)
+
+    def _draw_wireframe(self, live, targets: FrameTargets) -> None:
         ctx = self.ctx
-        targets.under_fbos[accum][0].use()
+        targets.test_fbo.use()
         ctx.enable_only(moderngl.BLEND)
+        ctx.blend_equation = moderngl.FUNC_ADD
         ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
         ctx.line_width = 1.0
         r, g, b, a = WIRE_COLOR
         set_uniform(self._wire, "u_color", (r * a, g * a, b * a, a))
-        for mesh in meshes:
-            mesh.edges(ctx, self._wire).render(moderngl.LINES)
+        for _, mesh, _ in live:
+            vao = mesh.wire(ctx, self._wire)
+            if vao is not None:
+                vao.render(moderngl.LINES)
+
+    def _read(self, targets: FrameTargets, straight: bool) -> np.ndarray:
+        fbo = targets.write_fbo
+        if straight:
+            fbo = targets.output()
+            fbo.use()
+            self.ctx.enable_only(moderngl.NOTHING)
+            targets.main.use(0)
+            self._fullscreen[self._straight].render(moderngl.TRIANGLES, vertices=3)
+        w, h = targets.size
+        out = np.empty((h, w, 4), np.uint8)
+        fbo.read_into(out, components=4)
+        return out
+
+    def _finish(self, previous) -> None:
+        error = self.ctx.error
+        if previous is not None and previous.extra is not OWN:
+            previous.use()
+        if error != "GL_NO_ERROR":
+            raise RuntimeError(f"OpenGL error while compositing: {error}")
+
+    def _take_counters(self) -> tuple[int, int, int]:
+        """Read the last frame's counters (waits for that frame) and update the hint."""
+        overflow, used, lost, _ = np.frombuffer(self._counters.read(), np.uint32).tolist()
+        self.last_overflow = overflow
+        if self._pending == "kbuffer" and overflow:
+            self._prefer_abuffer = True
+        elif self._pending == "abuffer" and not overflow:
+            self._prefer_abuffer = False
+        if lost:
+            self._grow(used)
+        self._pending = None
+        return overflow, used, lost
 
     # -- resources ----------------------------------------------------------------
-    def _targets_for(self, size: tuple[int, int]) -> _Targets:
-        if self._targets is None or self._targets.size != size:
-            old, self._targets = self._targets, _Targets(self.ctx, size)
-            if old is not None:
-                # moderngl rebinds the last bound framebuffer after creating one: never
-                # leave a deleted one bound (GL_INVALID_OPERATION on the next creation)
-                self._targets.out_fbo.use()
-                old.release()
+    def _ensure_nodes(self, bound: float) -> int:
+        need = int(min(max(bound, 1024), MAX_NODES))
+        if self._nodes is None or self._nodes.size < need * 16:
+            self._grow(need)
+        return self._nodes.size // 16
+
+    def _grow(self, need: int) -> bool:
+        """Make room for ``need`` A-buffer nodes (with slack); False if at the limit."""
+        have = 0 if self._nodes is None else self._nodes.size // 16
+        if need <= have and self._nodes is not None:
+            return False
+        new = int(min(MAX_NODES, max(need * 3 // 2, 1024)))
+        if new <= have:
+            return False
+        if self._nodes is not None:
+            self._nodes.release()
+        self._nodes = self.ctx.buffer(reserve=new * 16)
+        return True
+
+    def _targets_for(self, size, main: moderngl.Texture | None = None, *,
+                     dtype: str = "f1") -> FrameTargets:
+        t = self._targets
+        if t is None or t.size != size or (main is not None and t.main is not main) or (
+                main is None and (not t.own_main or t.dtype != dtype)):
+            self._drop_targets()
+            self._targets = FrameTargets(self.ctx, size, main, dtype)
         return self._targets
 
-    def _make_texture(self, image: np.ndarray) -> moderngl.Texture:
-        h, w = image.shape[:2]
-        tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(premultiply(image)))
-        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-        tex.repeat_x = tex.repeat_y = False  # clamp to edge
-        return tex
+    def _drop_targets(self) -> None:
+        if self._targets is not None:
+            fbo = self.ctx.fbo
+            if fbo is not None and fbo.extra is OWN:
+                # never leave a deleted framebuffer bound (GL_INVALID_OPERATION later)
+                self.ctx.detect_framebuffer(0).use()
+            self._targets.release()
+            self._targets = None
 
     def _texture(self, key: str, image: np.ndarray) -> moderngl.Texture:
         """Cached texture of ``key``; re-uploaded when the array object or shape changes."""
@@ -331,29 +467,17 @@ class Compositor:
             return entry[1]
         if entry is not None:
             entry[1].release()
-        tex = self._make_texture(image)
+        h, w = image.shape[:2]
+        tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(premultiply(image)))
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        tex.repeat_x = tex.repeat_y = False  # clamp to edge
         self._textures[key] = (image, tex)  # holding the array keeps its id unique
         return tex
 
-    def _background(self, background: np.ndarray) -> moderngl.Texture:
-        if background.shape[:2] != (1, 1):
-            return self._texture("\0background", background)
-        self._bg_color.write(premultiply(background).tobytes())
-        return self._bg_color
 
-    def _upload(self, layer: DrawLayer, z: np.ndarray) -> _Mesh:
-        """Write the layer's vertices into its cached buffers (index buffers kept)."""
-        h, w = layer.image.shape[:2]
-        data = np.empty((len(z), 5), np.float32)
-        data[:, 0:2] = layer.deformed
-        data[:, 2:4] = (np.asarray(layer.rest, np.float64) - layer.offset) / (w, h)
-        data[:, 4] = z
-        tri = np.asarray(layer.triangles)
-        mesh = self._meshes.get(layer.key)
-        if mesh is None or not mesh.fits(tri, data.nbytes):
-            if mesh is not None:
-                mesh.release()
-            mesh = self._meshes[layer.key] = _Mesh(
-                self.ctx, tri, data.nbytes, (self._peel_first, self._peel_next))
-        mesh.vbo.write(data)
-        return mesh
+def _sizes(canvas, size) -> tuple[int, int]:
+    cw, ch = (int(v) for v in canvas)
+    size = (cw, ch) if size is None else (int(size[0]), int(size[1]))
+    if min(cw, ch, *size) <= 0:
+        raise ValueError(f"canvas {canvas} and size {size} must be positive")
+    return size

@@ -22,10 +22,14 @@ window's context instead (``moderngl.create_context()`` once, then
 """
 from __future__ import annotations
 
+import ctypes
+import weakref
+
 import moderngl
 
-#: Minimum OpenGL version the shaders need (GLSL ``#version 330 core``).
-GL_REQUIRE = 330
+#: Minimum OpenGL version the shaders need (GLSL ``#version 430 core``: storage buffers,
+#: image atomics and early fragment tests for the compositor).
+GL_REQUIRE = 430
 
 
 def create_context(*, require: int = GL_REQUIRE) -> moderngl.Context:
@@ -34,7 +38,7 @@ def create_context(*, require: int = GL_REQUIRE) -> moderngl.Context:
     Parameters
     ----------
     require : int, optional
-        Minimum OpenGL version as an integer, ``330`` for 3.3 (the default).
+        Minimum OpenGL version as an integer, ``430`` for 4.3 (the default).
 
     Returns
     -------
@@ -55,10 +59,42 @@ def create_context(*, require: int = GL_REQUIRE) -> moderngl.Context:
     The context belongs to the calling thread: see the module docstring.
     """
     try:
-        return moderngl.create_standalone_context(require=require, backend="egl")
+        ctx = moderngl.create_standalone_context(require=require, backend="egl")
     except Exception as exc:  # glcontext raises bare Exception subclasses
         raise RuntimeError(f"cannot create an EGL OpenGL {require // 100}.{require % 100 // 10} "
                            f"context: {exc}") from exc
+    handle = _egl_current()  # the new context is current: remember its EGL handle
+    if handle:
+        _handles[ctx] = handle
+    return ctx
+
+
+_handles: "weakref.WeakKeyDictionary[moderngl.Context, int]" = weakref.WeakKeyDictionary()
+_egl_get_current = None
+
+
+def _egl_current() -> int | None:
+    """The calling thread's current EGL context handle (None: none, or no libEGL)."""
+    global _egl_get_current
+    if _egl_get_current is None:
+        try:
+            fn = ctypes.CDLL("libEGL.so.1").eglGetCurrentContext
+        except (OSError, AttributeError):
+            fn = False
+        else:
+            fn.restype, fn.argtypes = ctypes.c_void_p, []
+        _egl_get_current = fn
+    return _egl_get_current() if _egl_get_current else None
+
+
+def is_current(ctx: moderngl.Context) -> bool:
+    """True when ``ctx``, made by :func:`create_context`, is current on this thread.
+
+    ``with ctx:`` must not be nested for one context: moderngl's exit then leaves no
+    context current. Callers that switch contexts check this first.
+    """
+    handle = _handles.get(ctx)
+    return handle is not None and _egl_current() == handle
 
 
 def max_output_size(ctx: moderngl.Context) -> int:

@@ -1,15 +1,21 @@
 """What the compositor draws: one textured, deformed mesh per layer, and the numpy
-helpers that prepare it (premultiplied textures, depth normalisation, mesh edges)."""
+helpers that prepare it (premultiplied textures, depth range, triangle classes, edges)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-#: A fragment counts as peeled when its window depth is <= previous peel + this.
-EPSILON = 2.0 ** -18
-#: Window-depth bias per list position, so exact ties put the later layer in front.
-TIE_BIAS = 4 * EPSILON
+#: Fragments whose premultiplied texture alpha is below this are discarded.
+ALPHA_MIN = 0.5 / 255.0
+#: Fragments whose texture alpha is at least this are opaque: they write depth and hide
+#: everything behind them (an alpha that rounds to 255).
+ALPHA_OPAQUE = 254.5 / 255.0
+#: Window-depth step per list position: exact depth ties between layers go to the later one.
+TIE_BIAS = 2.0 ** -16
+#: Window depths are clamped to [Z_MIN, Z_MAX] (inside the depth buffer's clear value 1).
+Z_MIN = 2.0 ** -16
+Z_MAX = 1.0 - 2.0 ** -16
 
 
 @dataclass
@@ -30,7 +36,8 @@ class DrawLayer:
     deformed : ndarray, shape (n, 2)
         Drawn positions, canvas pixels (x right, y down, origin top-left).
     triangles : ndarray, shape (m, 3), int
-        Vertex indices.
+        Vertex indices. Their order matters only for exact depth ties inside the layer
+        (the later triangle is in front, see :mod:`puppet.render.compositor`).
     depth : ndarray, shape (n,)
         Per-vertex depth, higher = in front, any real range.
     """
@@ -53,28 +60,84 @@ def premultiply(image: np.ndarray) -> np.ndarray:
     return out
 
 
-def window_depths(layers: list[DrawLayer]) -> list[np.ndarray]:
-    """Per-layer window depths in (0, 1), 0 = nearest, float32.
+def depth_window(lo: float, hi: float) -> tuple[float, float]:
+    """Uniforms ``(hi', 1 / (hi' - lo'))`` mapping depth d to window depth
+    ``(hi' - d) / (hi' - lo')`` (0 = nearest), the range widened by max(5 %, 0.5) a side.
 
-    The frame's depth range [lo, hi] is widened by a margin of max(5 % of the range,
-    0.5) on each side; depth d maps to (hi - d) / (hi - lo) minus ``i * TIE_BIAS`` for
-    the layer at list position i.
+    The layer at list position i is then moved ``i * TIE_BIAS`` nearer and the result
+    clamped to [Z_MIN, Z_MAX] (in the vertex shader).
     """
-    if not layers:
-        return []
-    lo = min(float(np.min(layer.depth)) for layer in layers)
-    hi = max(float(np.max(layer.depth)) for layer in layers)
     margin = max(0.05 * (hi - lo), 0.5)
     lo, hi = lo - margin, hi + margin
-    out = []
-    for i, layer in enumerate(layers):
-        z = (hi - np.asarray(layer.depth, np.float64)) / (hi - lo) - i * TIE_BIAS
-        out.append(np.clip(z, 4 * EPSILON, 1.0 - 4 * EPSILON).astype(np.float32))
-    return out
+    return hi, 1.0 / (hi - lo)
+
+
+def classify_triangles(image: np.ndarray, uv: np.ndarray, triangles: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Which triangles can give translucent fragments, and which give none at all.
+
+    A fragment samples the texture bilinearly (clamp to edge) at a point of its rest
+    triangle, so it reads only texels within one texel of that triangle's bounding box.
+    A triangle whose reach holds only alpha-255 texels gives opaque fragments only.
+
+    Parameters
+    ----------
+    image : ndarray, shape (h, w, 4), uint8
+    uv : ndarray, shape (n, 2)
+        Texture coordinates in 0..1 (texel i spans [i / w, (i + 1) / w]).
+    triangles : ndarray, shape (m, 3), int
+
+    Returns
+    -------
+    edge : ndarray, shape (m,), bool
+        Some texel in reach has alpha < 255: the triangle is drawn in the edge pass.
+    empty : ndarray, shape (m,), bool
+        Every texel in reach has alpha 0: the triangle draws nothing and is skipped.
+    """
+    h, w = image.shape[:2]
+    alpha = image[..., 3]
+    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+    if not len(tri):
+        return np.zeros(0, bool), np.zeros(0, bool)
+    corners = np.asarray(uv, np.float64)[tri] * (w, h)  # (m, 3, 2) texel units
+    lo = np.floor(corners.min(axis=1) - 0.5 - 1e-3).astype(np.int64)
+    hi = np.floor(corners.max(axis=1) - 0.5 + 1e-3).astype(np.int64) + 1
+    x0, x1 = np.clip(lo[:, 0], 0, w - 1), np.clip(hi[:, 0], 0, w - 1) + 1
+    y0, y1 = np.clip(lo[:, 1], 0, h - 1), np.clip(hi[:, 1], 0, h - 1) + 1
+
+    def box_counts(mask: np.ndarray) -> np.ndarray:
+        table = np.zeros((h + 1, w + 1), np.int64)
+        table[1:, 1:] = mask.cumsum(axis=0, dtype=np.int64).cumsum(axis=1)
+        return table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0]
+
+    empty = box_counts(alpha > 0) == 0
+    edge = (box_counts(alpha < 255) > 0) & ~empty
+    return edge, empty
+
+
+def fragment_bound(deformed: np.ndarray, triangles: np.ndarray, scale: tuple[float, float]
+                   ) -> float:
+    """Upper bound of the fragments (pixel centres) the triangles cover at ``scale``:
+    the sum of area + perimeter + 1 per triangle, in output pixels."""
+    if not len(triangles):
+        return 0.0
+    p = np.asarray(deformed, np.float64)[np.asarray(triangles, np.int64)] * scale
+    a, b, c = p[:, 0], p[:, 1], p[:, 2]
+    area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                        - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+    perimeter = (np.linalg.norm(b - a, axis=1) + np.linalg.norm(c - b, axis=1)
+                 + np.linalg.norm(a - c, axis=1))
+    return float(np.sum(area + perimeter + 1.0))
 
 
 def mesh_edges(triangles: np.ndarray) -> np.ndarray:
     """Unique undirected edges, shape (k, 2) int32, of triangles (m, 3)."""
+    try:  # the shared mesh primitives, once puppet.geom has them
+        from puppet.geom.mesh import edges
+    except ImportError:
+        edges = None
+    if edges is not None:
+        return np.asarray(edges(np.asarray(triangles)), np.int32).reshape(-1, 2)
     t = np.asarray(triangles, np.int64).reshape(-1, 3)
     e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     n = int(t.max(initial=0)) + 1
@@ -82,7 +145,7 @@ def mesh_edges(triangles: np.ndarray) -> np.ndarray:
     return np.stack([keys // n, keys % n], axis=1).astype(np.int32)
 
 
-def _check_background(background) -> np.ndarray:
+def check_background(background) -> np.ndarray:
     """Background as an (H, W, 4) uint8 image; a colour becomes a 1x1 image."""
     if isinstance(background, np.ndarray) and background.ndim == 3:
         if background.shape[2] != 4 or background.dtype != np.uint8:
@@ -94,7 +157,8 @@ def _check_background(background) -> np.ndarray:
     return np.rint(rgba).astype(np.uint8).reshape(1, 1, 4)
 
 
-def _check_layer(layer: DrawLayer) -> None:
+def check_layer(layer: DrawLayer) -> None:
+    """Raise ValueError naming the layer when its arrays do not fit together."""
     img, n, tri = layer.image, len(layer.deformed), np.asarray(layer.triangles)
     problem = (
         "image must be (h, w, 4) uint8" if img.ndim != 3 or img.shape[2] != 4
@@ -108,3 +172,19 @@ def _check_layer(layer: DrawLayer) -> None:
         else None)
     if problem:
         raise ValueError(f"layer {layer.key!r}: {problem}")
+
+
+def check_vertices(key: str, n: int, deformed, depth) -> tuple[np.ndarray | None,
+                                                                np.ndarray | None]:
+    """Validate an update of an uploaded layer's n vertices; float arrays or None."""
+    out = []
+    for name, value, shape in (("deformed", deformed, (n, 2)), ("depth", depth, (n,))):
+        if value is None:
+            out.append(None)
+            continue
+        arr = np.asarray(value, np.float64)
+        if arr.shape != shape or not np.all(np.isfinite(arr)):
+            raise ValueError(f"layer {key!r}: {name} must be finite, shape {shape}, "
+                             f"got {arr.shape}")
+        out.append(arr)
+    return out[0], out[1]

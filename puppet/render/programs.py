@@ -26,6 +26,7 @@ next to ``puppet/``; the loader then falls back to that folder.
 from __future__ import annotations
 
 import importlib.resources
+import math
 import re
 import weakref
 from pathlib import Path
@@ -75,6 +76,19 @@ def shader_source(name: str) -> str:
     return resource.read_text(encoding="utf-8")
 
 
+def glsl_literal(value: object) -> str:
+    """A define's value as GLSL text: floats keep a decimal point or exponent (``1.0``,
+    ``0.00196078431372549``), bools become 1/0, anything else its ``str``."""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"a GLSL define cannot be {value}")
+        text = repr(value)
+        return text if any(ch in text for ch in ".e") else text + ".0"
+    return str(value)
+
+
 def split_stages(source: str, name: str = "<string>", *,
                  defines: Mapping[str, object] | None = None) -> dict[str, str]:
     """Per-stage sources of a one-file program.
@@ -87,7 +101,8 @@ def split_stages(source: str, name: str = "<string>", *,
         Program name, for error messages.
     defines : mapping of str to object, optional
         Extra ``#define NAME VALUE`` lines inserted with the stage define (program
-        variants, e.g. ``{"FIRST_PEEL": 1}``).
+        variants and constants shared with Python, e.g. ``{"OPAQUE_PASS": 1,
+        "ALPHA_MIN": 0.5 / 255}``; values through :func:`glsl_literal`).
 
     Returns
     -------
@@ -100,7 +115,7 @@ def split_stages(source: str, name: str = "<string>", *,
     if first is None or not lines[first].lstrip().startswith("#version"):
         raise ValueError(f"shader {name}: the first line must be a #version directive")
     head, body = lines[: first + 1], lines[first + 1:]
-    extra = [f"#define {key} {value}" for key, value in sorted((defines or {}).items())]
+    extra = [f"#define {key} {glsl_literal(value)}" for key, value in sorted((defines or {}).items())]
     stages = {}
     for define, keyword in STAGES.items():
         if re.search(rf"^\s*#\s*(?:(?:el)?if\s+defined\s*\(?\s*|ifdef\s+){define}\b",

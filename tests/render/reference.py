@@ -4,15 +4,21 @@ Same conventions as OpenGL: output pixel (x, y) samples the canvas at its centre
 ((x + 0.5) * cw / W, (y + 0.5) * ch / H); textures are premultiplied (rounded to uint8)
 and sampled bilinearly with texel centres at (i + 0.5) / w and clamp to edge. Every
 triangle of every layer that contains a pixel centre gives a fragment (barycentric
-texture coordinate and depth); fragments with alpha below 0.5/255 are dropped, the rest
-are sorted by depth (higher = in front) and composited front to back, then over the
-background. Slow (Python loop over triangles): for small test scenes only.
+texture coordinate and depth); fragments with alpha below 0.5/255 are dropped. A fragment
+with alpha >= 254.5/255 is opaque: it hides everything behind it. The rest are sorted
+front first and composited front to back, then over the background.
+
+Order (the tie rule of puppet.render.compositor): higher depth first; at equal depth the
+later layer in the list; in one layer at equal depth opaque fragments before translucent
+ones, then the later triangle first. Slow (Python loop over triangles): for small test
+scenes only.
 """
 from __future__ import annotations
 
 import numpy as np
 
 ALPHA_MIN = 0.5 / 255.0
+ALPHA_OPAQUE = 254.5 / 255.0
 # Pixel centres are nudged by this irrational-ish offset so that a centre lying exactly
 # on an edge shared by two triangles is counted in only one of them.
 _NUDGE = np.array([1.234567e-5, 2.345678e-5])
@@ -41,14 +47,14 @@ def bilinear(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 
 def _fragments(layer, centres: np.ndarray):
-    """(pixel index, depth, premultiplied rgba) of every fragment of one layer."""
+    """(pixel index, depth, triangle index, premultiplied rgba) of every fragment."""
     tex = premultiplied(layer.image)
     h, w = layer.image.shape[:2]
     uv_all = (np.asarray(layer.rest, float) - np.asarray(layer.offset, float)) / (w, h)
     pos = np.asarray(layer.deformed, float)
     depth = np.asarray(layer.depth, float)
-    pix, dep, col = [], [], []
-    for tri in np.asarray(layer.triangles):
+    pix, dep, tid, col = [], [], [], []
+    for t, tri in enumerate(np.asarray(layer.triangles)):
         a, b, c = pos[tri]
         lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
         sel = np.nonzero(np.all((centres >= lo - 1) & (centres <= hi + 1), axis=1))[0]
@@ -68,11 +74,13 @@ def _fragments(layer, centres: np.ndarray):
         rgba = bilinear(tex, bary @ uv_all[tri])
         keep = rgba[:, 3] >= ALPHA_MIN
         pix.append(sel[inside][keep])
-        dep.append((bary @ depth[tri])[keep])
+        d0, d1, d2 = depth[tri]  # plane form: exactly d0 when the corners agree (ties)
+        dep.append((d0 + bary[:, 1] * (d1 - d0) + bary[:, 2] * (d2 - d0))[keep])
+        tid.append(np.full(int(keep.sum()), t))
         col.append(rgba[keep])
     if not pix:
-        return np.zeros(0, int), np.zeros(0), np.zeros((0, 4))
-    return np.concatenate(pix), np.concatenate(dep), np.concatenate(col)
+        return np.zeros(0, int), np.zeros(0), np.zeros(0, int), np.zeros((0, 4))
+    return np.concatenate(pix), np.concatenate(dep), np.concatenate(tid), np.concatenate(col)
 
 
 def reference_composite(layers, canvas, *, size=None, background=(0, 0, 0, 0),
@@ -91,13 +99,24 @@ def reference_composite(layers, canvas, *, size=None, background=(0, 0, 0, 0),
     centres = np.stack([(xs.ravel() + 0.5) * cw / W, (ys.ravel() + 0.5) * ch / H], axis=1)
     centres = centres + _NUDGE
     parts = [_fragments(layer, centres) for layer in layers]
+    parts = parts or [(np.zeros(0, int), np.zeros(0), np.zeros(0, int), np.zeros((0, 4)))]
     pix = np.concatenate([p[0] for p in parts])
     dep = np.concatenate([p[1] for p in parts])
-    col = np.concatenate([p[2] for p in parts])
-    order = np.lexsort((-dep, pix))  # by pixel, then front (high depth) first
-    pix, col = pix[order], col[order]
+    tid = np.concatenate([p[2] for p in parts])
+    col = np.concatenate([p[3] for p in parts])
+    lay = np.concatenate([np.full(len(p[0]), i) for i, p in enumerate(parts)])
+    opaque = col[:, 3] >= ALPHA_OPAQUE
+    # by pixel, then front first: depth, layer, opaque, triangle (all descending)
+    order = np.lexsort((-tid, -opaque.astype(int), -lay, -dep, pix))
+    pix, col, opaque = pix[order], col[order], opaque[order]
     start = np.r_[0, np.nonzero(np.diff(pix))[0] + 1] if pix.size else np.zeros(0, int)
-    rank = np.arange(pix.size) - np.repeat(start, np.diff(np.r_[start, pix.size]))
+    group = np.repeat(start, np.diff(np.r_[start, pix.size]))
+    rank = np.arange(pix.size) - group
+    # drop what lies behind the nearest opaque fragment; that one counts as alpha 1
+    ahead = np.cumsum(opaque) - opaque
+    hidden = (ahead - (ahead[group] if pix.size else 0)) > 0
+    pix, col, rank = pix[~hidden], col[~hidden], rank[~hidden]
+    col[opaque[~hidden], 3] = 1.0
     accum = np.zeros((W * H, 4))
     for r in range(int(rank.max()) + 1 if rank.size else 0):
         sel = rank == r

@@ -1,98 +1,21 @@
-"""GL compositor against a CPU reference (tests/render/reference.py) on small scenes."""
+"""GL compositor against the CPU reference (tests/render/reference.py) on small scenes,
+with both edge methods (K-buffer and A-buffer), and the tie rule."""
 from __future__ import annotations
-
-import importlib.util
-import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 moderngl = pytest.importorskip("moderngl")
 
+from puppet.render import layers as layer_consts  # noqa: E402
 from puppet.render.compositor import Compositor, DrawLayer, mesh_edges  # noqa: E402
-from puppet.render.programs import (load_program, set_uniform, shader_dir,  # noqa: E402
-                                    split_stages)
+from tests.render import reference  # noqa: E402
+from tests.render.scenes import (CANVAS, crossing_scene, disc_image, disc_over,  # noqa: E402
+                                 distance_to_segments, folded_strip, grid_mesh, image_layer,
+                                 random_scene, rect_image, rotate, translucent_stack)
 
-_spec = importlib.util.spec_from_file_location(
-    "puppet_tests_render_reference", Path(__file__).with_name("reference.py"))
-reference = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(reference)
-
-TOL = 3  # grey levels allowed between GL and the CPU reference
-CANVAS = (64, 48)
+TOL = 2  # grey levels allowed between GL and the CPU reference (premultiplied)
 MAX_DIFFS: list[float] = []  # every comparison's max difference, printed by the fixture
-
-
-# -- scene helpers -------------------------------------------------------------------
-def rect_image(w, h, box, colour, *, transparent=(0, 0, 0)):
-    """Image with an anti-aliased rectangle: exact area coverage of box (x0, y0, x1, y1)."""
-    x0, y0, x1, y1 = box
-    xs, ys = np.arange(w), np.arange(h)
-    cx = np.clip(np.minimum(xs + 1, x1) - np.maximum(xs, x0), 0, 1)
-    cy = np.clip(np.minimum(ys + 1, y1) - np.maximum(ys, y0), 0, 1)
-    img = np.zeros((h, w, 4), np.uint8)
-    img[..., :3] = transparent
-    alpha = np.rint(np.outer(cy, cx) * 255).astype(np.uint8)
-    colour = np.broadcast_to(np.asarray(colour, np.uint8), (h, w, 3))
-    img[alpha > 0, :3] = colour[alpha > 0]
-    img[..., 3] = alpha
-    return img
-
-
-def disc_image(size, radius, colour, *, transparent=(0, 0, 0)):
-    """Anti-aliased disc (8x8 supersampled coverage); transparent pixels get `transparent`."""
-    sub = (np.arange(size * 8) + 0.5) / 8 - size / 2
-    inside = (sub[None, :] ** 2 + sub[:, None] ** 2) <= radius ** 2
-    alpha = inside.reshape(size, 8, size, 8).mean(axis=(1, 3))
-    img = np.zeros((size, size, 4), np.uint8)
-    img[..., :3] = transparent
-    img[alpha > 0, :3] = colour
-    img[..., 3] = np.rint(alpha * 255).astype(np.uint8)
-    return img
-
-
-def grid_mesh(x0, y0, x1, y1, nx, ny):
-    """Vertices (n, 2) and triangles (m, 3) of an nx x ny cell grid over a rectangle."""
-    xs, ys = np.linspace(x0, x1, nx + 1), np.linspace(y0, y1, ny + 1)
-    V = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-    i = np.arange(ny)[:, None] * (nx + 1) + np.arange(nx)[None, :]
-    a, b, c, d = i, i + 1, i + nx + 1, i + nx + 2
-    F = np.concatenate([np.stack([a, b, d], -1).reshape(-1, 3),
-                        np.stack([a, d, c], -1).reshape(-1, 3)])
-    return V, F
-
-
-def rotate(P, degrees, centre):
-    t = math.radians(degrees)
-    R = np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
-    return (P - centre) @ R.T + centre
-
-
-def image_layer(key, image, offset, *, nx=4, ny=4, deform=None, depth=0.0):
-    """A layer whose mesh covers its whole image rectangle."""
-    h, w = image.shape[:2]
-    rest, tri = grid_mesh(offset[0], offset[1], offset[0] + w, offset[1] + h, nx, ny)
-    deformed = rest.copy() if deform is None else deform(rest)
-    d = depth(rest) if callable(depth) else np.full(len(rest), float(depth))
-    return DrawLayer(key, image, offset, rest, deformed, tri, d)
-
-
-def crossing_scene():
-    """Red horizontal strip whose depth falls from 3 (left) to -1 (right) across two blue
-    vertical bars at depth ~1: red is in front at the left bar, behind at the right."""
-    red_img = rect_image(60, 14, (2.3, 2.4, 57.6, 11.7), (220, 30, 30))
-    red = image_layer("red", red_img, (2, 17), nx=6, ny=2,
-                      deform=lambda P: rotate(P, 4, (32, 24)),
-                      depth=lambda P: 3 - 4 * (P[:, 0] - 2) / 60)
-    blue_img = np.maximum(rect_image(52, 44, (3.3, 2.2, 13.6, 41.7), (30, 40, 210)),
-                          rect_image(52, 44, (35.4, 2.2, 45.7, 41.7), (30, 40, 210)))
-    v1, f1 = grid_mesh(7, 2, 22, 46, 2, 4)
-    v2, f2 = grid_mesh(38, 2, 54, 46, 2, 4)
-    rest = np.concatenate([v1, v2])
-    blue = DrawLayer("blue", blue_img, (6, 2), rest, rotate(rest, -3, (32, 24)),
-                     np.concatenate([f1, f2 + len(v1)]), 1 + 0.1 * (rest[:, 1] - 24) / 24)
-    return [red, blue]
 
 
 def premultiplied_levels(image):
@@ -118,9 +41,9 @@ def assert_matches(gl, ref, tol=TOL):
     return float(diff.max())
 
 
-@pytest.fixture(scope="module")
-def comp():
-    c = Compositor()
+@pytest.fixture(scope="module", params=["kbuffer", "abuffer"])
+def comp(request):
+    c = Compositor(method=request.param)
     yield c
     c.release()
     if MAX_DIFFS:
@@ -128,13 +51,21 @@ def comp():
               f"difference {max(MAX_DIFFS):.2f} grey levels")
 
 
-# -- tests ---------------------------------------------------------------------------
+def render_and_compare(comp, layers, canvas=CANVAS, **kw):
+    gl = comp.render(layers, canvas, **kw)
+    assert_matches(gl, reference.reference_composite(layers, canvas, **kw))
+    return gl
+
+
+def test_reference_constants_match_the_compositor():
+    assert reference.ALPHA_MIN == layer_consts.ALPHA_MIN
+    assert reference.ALPHA_OPAQUE == layer_consts.ALPHA_OPAQUE
+
+
 @pytest.mark.gl
 def test_crossing_strips_match_reference(comp):
-    layers = crossing_scene()
-    gl = comp.render(layers, CANVAS)
-    assert_matches(gl, reference.reference_composite(layers, CANVAS))
-    assert comp.last_peels == 2
+    gl = render_and_compare(comp, crossing_scene())
+    assert comp.last_method == comp.method and comp.last_overflow == 0
     red_centres = rotate(np.array([[14.5, 24.0], [46.0, 24.0]]), 4, (32, 24))
     (x0, y0), (x1, y1) = np.floor(red_centres).astype(int)
     assert tuple(gl[y0, x0]) == (220, 30, 30, 255)  # red in front of the left bar
@@ -142,20 +73,11 @@ def test_crossing_strips_match_reference(comp):
 
 
 @pytest.mark.gl
-def test_list_order_does_not_matter(comp):
+def test_list_order_does_not_matter_without_ties(comp):
     layers = crossing_scene()
     a = comp.render(layers, CANVAS)
     b = comp.render(layers[::-1], CANVAS)
     assert np.abs(a.astype(int) - b.astype(int)).max() <= 1
-
-
-def _disc_over(back_colour, front_colour, transparent):
-    back = image_layer("back", rect_image(48, 40, (0, 0, 48, 40), back_colour), (0, 0),
-                       nx=2, ny=2, depth=0.0)
-    front = image_layer("front", disc_image(30, 11, front_colour, transparent=transparent),
-                        (9, 5), nx=5, ny=5, depth=1.0,
-                        deform=lambda P: rotate(P, 10, (24, 20)) + (0.3, 0.2))
-    return [front, back]  # the front layer drawn first: the halo-prone order
 
 
 @pytest.mark.gl
@@ -163,55 +85,87 @@ def test_soft_edge_has_no_dark_fringe(comp):
     # White disc whose transparent texels are black, over a white layer: every pixel,
     # edges included, must stay white (a fringe would come from unpremultiplied
     # filtering or from an edge fragment occluding the layer behind).
-    layers = _disc_over((255, 255, 255), (255, 255, 255), transparent=(0, 0, 0))
-    gl = comp.render(layers, (48, 40), background=(0, 0, 0, 255))
+    layers = disc_over((255, 255, 255), (255, 255, 255), transparent=(0, 0, 0))
+    gl = render_and_compare(comp, layers, (48, 40), background=(0, 0, 0, 255))
     assert gl[..., :3].min() >= 254
-    assert_matches(gl, reference.reference_composite(layers, (48, 40),
-                                                     background=(0, 0, 0, 255)))
-    layers = _disc_over((40, 90, 220), (250, 150, 20), transparent=(0, 0, 0))
+    layers = disc_over((40, 90, 220), (250, 150, 20), transparent=(0, 0, 0))
     for bg in [(0, 0, 0, 0), (255, 255, 255, 255)]:
-        assert_matches(comp.render(layers, (48, 40), background=bg),
-                       reference.reference_composite(layers, (48, 40), background=bg))
+        render_and_compare(comp, layers, (48, 40), background=bg)
 
 
 @pytest.mark.gl
 def test_translucent_stack_matches_reference(comp):
-    img = rect_image(40, 30, (2.5, 2.5, 37.5, 27.5), (255, 255, 255))
-    layers = []
-    for i, (colour, alpha) in enumerate([((255, 0, 0), 150), ((0, 200, 0), 100),
-                                         ((0, 0, 255), 200)]):
-        im = img.copy()
-        im[..., :3] = colour
-        im[..., 3] = (im[..., 3].astype(int) * alpha // 255).astype(np.uint8)
-        layers.append(image_layer(f"t{i}", im, (4 + 8 * i, 3 + 6 * i), nx=3, ny=2,
-                                  depth=lambda P, i=i: (i * 7 % 3) + 0.01 * P[:, 0]))
-    gl = comp.render(layers, CANVAS, background=(250, 250, 240, 255))
-    assert comp.last_peels == 3
-    assert_matches(gl, reference.reference_composite(layers, CANVAS,
-                                                     background=(250, 250, 240, 255)))
-
-
-def _folded_strip(sign):
-    """Red-to-green strip folded at x = 32: its right half lies over its left half."""
-    img = rect_image(60, 12, (2.4, 2.3, 57.6, 9.7), (0, 0, 0))
-    img[..., 0] = np.where(img[..., 3] > 0, np.linspace(255, 0, 60)[None, :], 0)
-    img[..., 1] = np.where(img[..., 3] > 0, np.linspace(0, 255, 60)[None, :], 0)
-    rest, tri = grid_mesh(2, 18, 62, 30, 15, 2)
-    x = rest[:, 0]
-    deformed = np.stack([np.where(x > 32, 64 - x, x), rest[:, 1] + 0.15 * np.maximum(x - 32, 0)], 1)
-    return DrawLayer("fold", img, (2, 18), rest, deformed, tri, sign * 0.15 * (x - 32))
+    render_and_compare(comp, translucent_stack(3), background=(250, 250, 240, 255))
 
 
 @pytest.mark.gl
-@pytest.mark.parametrize("sign", [1, -1])
-def test_layer_folded_over_itself(comp, sign):
-    layer = _folded_strip(sign)
-    gl = comp.render([layer], CANVAS)
-    assert_matches(gl, reference.reference_composite([layer], CANVAS))
+@pytest.mark.parametrize("slope", [0.15, -0.15])
+def test_layer_folded_over_itself(comp, slope):
+    layer = folded_strip(slope)
+    gl = render_and_compare(comp, [layer])
     # canvas (10.5, 25.5) is covered by rest x ~ 10 (left half, red) and, folded, by
     # rest x ~ 54 (right half, green): the higher depth must win.
     r, g = int(gl[25, 10, 0]), int(gl[25, 10, 1])
-    assert (g > 180 and r < 60) if sign > 0 else (r > 180 and g < 60)
+    assert (g > 180 and r < 60) if slope > 0 else (r > 180 and g < 60)
+
+
+def _half(layer: DrawLayer, right: bool) -> DrawLayer:
+    """The same layer with only the triangles of one side of the fold."""
+    x = layer.rest[layer.triangles].mean(axis=1)[:, 0]
+    tri = layer.triangles[(x > 32) == right]
+    return DrawLayer(f"{layer.key}-{int(right)}", layer.image, layer.offset, layer.rest,
+                     layer.deformed, tri, layer.depth)
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("background", [(0, 0, 0, 0), (255, 255, 255, 255)])
+def test_self_overlap_at_equal_depth_shows_no_background(comp, background):
+    # The strip folded at one depth: its halves overlap at exactly equal depth, and the
+    # soft edge of each lies over the opaque inside of the other. Wherever either half
+    # alone is opaque, the folded layer must be opaque too (no seam of background).
+    layer = folded_strip(0.0)
+    gl = render_and_compare(comp, [layer], background=background)
+    alone = [comp.render([_half(layer, side)], CANVAS) for side in (False, True)]
+    covered = (alone[0][..., 3] == 255) | (alone[1][..., 3] == 255)
+    assert covered.sum() > 150
+    if background[3] == 0:
+        assert gl[covered, 3].min() == 255
+    else:
+        assert gl[covered, :3].astype(int).sum(-1).max() < 600  # no white seam
+
+
+@pytest.mark.gl
+def test_equal_depth_between_layers_later_layer_wins(comp):
+    red = image_layer("red", rect_image(30, 20, (1.5, 1.5, 28.5, 18.5), (230, 20, 20)),
+                      (10, 10), nx=3, ny=2, depth=2.0)
+    blue = image_layer("blue", rect_image(30, 20, (1.5, 1.5, 28.5, 18.5), (20, 20, 230)),
+                       (22, 18), nx=3, ny=2, depth=2.0,
+                       deform=lambda P: rotate(P, 7, (37, 28)))
+    a = render_and_compare(comp, [red, blue])
+    b = render_and_compare(comp, [blue, red])
+    assert tuple(a[26, 30]) == (20, 20, 230, 255)  # overlap: the later (blue) wins
+    assert tuple(b[26, 30]) == (230, 20, 20, 255)
+
+
+@pytest.mark.gl
+def test_translucent_ties_in_one_layer_composite_in_triangle_order(comp):
+    # Two quads of one layer on top of each other at one depth, sampling a red and a
+    # blue half-transparent part of the texture: both show, the later one over.
+    img = np.zeros((10, 20, 4), np.uint8)
+    img[:, :10] = (255, 0, 0, 128)
+    img[:, 10:] = (0, 0, 255, 128)
+    v, f = grid_mesh(0, 0, 1, 1, 1, 1)
+    rest = np.concatenate([v * (8, 8) + (1, 1), v * (8, 8) + (11, 1)])  # texel space
+    quad = v * (30, 20) + (15, 12)
+    layer = DrawLayer("pair", img, (0, 0), rest, np.concatenate([quad, quad]),
+                      np.concatenate([f, f + 4]), np.full(8, 1.0))
+    gl = render_and_compare(comp, [layer], background=(255, 255, 255, 255))
+    r, g, b, _ = gl[22, 30].astype(int)
+    assert b > r + 50 and g < 140  # blue (later triangles) over red over white
+    flipped = DrawLayer("pair2", img, (0, 0), rest, layer.deformed,
+                        np.concatenate([f + 4, f]), layer.depth)
+    r2, _, b2, _ = comp.render([flipped], CANVAS, background=(255, 255, 255, 255))[22, 30]
+    assert int(r2) > int(b2) + 50
 
 
 @pytest.mark.gl
@@ -223,10 +177,11 @@ def test_background_colour_and_image(comp):
     big = np.stack([xs * 4, ys * 5, rng.integers(0, 256, xs.shape), 128 + xs * 2], -1)
     small = rng.integers(0, 256, (12, 16, 4))
     small[..., 3] = np.maximum(small[..., 3], 40)
+    opaque = small.copy()
+    opaque[..., 3] = 255
     for bg in [(30, 60, 90, 255), (30, 60, 90, 128), big.astype(np.uint8),
-               small.astype(np.uint8)]:
-        gl = comp.render([layer], CANVAS, background=bg)
-        assert_matches(gl, reference.reference_composite([layer], CANVAS, background=bg))
+               small.astype(np.uint8), opaque.astype(np.uint8)]:
+        gl = render_and_compare(comp, [layer], background=bg)
         if isinstance(bg, tuple):
             assert np.abs(gl[0, 0].astype(int) - bg).max() <= 1
 
@@ -234,51 +189,15 @@ def test_background_colour_and_image(comp):
 @pytest.mark.gl
 @pytest.mark.parametrize("size", [(128, 96), (32, 24), (80, 30)])
 def test_output_size_scales_the_canvas(comp, size):
-    layers = crossing_scene()
-    gl = comp.render(layers, CANVAS, size=size, background=(255, 255, 255, 255))
+    gl = render_and_compare(comp, crossing_scene(), size=size, background=(255, 255, 255, 255))
     assert gl.shape == (size[1], size[0], 4)
-    assert_matches(gl, reference.reference_composite(layers, CANVAS, size=size,
-                                                     background=(255, 255, 255, 255)))
-
-
-def random_scene(seed, canvas):
-    """2-5 translucent soft discs, bent and rotated, with wavy depths that cross."""
-    rng = np.random.default_rng(seed)
-    layers = []
-    for i in range(int(rng.integers(2, 6))):
-        w = int(rng.integers(20, 60))
-        img = disc_image(w, w / 2 - 3, tuple(int(v) for v in rng.integers(0, 256, 3)))
-        img[..., 3] = np.rint(img[..., 3] * rng.uniform(0.4, 1.0)).astype(np.uint8)
-        off = (float(rng.uniform(-5, canvas[0] - w + 5)), float(rng.uniform(-5, canvas[1] - w + 5)))
-        angle, bend = rng.uniform(-40, 40), rng.uniform(-0.3, 0.3)
-        amp, phase = rng.uniform(0, 3), rng.uniform(0, 6)
-
-        def deform(P, angle=angle, bend=bend, centre=np.add(off, w / 2), w=w):
-            Q = rotate(P, angle, centre)
-            Q[:, 1] += bend * (Q[:, 0] - centre[0]) ** 2 / w
-            return Q
-        def depth(P, i=i, a=amp, p=phase):
-            return i + a * np.sin(P[:, 0] / 15 + p)
-        layers.append(image_layer(f"r{i}", img, off, nx=int(rng.integers(2, 8)),
-                                  ny=int(rng.integers(2, 8)), deform=deform, depth=depth))
-    return layers
 
 
 @pytest.mark.gl
 @pytest.mark.parametrize("seed", [0, 2, 13])
 def test_random_scenes_match_reference(comp, seed):
     canvas, bg = (96, 72), [(0, 0, 0, 0), (255, 255, 255, 255)][seed % 2]
-    layers = random_scene(seed, canvas)
-    gl = comp.render(layers, canvas, background=bg)
-    assert comp.last_peels >= 2
-    assert_matches(gl, reference.reference_composite(layers, canvas, background=bg))
-
-
-def _distance_to_segments(P, A, B):
-    d = B - A
-    t = np.clip(((P[:, None] - A[None]) * d[None]).sum(-1) / (d * d).sum(-1)[None], 0, 1)
-    closest = A[None] + t[..., None] * d[None]
-    return np.linalg.norm(P[:, None] - closest, axis=-1).min(axis=1)
+    render_and_compare(comp, random_scene(seed, canvas), canvas, background=bg)
 
 
 @pytest.mark.gl
@@ -292,7 +211,7 @@ def test_wireframe_changes_pixels_along_edges_only(comp):
     centres = np.stack([xs + 0.5, ys + 0.5], 1)
     A = np.concatenate([l.deformed[mesh_edges(l.triangles)[:, 0]] for l in layers])
     B = np.concatenate([l.deformed[mesh_edges(l.triangles)[:, 1]] for l in layers])
-    assert _distance_to_segments(centres, A, B).max() <= 1.0
+    assert distance_to_segments(centres, A, B).max() <= 1.0
     assert (wired[changed, :3].astype(int).sum(-1) < plain[changed, :3].astype(int).sum(-1)).all()
 
 
@@ -305,47 +224,3 @@ def test_identity_full_canvas_quad(comp, alpha_low, tol):
     layer = image_layer("quad", img, (0, 0), nx=4, ny=3, depth=2.0)
     gl = comp.render([layer], CANVAS)
     assert np.abs(gl.astype(int) - img.astype(int)).max() <= tol
-
-
-@pytest.mark.gl
-def test_textures_and_index_buffers_are_cached(comp):
-    layers = crossing_scene()
-    comp.render(layers, CANVAS)
-    tex, ibo = comp._textures["red"][1], comp._meshes["red"].ibo
-    layers[0].deformed = layers[0].deformed + 1.0
-    layers[0].depth = layers[0].depth * 0.5
-    comp.render(layers, CANVAS)
-    assert comp._textures["red"][1] is tex and comp._meshes["red"].ibo is ibo
-    layers[0].image = layers[0].image.copy()
-    comp.render(layers, CANVAS)
-    assert comp._textures["red"][1] is not tex
-
-
-@pytest.mark.gl
-def test_bad_input_is_rejected(comp):
-    layers = crossing_scene()
-    with pytest.raises(ValueError):
-        comp.render([layers[0], layers[0]], CANVAS)
-    layers[0].image = layers[0].image[..., :3]
-    with pytest.raises(ValueError):
-        comp.render(layers, CANVAS)
-    assert comp.render([], CANVAS, background=(1, 2, 3, 255))[5, 5].tolist() == [1, 2, 3, 255]
-
-
-@pytest.mark.gl
-def test_programs_compile_and_are_cached(comp):
-    names = sorted(p.name[:-5] for p in shader_dir().iterdir() if p.name.endswith(".glsl"))
-    assert {"peel", "under", "resolve", "wire"} <= set(names)
-    for name in names:
-        assert load_program(comp.ctx, name) is load_program(comp.ctx, name)
-    assert not set_uniform(load_program(comp.ctx, "under"), "u_no_such_uniform", 1.0)
-
-
-def test_split_stages_inserts_defines_after_version():
-    stages = split_stages("#version 330 core\n#if defined VERTEX_SHADER\nv\n"
-                          "#elif defined FRAGMENT_SHADER\nf\n#endif\n")
-    assert set(stages) == {"vertex_shader", "fragment_shader"}
-    assert stages["vertex_shader"].splitlines()[:3] == [
-        "#version 330 core", "#define VERTEX_SHADER", "#line 2"]
-    with pytest.raises(ValueError):
-        split_stages("void main() {}\n")

@@ -1,0 +1,173 @@
+"""GL resources of the compositor: the buffers of one uploaded layer, and the render
+targets of one output size. Used by :class:`puppet.render.compositor.Compositor` only."""
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from .layers import DrawLayer, classify_triangles, fragment_bound, mesh_edges
+
+OWN = object()  # tag in the .extra of the compositor's own framebuffers
+
+
+class LayerMesh:
+    """Buffers of one layer key: positions and depths rewritten on every change, texture
+    coordinates and index buffers kept while the rest mesh and image stay the same.
+
+    Attributes
+    ----------
+    posz : ndarray, shape (n, 3), float32
+        CPU copy of the vertex buffer: deformed x, y and depth.
+    vaos : dict of str to moderngl.VertexArray
+        One per pass: ``opaque`` draws every non-empty triangle, the edge passes
+        (``kbuffer``, ``append``, ``resolve``) the triangles that can be translucent.
+    lo, hi, mean : float
+        Depth range and mean of the vertices.
+    """
+
+    def __init__(self, ctx: moderngl.Context, layer: DrawLayer,
+                 programs: dict[str, moderngl.Program]):
+        h, w = layer.image.shape[:2]
+        self.image = layer.image
+        self.offset = tuple(float(v) for v in layer.offset)
+        self.rest = np.array(layer.rest, np.float64)
+        self.triangles = np.array(layer.triangles, np.int32).reshape(-1, 3)
+        uv = ((self.rest - self.offset) / (w, h)).astype(np.float32)
+        edge, empty = classify_triangles(layer.image, uv, self.triangles)
+        self.edge_triangles = self.triangles[edge]
+        drawn = self.triangles[~empty]
+        self.counts = {"opaque": len(drawn), "edge": len(self.edge_triangles)}
+        self.posz = np.zeros((len(self.rest), 3), np.float32)
+        self.vbo = ctx.buffer(reserve=max(self.posz.nbytes, 12))
+        self.uv = ctx.buffer(uv.tobytes() or bytes(8))
+        self._buffers = [self.vbo, self.uv]
+        self.vaos: dict[str, moderngl.VertexArray] = {}
+        for name, program in programs.items():
+            tri = drawn if name == "opaque" else self.edge_triangles
+            if len(tri):
+                self.vaos[name] = self._vertex_array(ctx, program, tri)
+        self.lo = self.hi = self.mean = 0.0
+        self._wire = None
+
+    def _vertex_array(self, ctx, program, triangles) -> moderngl.VertexArray:
+        ibo = ctx.buffer(np.ascontiguousarray(triangles, np.int32))
+        self._buffers.append(ibo)
+        content = [(self.vbo, "2f 1f", "in_pos", "in_depth")]
+        if program.get("in_uv", None) is not None:
+            content.append((self.uv, "2f", "in_uv"))
+        return ctx.vertex_array(program, content, index_buffer=ibo, index_element_size=4)
+
+    def fits(self, layer: DrawLayer) -> bool:
+        """True when ``layer`` has this mesh's image object, offset, rest and triangles."""
+        return (layer.image is self.image
+                and tuple(float(v) for v in layer.offset) == self.offset
+                and np.shape(layer.rest) == self.rest.shape
+                and np.array_equal(layer.triangles, self.triangles)
+                and np.array_equal(layer.rest, self.rest))
+
+    def write(self, deformed: np.ndarray | None = None, depth: np.ndarray | None = None) -> None:
+        """Write new positions and/or depths into the vertex buffer (no re-creation)."""
+        if deformed is not None:
+            self.posz[:, :2] = deformed
+        if depth is not None:
+            self.posz[:, 2] = depth
+            if len(depth):
+                self.lo, self.hi = float(np.min(depth)), float(np.max(depth))
+                self.mean = float(np.mean(depth))
+        if len(self.posz):
+            self.vbo.write(self.posz)
+
+    def fragment_bound(self, scale: tuple[float, float]) -> float:
+        """Most fragments the edge triangles can give at this output scale."""
+        return fragment_bound(self.posz[:, :2], self.edge_triangles, scale)
+
+    def wire(self, ctx: moderngl.Context, program: moderngl.Program) -> moderngl.VertexArray | None:
+        """Vertex array of the mesh's unique edges as lines (made on first use)."""
+        if self._wire is None and len(self.triangles):
+            ibo = ctx.buffer(mesh_edges(self.triangles))
+            self._buffers.append(ibo)
+            self._wire = ctx.vertex_array(program, [(self.vbo, "2f 4x", "in_pos")],
+                                          index_buffer=ibo, index_element_size=4)
+        return self._wire
+
+    def release(self) -> None:
+        for vao in (*self.vaos.values(), self._wire):
+            if vao is not None:
+                vao.release()
+        for buf in self._buffers:
+            buf.release()
+        self.vaos, self._wire, self._buffers = {}, None, []
+
+
+class FrameTargets:
+    """Render targets of one output size: the composite (premultiplied, RGBA8 or
+    half-float, or an RGBA8 texture given by the caller) with its depth buffer, and, made
+    on first use, the K-buffer attachments, the A-buffer's list heads and the
+    straight-alpha RGBA8 output."""
+
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int],
+                 main: moderngl.Texture | None = None, dtype: str = "f1"):
+        self.ctx, self.size = ctx, size
+        self.own_main = main is None
+        self.dtype = dtype if main is None else "f1"
+        self.main = ctx.texture(size, 4, dtype=dtype) if main is None else main
+        self.depth = ctx.depth_renderbuffer(size)
+        self.write_fbo = self._fbo([self.main], self.depth)  # depth test + write
+        self.test_fbo = self._fbo([self.main], self.depth)   # depth test, no write
+        self.test_fbo.depth_mask = False
+        self.kbuffer_fbo = self.kbuffer_state = None
+        self.append_fbo = self.heads = None
+        self.out_fbo = None
+        self._objects = [self.depth]
+
+    def _fbo(self, colors, depth) -> moderngl.Framebuffer:
+        fbo = self.ctx.framebuffer(colors, depth)
+        fbo.extra = OWN  # never rebound as "the caller's" framebuffer
+        return fbo
+
+    def kbuffer(self, k: int) -> moderngl.Framebuffer:
+        """Framebuffer [composite, under, k entries, state] sharing the depth buffer."""
+        if self.kbuffer_fbo is None:
+            extra = [self.ctx.texture(self.size, 4, dtype=self.dtype) for _ in range(k + 1)]
+            self.kbuffer_state = self.ctx.texture(self.size, 4, dtype="f4")
+            self.reset_kbuffer()
+            self._objects += [*extra, self.kbuffer_state]
+            self.kbuffer_fbo = self._fbo([self.main, *extra, self.kbuffer_state], self.depth)
+            self.kbuffer_fbo.depth_mask = False
+        return self.kbuffer_fbo
+
+    def reset_kbuffer(self) -> None:
+        """Mark every pixel's K-buffer stale (frame stamp -8 is never current)."""
+        w, h = self.size
+        state = np.zeros((h, w, 4), np.float32)
+        state[..., 3] = -8.0
+        self.kbuffer_state.write(state)
+
+    def abuffer(self) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
+        """Depth-only framebuffer for appending, and the list-head image (zeroed)."""
+        if self.append_fbo is None:
+            w, h = self.size
+            self.heads = self.ctx.texture(self.size, 1, np.zeros(w * h, np.uint32), dtype="u4")
+            self._objects.append(self.heads)
+            self.append_fbo = self._fbo([], self.depth)
+            self.append_fbo.depth_mask = False
+        return self.append_fbo, self.heads
+
+    def output(self) -> moderngl.Framebuffer:
+        """Framebuffer of a straight-alpha RGBA8 copy of the composite."""
+        if self.out_fbo is None:
+            tex = self.ctx.texture(self.size, 4)
+            self._objects.append(tex)
+            self.out_fbo = self._fbo([tex], None)
+        return self.out_fbo
+
+    def release(self) -> None:
+        for fbo in (self.write_fbo, self.test_fbo, self.kbuffer_fbo, self.append_fbo,
+                    self.out_fbo):
+            if fbo is not None:
+                fbo.release()
+        for obj in self._objects:
+            obj.release()
+        if self.own_main:
+            self.main.release()
+        self._objects = []

@@ -1,0 +1,174 @@
+#version 430 core
+// The compositor's per-layer passes (puppet/render/compositor.py), one variant each:
+//   OPAQUE_PASS    every non-empty triangle; keeps fragments with alpha >= ALPHA_OPAQUE;
+//                  depth test LEQUAL + write (exact ties: the later triangle wins).
+//   KBUFFER_PASS   edge triangles; early depth test LESS against the opaque depth, no
+//                  write; keeps fragments with ALPHA_MIN <= alpha < ALPHA_OPAQUE and
+//                  inserts them, by depth, into a per-pixel K-entry buffer held in colour
+//                  attachments read back with framebuffer fetch (coherent, primitive
+//                  order); rewrites the pixel as the sorted entries over the colour found
+//                  under the first of them (the opaque layer or the background).
+//   APPEND_PASS    edge triangles, same tests; appends the fragments to per-pixel linked
+//                  lists (a node buffer and an image of list heads): the A-buffer.
+//   RESOLVE_PASS   edge triangles again, same early test; the first fragment at a pixel
+//                  takes its list (and empties the head), sorts it and outputs the
+//                  composite, blended over the opaque colour (ONE, ONE_MINUS_SRC_ALPHA).
+// Injected defines: ALPHA_MIN, ALPHA_OPAQUE, Z_MIN, Z_MAX, K, K_STATE (= K + 2, the
+// state's location), MAX_FRAGMENTS.
+// Every variant has the same vertex shader and `invariant gl_Position`, so every pass
+// computes bit-identical window depths: exact ties stay ties from pass to pass.
+// Canvas y (down) maps to framebuffer rows by u_ndc; depth d to window depth
+// (hi - d) / (hi - lo) - bias with u_depth = (hi, 1 / (hi - lo), bias): 0 = nearest.
+#if defined FRAGMENT_SHADER && defined KBUFFER_PASS
+#extension GL_EXT_shader_framebuffer_fetch : require
+#endif
+
+#if defined VERTEX_SHADER
+uniform vec4 u_ndc;    // canvas px -> NDC: pos * u_ndc.xy + u_ndc.zw
+uniform vec3 u_depth;  // (hi, 1 / (hi - lo), tie bias of this layer)
+in vec2 in_pos;
+in float in_depth;
+#if !defined RESOLVE_PASS
+in vec2 in_uv;
+out vec2 v_uv;
+#endif
+invariant gl_Position;
+void main() {
+#if !defined RESOLVE_PASS
+    v_uv = in_uv;
+#endif
+    float z = clamp((u_depth.x - in_depth) * u_depth.y - u_depth.z, Z_MIN, Z_MAX);
+    gl_Position = vec4(in_pos * u_ndc.xy + u_ndc.zw, 2.0 * z - 1.0, 1.0);
+}
+
+#elif defined FRAGMENT_SHADER && defined OPAQUE_PASS
+uniform sampler2D u_texture;  // premultiplied RGBA, linear, clamp to edge
+in vec2 v_uv;
+out vec4 f_color;
+void main() {
+    vec4 color = texture(u_texture, v_uv);
+    if (color.a < ALPHA_OPAQUE) discard;
+    f_color = color;
+}
+
+#elif defined FRAGMENT_SHADER && defined KBUFFER_PASS
+layout(early_fragment_tests) in;
+uniform sampler2D u_texture;
+uniform float u_frame;  // frame stamp; steps by K + 1 each frame
+layout(std430, binding = 0) buffer Counters { uint overflow; uint used; uint lost; };
+in vec2 v_uv;
+layout(location = 0) inout vec4 f_color;      // the composite
+layout(location = 1) inout vec4 f_under;      // colour under the entries
+layout(location = 2) inout vec4 f_entry[K];   // translucent fragments, nearest first
+layout(location = K_STATE) inout vec4 f_state;  // their window depths, u_frame + count
+void main() {
+    vec4 color = texture(u_texture, v_uv);
+    if (color.a < ALPHA_MIN || color.a >= ALPHA_OPAQUE) discard;
+    float z = gl_FragCoord.z;
+    vec4 entry[K + 1];
+    float depth[K + 1];
+    for (int i = 0; i < K; ++i) {
+        entry[i] = f_entry[i];
+        depth[i] = f_state[i];
+    }
+    int n = int(f_state.w - u_frame);
+    vec4 under = f_under;
+    if (n < 0 || n > K) {  // stale stamp: the first fragment here this frame
+        n = 0;
+        under = f_color;
+    }
+    // the new fragment goes to slot n, then moves forward past entries behind it; at an
+    // exact tie it goes in front (the later triangle in drawing order wins)
+    for (int i = 0; i <= K; ++i) {
+        if (i == n) {
+            entry[i] = color;
+            depth[i] = z;
+        }
+    }
+    int at = n;
+    for (int i = K; i > 0; --i) {
+        if (i == at && z <= depth[i - 1]) {
+            entry[i] = entry[i - 1];
+            depth[i] = depth[i - 1];
+            entry[i - 1] = color;
+            depth[i - 1] = z;
+            at = i - 1;
+        }
+    }
+    n += 1;
+    if (n > K) {  // full: merge the two farthest (exact unless a later one falls between)
+        entry[K - 1] += (1.0 - entry[K - 1].a) * entry[K];
+        n = K;
+        atomicAdd(overflow, 1u);
+    }
+    vec4 acc = vec4(0.0);
+    for (int i = 0; i < K; ++i) {
+        if (i < n) acc += (1.0 - acc.a) * entry[i];
+    }
+    f_color = acc + (1.0 - acc.a) * under;
+    f_under = under;
+    for (int i = 0; i < K; ++i) f_entry[i] = entry[i];
+    vec4 state = vec4(0.0, 0.0, 0.0, u_frame + float(n));
+    for (int i = 0; i < K; ++i) state[i] = depth[i];
+    f_state = state;
+}
+
+#elif defined FRAGMENT_SHADER && defined APPEND_PASS
+layout(early_fragment_tests) in;
+uniform sampler2D u_texture;
+uniform uint u_order;     // drawing position of the layer << 20
+uniform uint u_capacity;  // nodes in the buffer
+layout(r32ui, binding = 0) uniform uimage2D u_heads;  // node index + 1, 0 = empty
+layout(std430, binding = 0) buffer Counters { uint overflow; uint used; uint lost; };
+layout(std430, binding = 1) buffer Nodes { uvec4 nodes[]; };  // colour, z, order, next
+in vec2 v_uv;
+void main() {
+    vec4 color = texture(u_texture, v_uv);
+    if (color.a < ALPHA_MIN || color.a >= ALPHA_OPAQUE) discard;
+    uint index = atomicAdd(used, 1u);
+    if (index >= u_capacity) {
+        atomicAdd(lost, 1u);
+        discard;
+    }
+    uint next = imageAtomicExchange(u_heads, ivec2(gl_FragCoord.xy), index + 1u);
+    nodes[index] = uvec4(packUnorm4x8(color), floatBitsToUint(gl_FragCoord.z),
+                         u_order + uint(gl_PrimitiveID), next);
+}
+
+#elif defined FRAGMENT_SHADER && defined RESOLVE_PASS
+layout(early_fragment_tests) in;
+layout(r32ui, binding = 0) uniform uimage2D u_heads;
+layout(std430, binding = 0) buffer Counters { uint overflow; uint used; uint lost; };
+layout(std430, binding = 1) buffer Nodes { uvec4 nodes[]; };
+out vec4 f_color;
+void main() {
+    uint next = imageAtomicExchange(u_heads, ivec2(gl_FragCoord.xy), 0u);
+    if (next == 0u) discard;  // empty, or resolved by an earlier fragment
+    uvec4 list[MAX_FRAGMENTS];  // nearest first: smaller z, then larger order
+    int n = 0;
+    int total = 0;
+    while (next != 0u) {
+        uvec4 node = nodes[next - 1u];
+        next = node.w;
+        total += 1;
+        float z = uintBitsToFloat(node.y);
+        int i = min(n, MAX_FRAGMENTS - 1);
+        if (n == MAX_FRAGMENTS) {  // full: keep the nearest MAX_FRAGMENTS
+            float zl = uintBitsToFloat(list[i].y);
+            if (z > zl || (z == zl && node.z < list[i].z)) continue;
+        }
+        while (i > 0) {
+            float zp = uintBitsToFloat(list[i - 1].y);
+            if (zp < z || (zp == z && list[i - 1].z > node.z)) break;
+            list[i] = list[i - 1];
+            i -= 1;
+        }
+        list[i] = node;
+        n = min(n + 1, MAX_FRAGMENTS);
+    }
+    if (total > K) atomicAdd(overflow, 1u);
+    vec4 acc = vec4(0.0);
+    for (int i = 0; i < n; ++i) acc += (1.0 - acc.a) * unpackUnorm4x8(list[i].x);
+    f_color = acc;
+}
+#endif
