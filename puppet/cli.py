@@ -132,6 +132,27 @@ def _gl_allocation_failed(exc: Exception) -> bool:
     return "OUT_OF_MEMORY" in text or "framebuffer is not complete" in text
 
 
+def _print(text: str) -> None:
+    """Print to stdout; a stdout that cannot be written (full disk, closed pipe) is a user error."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:  # `puppet check s.json | head -1`: the reader has had enough
+        _stdout_to_devnull()
+    except OSError as e:
+        _stdout_to_devnull()
+        raise SceneError(f"cannot write: {e.strerror or e}", file="stdout") from None
+
+
+def _stdout_to_devnull() -> None:
+    """So that Python's own flush at exit does not fail (and print a traceback) again."""
+    try:
+        fd = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(fd, sys.stdout.fileno())
+        os.close(fd)
+    except (OSError, ValueError):
+        pass
+
+
 def _gl_failure(scene, size, exc: Exception) -> UsageError:
     w, h = size or scene.canvas
     return UsageError(f"OpenGL could not allocate a {w}x{h} frame ({exc}); give a smaller --size")
@@ -173,7 +194,7 @@ def run(argv: list[str] | None = None) -> int:
         check_file(out, inputs=input_files(scene.data))
         scene.write_mesh(out, pose=args.pose, time=args.time)
     elif args.command == "check":
-        print(scene.summary())
+        _print(scene.summary())
     elif args.command == "animate":
         from puppet.anim.export import animate_to
 

@@ -144,6 +144,8 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     target = os.path.realpath(path.rstrip("/" + os.sep) or os.sep)
     if os.path.lexists(target) and not os.path.isdir(target):
         raise OutputError(path, "exists and is not a folder")
+    if os.path.ismount(target):
+        raise OutputError(path, "is a mount point (it cannot be replaced); give a folder inside it")
     why = _folder_reason(os.path.dirname(target))
     if why:
         raise OutputError(path, why)
@@ -178,7 +180,7 @@ def _signals_blocked():
 
 
 def _temp(path: str, folder: str, make: Callable[[str, str], str]) -> str:
-    base = os.path.basename(path.rstrip("/" + os.sep)) or "out"
+    base = (os.path.basename(path.rstrip("/" + os.sep)) or "out")[:100]  # room for the suffix in NAME_MAX
     with _signals_blocked():
         try:
             tmp = make(f".{base}.", folder)

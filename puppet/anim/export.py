@@ -61,15 +61,22 @@ def _frames(scene, start: float, fps: float, indices, size, wireframe) -> Iterat
 
 def _progress(frames: Iterator[np.ndarray], n: int, show: bool) -> Iterator[np.ndarray]:
     """Pass frames through, drawing a progress bar on stderr when ``show``."""
+    def say(text: str) -> bool:
+        try:
+            sys.stderr.write(text)
+            sys.stderr.flush()
+            return True
+        except (OSError, ValueError):  # the terminal went away: stop showing progress, go on
+            return False
+
     k = 0
     for k, f in enumerate(frames, 1):
         yield f
         if show:
             done = int(30 * k / n)
-            sys.stderr.write(f"\r[{'#' * done}{'.' * (30 - done)}] {k}/{n} frames")
-            sys.stderr.flush()
+            show = say(f"\r[{'#' * done}{'.' * (30 - done)}] {k}/{n} frames")
     if show and k:
-        sys.stderr.write("\n")
+        say("\n")
 
 
 def flatten(rgba: np.ndarray) -> np.ndarray:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 
 import pytest
 
@@ -228,3 +229,35 @@ def test_frame_folder_path_that_is_a_file(scene, tmp_path):
     (tmp_path / "frames").write_text("x")
     _check_refused(scene, str(tmp_path / "frames") + "/", "exists and is not a folder", command="animate",
                    watch=[tmp_path])
+
+
+def test_mount_point_as_frame_folder_is_refused_up_front(scene, mount):
+    _check_refused(scene, mount.where + "/", "is a mount point", command="animate", watch=[mount.where])
+
+
+def test_full_stdout_is_a_user_error(scene):
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    with open("/dev/full", "w") as full:
+        r = subprocess.run([sys.executable, "-m", "puppet", "check", scene], stdout=full, stderr=subprocess.PIPE,
+                           text=True, env=env)
+    assert one_error_line(r) == "puppet: error: stdout: cannot write: No space left on device"
+
+
+def test_scene_save_goes_through_the_same_checks(scene, tmp_path):
+    """Scene.save may overwrite its own scene file, never an image it reads; errors are OutputErrors."""
+    import puppet
+    from puppet.output import OutputError
+
+    folder = os.path.dirname(scene)
+    sc = puppet.load_scene(scene)
+    before = snapshot(folder)
+    for name in ("bar.png", "mask.png", "bg.png"):
+        with pytest.raises(OutputError, match=f"it is a file the scene reads: '{folder}/{name}'"):
+            sc.save(os.path.join(folder, name))
+    with pytest.raises(OutputError, match="does not exist"):
+        sc.save(str(tmp_path / "no" / "s.json"))
+    assert snapshot(folder) == before
+    sc.save(scene)  # saving over itself is what "save" is for
+    assert puppet.load_scene(scene).data.layers[0].image == os.path.join(folder, "bar.png")
+    with pytest.raises(OutputError, match="the scene reads"):
+        sc.write_mesh(scene)
