@@ -17,7 +17,7 @@ from puppet.scene import model as m
 from puppet.scene.extensions import parse_app
 from puppet.scene.reader import parse_text, read_text
 from puppet.scene.schema import (Ctx, expect_bool, expect_list, expect_number, expect_object,
-                                 expect_point, expect_string, join)
+                                 expect_point, expect_string, join, short)
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
             "deformer", "poses", "animation", "app")
@@ -45,7 +45,7 @@ def parse_scene(raw, file: str) -> m.SceneData:
     folder = os.path.dirname(file)
     expect_object(c, raw, "", required=("puppet", "layers"), optional=TOP_KEYS)
     if isinstance(raw["puppet"], bool) or raw["puppet"] != 1:
-        raise c.fail("puppet", f"unsupported format version {raw['puppet']!r} (this puppet reads version 1)")
+        raise c.fail("puppet", f"unsupported format version {short(raw['puppet'])} (this puppet reads version 1)")
 
     def file_path(v, p):
         return os.path.normpath(os.path.join(folder, expect_string(c, v, p)))
@@ -71,7 +71,7 @@ def parse_scene(raw, file: str) -> m.SceneData:
     names = {}
     for L in layers:
         if L.name in names:
-            raise c.fail(f"layers[{L.index}].name", f"duplicate layer name {L.name!r} (also layers[{names[L.name]}])")
+            raise c.fail(f"layers[{L.index}].name", f"duplicate layer name {short(L.name)} (also layers[{names[L.name]}])")
         names[L.name] = L.index
 
     links = [_link(c, v, f"links[{i}]", names) for i, v in enumerate(expect_list(c, raw.get("links", []), "links"))]
@@ -79,11 +79,11 @@ def parse_scene(raw, file: str) -> m.SceneData:
     pin_names: dict[str, int] = {}
     for i, p in enumerate(pins):
         if p.name in pin_names:
-            raise c.fail(f"pins[{i}].name", f"duplicate pin name {p.name!r} (also pins[{pin_names[p.name]}])")
+            raise c.fail(f"pins[{i}].name", f"duplicate pin name {short(p.name)} (also pins[{pin_names[p.name]}])")
         pin_names[p.name] = i
         mt = EXTERIOR_NAME.match(p.name)
         if mt and mt.group("layer") in names and layers[names[mt.group("layer")]].exterior:
-            raise c.fail(f"pins[{i}].name", f"{p.name!r} is reserved for the layer's automatic exterior points")
+            raise c.fail(f"pins[{i}].name", f"{short(p.name)} is reserved for the layer's automatic exterior points")
 
     bones = []
     for i, b in enumerate(expect_list(c, raw.get("bones", []), "bones")):
@@ -92,7 +92,7 @@ def parse_scene(raw, file: str) -> m.SceneData:
         a, z = (expect_string(c, b[k], join(p, k)) for k in range(2))
         for k, nm in enumerate((a, z)):
             if nm not in pin_names:
-                raise c.fail(join(p, k), f"no pin named {nm!r}")
+                raise c.fail(join(p, k), f"no pin named {short(nm)}")
         if a == z:
             raise c.fail(p, "a bone joins two different pins")
         bones.append((a, z))
@@ -125,7 +125,7 @@ def _layer(c, v, p, index, file_path, source) -> m.Layer:
     name = expect_string(c, v["name"], join(p, "name"))
     image = file_path(v["image"], join(p, "image")) if "image" in v else None
     if image is None and source is None:
-        raise c.fail(join(p, "image"), f"layer {name!r} has no image and the scene has no 'source' to take pixels from")
+        raise c.fail(join(p, "image"), f"layer {short(name)} has no image and the scene has no 'source' to take pixels from")
     offset = expect_point(c, v["offset"], join(p, "offset")) if "offset" in v else (0.0, 0.0)
     mask = _mask(c, v["mask"], join(p, "mask"), file_path, offset) if "mask" in v else None
     order = expect_number(c, v["order"], join(p, "order")) if "order" in v else None
@@ -154,7 +154,7 @@ def _layer(c, v, p, index, file_path, source) -> m.Layer:
 def _mask(c, v, p, file_path, offset=(0.0, 0.0)) -> m.Mask:
     if isinstance(v, str):
         if v != "alpha":
-            raise c.fail(p, f"{v!r} is not a mask; use \"alpha\" or an object with one of: "
+            raise c.fail(p, f"{short(v)} is not a mask; use \"alpha\" or an object with one of: "
                             "threshold, polygon, rect, file, grabcut")
         return m.Mask("alpha")
     if not isinstance(v, dict) or not v:
@@ -198,7 +198,7 @@ def _link(c, v, p, names) -> m.Link:
     a, b = (expect_string(c, v["layers"][k], join(lp, k)) for k in range(2))
     for k, nm in enumerate((a, b)):
         if nm not in names:
-            raise c.fail(join(lp, k), f"no layer named {nm!r}")
+            raise c.fail(join(lp, k), f"no layer named {short(nm)}")
     if a == b:
         raise c.fail(lp, "a link joins two different layers")
     sp = join(p, "segments")
@@ -218,7 +218,7 @@ def _pin(c, v, p, names) -> m.Pin:
     name = expect_string(c, v["name"], join(p, "name"))
     layer = expect_string(c, v["layer"], join(p, "layer"))
     if layer not in names:
-        raise c.fail(join(p, "layer"), f"no layer named {layer!r}")
+        raise c.fail(join(p, "layer"), f"no layer named {short(layer)}")
     at = np.array(expect_point(c, v["at"], join(p, "at")))
     depth = expect_number(c, v.get("depth", 0.0), join(p, "depth"), lo=-1e4, hi=1e4)
     kind = expect_string(c, v.get("kind", "interior"), join(p, "kind"), choices=("interior", "exterior"))
@@ -246,7 +246,7 @@ def _pose(c, v, p, pin_names, layers, names) -> dict[str, m.Target]:
         mt = EXTERIOR_NAME.match(pin)
         auto_ext = mt and mt.group("layer") in names and layers[names[mt.group("layer")]].exterior
         if pin not in pin_names and not auto_ext:
-            raise c.fail(q, f"no pin named {pin!r}")
+            raise c.fail(q, f"no pin named {short(pin)}")
         if isinstance(t, list):
             out[pin] = m.Target(to=np.array(expect_point(c, t, q)))
             continue
@@ -269,7 +269,7 @@ def _animation(c, v, p, poses) -> m.Animation:
         t = expect_number(c, k["time"], join(q, "time"), lo=0, hi=1e6)
         pose = expect_string(c, k["pose"], join(q, "pose"))
         if pose != "rest" and pose not in poses:
-            raise c.fail(join(q, "pose"), f"no pose named {pose!r}")
+            raise c.fail(join(q, "pose"), f"no pose named {short(pose)}")
         ease = expect_string(c, k.get("ease", "linear"), join(q, "ease"), choices=m.EASES)
         if keys and t < keys[-1].time:
             raise c.fail(join(q, "time"), f"keys must be sorted by time ({t:g} comes after {keys[-1].time:g})")

@@ -20,6 +20,7 @@ import stat
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.scene.schema import join, short
 
 #: Largest scene file read (bytes).
 MAX_SCENE_BYTES = 16 * 1024 * 1024
@@ -175,12 +176,9 @@ def locate(text: str, stop: int | None = None) -> tuple[str, str | None]:
     def path() -> str:
         out = ""
         for is_obj, k, _, _ in stack:
-            if is_obj:
-                if k is None:
-                    break
-                out = f"{out}.{k}" if out else str(k)
-            else:
-                out += f"[{k}]"
+            if is_obj and k is None:
+                break
+            out = join(out, k)
         return out
 
     for m in _TOKEN.finditer(text):
@@ -215,7 +213,7 @@ def locate(text: str, stop: int | None = None) -> tuple[str, str | None]:
                     key = t[1:-1]
                 top[1] = key
                 if key in top[2]:
-                    return path(), f"duplicate key {key!r} (a key may appear only once in an object)"
+                    return path(), f"duplicate key {short(key)} (a key may appear only once in an object)"
                 top[2].add(key)
         elif stop is None:
             problem = _number_problem(t)

@@ -5,7 +5,9 @@ file, the JSON path (``layers[2].mask.polygon``) and what is wrong.
 """
 from __future__ import annotations
 
+import json
 import math
+import re
 from typing import Any
 
 from puppet.errors import SceneError
@@ -25,10 +27,25 @@ class Ctx:
         return SceneError(message, file=self.file, path=path)
 
 
+_PLAIN_KEY = re.compile(r"[^\s.\[\]\"'\\]{1,60}")
+
+
 def join(path: str, key: str | int) -> str:
+    """``path.key`` or ``path[i]``; a key with spaces, dots, brackets, quotes or control
+    characters is written ``path["k e y"]`` (JSON-escaped, so always one line), and a key
+    longer than 60 characters is cut short."""
     if isinstance(key, int):
         return f"{path}[{key}]"
-    return f"{path}.{key}" if path else key
+    if _PLAIN_KEY.fullmatch(key):
+        return f"{path}.{key}" if path else key
+    k = json.dumps(key if len(key) <= 60 else key[:57] + "...")
+    return f"{path}[{k}]"
+
+
+def short(v: Any, n: int = 60) -> str:
+    """``repr(v)`` cut to ``n`` characters, for messages that quote what the user wrote."""
+    r = repr(v)
+    return r if len(r) <= n else r[:n - 3] + "..."
 
 
 def expect_object(c: Ctx, v: Any, path: str, *, required=(), optional=()) -> dict:
@@ -38,7 +55,7 @@ def expect_object(c: Ctx, v: Any, path: str, *, required=(), optional=()) -> dic
     for k in v:
         if k not in allowed:
             hint = ", ".join(sorted(allowed))
-            raise c.fail(join(path, k), f"unknown key {k!r} (allowed here: {hint})")
+            raise c.fail(join(path, k), f"unknown key {short(k)} (allowed here: {hint})")
     for k in required:
         if k not in v:
             raise c.fail(join(path, k), "required key is missing")
@@ -86,7 +103,7 @@ def expect_string(c: Ctx, v: Any, path: str, *, choices=None, nonempty=True) -> 
     if nonempty and not v.strip():
         raise c.fail(path, "must not be empty")
     if choices is not None and v not in choices:
-        raise c.fail(path, f"{v!r} is not one of: {', '.join(choices)}")
+        raise c.fail(path, f"{short(v)} is not one of: {', '.join(choices)}")
     return v
 
 
@@ -104,7 +121,7 @@ def _kind(v: Any) -> str:
     if isinstance(v, (int, float)):
         return f"the number {v}"
     if isinstance(v, str):
-        return f"the string {v!r}"
+        return f"the string {short(v)}"
     if isinstance(v, list):
         return "a list"
     if isinstance(v, dict):
