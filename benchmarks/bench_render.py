@@ -1,111 +1,173 @@
-"""Frame time of the depth-peeling compositor on synthetic puppets.
+"""Compositor frame time on the T-rex scene, beside its floor measured in the same run.
 
-Run: ``python benchmarks/bench_render.py [--frames N]`` from the repository root.
-Prints one row per scene: ms per frame (median over N animated frames, every frame
-with new deformed vertices and depths, textures cached), the first frame (texture
-upload included), and the peels used. ``max_peels=1`` is a plain depth test with no
-transparency sorting (what peeling costs on top of it).
+Run: ``python benchmarks/bench_render.py [--frames N] [--scene PATH]`` from the
+repository root. The scene's poses are solved once; every timed frame draws the next pose
+(new positions and depths). Per output size, interleaved frame by frame so that all
+columns see the same machine load:
+
+* **floor**: a plain single-pass depth-tested textured draw of the same meshes (no
+  discard, no blending) into an RGBA8 + depth framebuffer, then ``glFinish``;
+* **final**: ``Compositor.render`` with DrawLayers, as ``Scene.render`` calls it (upload
+  checks, every pass, the read-back into a numpy array);
+* **no read-back**: the same frame drawn by ``Compositor.draw`` into a texture, then
+  ``glFinish``; **read-back**: reading that finished texture into a numpy array;
+* **preview**: what a drag does per frame: ``Compositor.update`` of every layer's
+  positions and depths, ``Compositor.draw`` into a texture, ``glFinish``.
+
+Times are medians in ms; ratios are to the floor's median.
 """
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import statistics
 import sys
 import time
 
+import moderngl
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
+import puppet  # noqa: E402
 from puppet.render.compositor import Compositor, DrawLayer  # noqa: E402
+from puppet.render.layers import depth_window, premultiply  # noqa: E402
+
+SIZES = [(600, 500), (1280, 800), (1920, 1080)]
+FLOOR_VS = """#version 330 core
+uniform vec2 u_canvas;
+uniform vec2 u_depth;
+in vec2 in_pos;
+in float in_depth;
+in vec2 in_uv;
+out vec2 v_uv;
+void main() {
+    v_uv = in_uv;
+    float z = (u_depth.x - in_depth) * u_depth.y;
+    gl_Position = vec4(in_pos / u_canvas * 2.0 - 1.0, 2.0 * z - 1.0, 1.0);
+}
+"""
+FLOOR_FS = """#version 330 core
+uniform sampler2D u_texture;
+in vec2 v_uv;
+out vec4 f_color;
+void main() { f_color = texture(u_texture, v_uv); }
+"""
 
 
-def blob_image(w: int, h: int, colour, rng) -> np.ndarray:
-    """Soft-edged (anti-aliased) ellipse with some texture noise, straight RGBA."""
-    ys, xs = np.mgrid[0:h, 0:w]
-    r = np.hypot((xs + 0.5 - w / 2) / (w / 2 - 3), (ys + 0.5 - h / 2) / (h / 2 - 3))
-    alpha = np.clip((1 - r) * min(w, h) / 2, 0, 1)
-    img = np.zeros((h, w, 4), np.uint8)
-    noise = rng.integers(-25, 25, (h, w, 1))
-    img[..., :3] = np.clip(np.asarray(colour) + noise, 0, 255)
-    img[..., 3] = np.rint(alpha * 255)
-    return img
+def scene_frames(path: str) -> tuple[tuple[int, int], tuple, list[list[DrawLayer]]]:
+    """Canvas, background and one DrawLayer list per pose (rest first)."""
+    scene = puppet.load_scene(path)
+    images = getattr(scene, "images", None) or scene.built.images
+    frames = []
+    for pose in [None, *scene.data.poses]:
+        frames.append([DrawLayer(r.name, im.rgba, im.offset, r.rest, r.deformed, r.triangles,
+                                 r.depth) for r, im in zip(scene.layers(pose), images)])
+    return scene.canvas, tuple(scene.background()), frames
 
 
-def grid(x0, y0, w, h, n):
-    xs, ys = np.linspace(x0, x0 + w, n + 1), np.linspace(y0, y0 + h, n + 1)
-    V = np.stack(np.meshgrid(xs, ys), -1).reshape(-1, 2)
-    i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
-    a, b, c, d = i, i + 1, i + n + 1, i + n + 2
-    F = np.concatenate([np.stack([a, b, d], -1).reshape(-1, 3),
-                        np.stack([a, d, c], -1).reshape(-1, 3)]).astype(np.int32)
-    return V, F
+class Floor:
+    """The plain depth-tested textured draw of the same meshes (static index buffers,
+    vertices rewritten per frame like the compositor's)."""
+
+    def __init__(self, ctx: moderngl.Context, layers: list[DrawLayer], canvas):
+        self.ctx = ctx
+        self.prog = ctx.program(vertex_shader=FLOOR_VS, fragment_shader=FLOOR_FS)
+        self.prog["u_canvas"].value = tuple(float(v) for v in canvas)
+        self.items = []
+        for layer in layers:
+            h, w = layer.image.shape[:2]
+            tex = ctx.texture((w, h), 4, np.ascontiguousarray(premultiply(layer.image)))
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            uv = ctx.buffer(((layer.rest - layer.offset) / (w, h)).astype(np.float32))
+            vbo = ctx.buffer(reserve=len(layer.rest) * 12)
+            ibo = ctx.buffer(np.asarray(layer.triangles, np.int32))
+            vao = ctx.vertex_array(self.prog, [(vbo, "2f 1f", "in_pos", "in_depth"),
+                                               (uv, "2f", "in_uv")],
+                                   index_buffer=ibo, index_element_size=4)
+            self.items.append((tex, vbo, vao))
+        self.fbo = None
+
+    def draw(self, layers: list[DrawLayer], size) -> None:
+        ctx = self.ctx
+        if self.fbo is None or self.fbo.size != size:
+            self.fbo = ctx.framebuffer([ctx.texture(size, 4)], ctx.depth_renderbuffer(size))
+        lo = min(float(np.min(layer.depth)) for layer in layers)
+        hi = max(float(np.max(layer.depth)) for layer in layers)
+        self.prog["u_depth"].value = depth_window(lo, hi)
+        for layer, (_, vbo, _) in zip(layers, self.items):
+            vbo.write(np.concatenate([layer.deformed, layer.depth[:, None]], 1).astype(np.float32))
+        self.fbo.use()
+        self.fbo.clear(1.0, 1.0, 1.0, 1.0, depth=1.0)
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        order = np.argsort([-float(np.mean(layer.depth)) for layer in layers])  # near first
+        for i in order:
+            tex, _, vao = self.items[i]
+            tex.use(0)
+            vao.render(moderngl.TRIANGLES)
+        ctx.finish()
 
 
-def make_scene(canvas, n_layers, cells, layer_size, seed=0):
-    """Layers of soft blobs scattered over the canvas: (image, offset, rest, tris, phase)."""
-    rng = np.random.default_rng(seed)
-    cw, ch = canvas
-    lw, lh = layer_size
-    out = []
-    for i in range(n_layers):
-        colour = rng.integers(40, 230, 3)
-        img = blob_image(lw, lh, colour, rng)
-        off = (float(rng.uniform(0, cw - lw)), float(rng.uniform(0, ch - lh)))
-        rest, tri = grid(off[0], off[1], lw, lh, cells)
-        out.append((img, off, rest, tri, rng.uniform(0, 2 * math.pi)))
-    return out
-
-
-def frame_layers(scene, t):
-    """Deformed layers at time t: a bend per layer, depth = index + a wave along x."""
-    layers = []
-    for i, (img, off, rest, tri, phase) in enumerate(scene):
-        h, w = img.shape[:2]
-        u = (rest[:, 0] - off[0]) / w
-        bend = 0.12 * h * np.sin(2 * math.pi * (u + t) + phase)
-        deformed = rest + np.stack([0.05 * w * np.sin(phase + t) * np.ones_like(u), bend], 1)
-        depth = i + 2.5 * np.sin(2 * math.pi * u + phase + t)
-        layers.append(DrawLayer(f"L{i}", img, off, rest, deformed, tri, depth))
-    return layers
-
-
-def bench(name, canvas, n_layers, cells, layer_size, frames, max_peels):
-    scene = make_scene(canvas, n_layers, cells, layer_size)
-    comp = Compositor(max_peels=max_peels)
-    try:
+def bench_size(ctx, comp, floor, canvas, background, frames, size, n):
+    target = ctx.texture(size, 4)
+    keys = [layer.key for layer in frames[0]]
+    times = {"floor": [], "final": [], "draw": [], "read": [], "preview": []}
+    pixels = np.empty((size[1], size[0], 4), np.uint8)
+    methods = set()
+    for k in range(n + 1):
+        layers = frames[k % len(frames)]
         t0 = time.perf_counter()
-        comp.render(frame_layers(scene, 0.0), canvas, background=(255, 255, 255, 255))
-        first = (time.perf_counter() - t0) * 1000
-        times, peels = [], []
-        for k in range(frames):
-            layers = frame_layers(scene, 0.05 * (k + 1))
-            t0 = time.perf_counter()
-            comp.render(layers, canvas, background=(255, 255, 255, 255))
-            times.append((time.perf_counter() - t0) * 1000)
-            peels.append(comp.last_peels)
-    finally:
-        comp.release()
-    tris = sum(len(s[3]) for s in scene)
-    print(f"| {name:<22} | {f'{canvas[0]}x{canvas[1]}':<9} | {n_layers:>6} | {tris:>9} | "
-          f"{max_peels:>9} | {min(peels)}-{max(peels):<3} | {first:>8.1f} | "
-          f"{statistics.median(times):>8.1f} | {max(times):>7.1f} |")
+        floor.draw(layers, size)
+        t1 = time.perf_counter()
+        comp.render(layers, canvas, size=size, background=background)
+        t2 = time.perf_counter()
+        comp.draw(layers, canvas, target=target, background=background)
+        ctx.finish()
+        t3 = time.perf_counter()
+        target.read_into(pixels)
+        t3, t3r = time.perf_counter(), t3
+        nxt = frames[(k + 1) % len(frames)]
+        for layer in nxt:
+            comp.update(layer.key, deformed=layer.deformed, depth=layer.depth)
+        comp.draw(keys, canvas, target=target, background=background)
+        ctx.finish()
+        t4 = time.perf_counter()
+        methods.add(comp.last_method)
+        if k:  # the first round uploads textures and compiles: not timed
+            for name, dt in zip(times, (t1 - t0, t2 - t1, t3r - t2, t3 - t3r, t4 - t3)):
+                times[name].append(dt * 1000)
+    target.release()
+    med = {name: statistics.median(v) for name, v in times.items()}
+    readback = med["read"]
+    f = med["floor"]
+    print(f"| {f'{size[0]}x{size[1]}':<9} | {f:7.1f} | {med['final']:7.1f} | {med['final'] / f:5.2f}x | "
+          f"{med['draw']:7.1f} | {med['draw'] / f:5.2f}x | {readback:5.1f} "
+          f"({100 * readback / med['final']:2.0f} %) | {med['preview']:7.1f} | "
+          f"{med['preview'] / f:5.2f}x | {'/'.join(sorted(methods))} |")
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=20)
+    parser.add_argument("--frames", type=int, default=30)
+    parser.add_argument("--scene", default="assets/scenes/trex-layers.json")
     args = parser.parse_args(argv)
-    print(f"LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS', '(default)')}, "
-          f"{os.cpu_count()} CPUs, {args.frames} frames per row")
-    print("| scene                  | canvas    | layers | triangles | max_peels | peels "
-          "| first ms | ms/frame |  max ms |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for max_peels in (6, 1):
-        bench("600x500, 8 x 2k tris", (600, 500), 8, 32, (220, 260), args.frames, max_peels)
-        bench("1080p, 5 x 10k tris", (1920, 1080), 5, 71, (900, 700), args.frames, max_peels)
+    canvas, background, frames = scene_frames(args.scene)
+    comp = Compositor()
+    ctx = comp.ctx
+    tris = sum(len(layer.triangles) for layer in frames[0])
+    with ctx:
+        floor = Floor(ctx, frames[0], canvas)
+        print(f"{args.scene}: {len(frames[0])} layers, {tris} triangles, canvas "
+              f"{canvas[0]}x{canvas[1]}, {len(frames)} poses; {args.frames} frames per row; "
+              f"{ctx.info['GL_RENDERER']}, LP_NUM_THREADS="
+              f"{os.environ.get('LP_NUM_THREADS', '(default)')}, {os.cpu_count()} CPUs")
+        print("| size      | floor ms | final ms | final/floor | no read-back ms | /floor "
+              "| read-back ms (of final) | preview ms | /floor | method |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for size in SIZES:
+            bench_size(ctx, comp, floor, canvas, background, frames, size, args.frames)
+    comp.release()
 
 
 if __name__ == "__main__":

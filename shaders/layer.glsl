@@ -13,8 +13,7 @@
 //   RESOLVE_PASS   edge triangles again, same early test; the first fragment at a pixel
 //                  takes its list (and empties the head), sorts it and outputs the
 //                  composite, blended over the opaque colour (ONE, ONE_MINUS_SRC_ALPHA).
-// Injected defines: ALPHA_MIN, ALPHA_OPAQUE, Z_MIN, Z_MAX, K, K_STATE (= K + 2, the
-// state's location), MAX_FRAGMENTS.
+// Injected defines: ALPHA_MIN, ALPHA_OPAQUE, Z_MIN, Z_MAX, K, MAX_FRAGMENTS.
 // Every variant has the same vertex shader and `invariant gl_Position`, so every pass
 // computes bit-identical window depths: exact ties stay ties from pass to pass.
 // Canvas y (down) maps to framebuffer rows by u_ndc; depth d to window depth
@@ -52,65 +51,60 @@ void main() {
 }
 
 #elif defined FRAGMENT_SHADER && defined KBUFFER_PASS
+// Written out for K = 3 with constant indices only (llvmpipe runs indexed arrays lane
+// by lane, several times slower).
+#if K != 3
+#error "the K-buffer pass is written for K = 3"
+#endif
 layout(early_fragment_tests) in;
 uniform sampler2D u_texture;
 uniform float u_frame;  // frame stamp; steps by K + 1 each frame
 layout(std430, binding = 0) buffer Counters { uint overflow; uint used; uint lost; };
 in vec2 v_uv;
-layout(location = 0) inout vec4 f_color;      // the composite
-layout(location = 1) inout vec4 f_under;      // colour under the entries
-layout(location = 2) inout vec4 f_entry[K];   // translucent fragments, nearest first
-layout(location = K_STATE) inout vec4 f_state;  // their window depths, u_frame + count
+layout(location = 0) inout vec4 f_color;  // the composite
+layout(location = 1) inout vec4 f_under;  // colour under the entries
+layout(location = 2) inout vec4 f_e0;     // translucent fragments, nearest first
+layout(location = 3) inout vec4 f_e1;
+layout(location = 4) inout vec4 f_e2;
+layout(location = 5) inout vec4 f_state;  // their window depths, u_frame + count
+// the new fragment c (depth z) sits in slot i; move it before slot j when not behind it
+// (at an exact tie it goes in front: the later triangle in drawing order wins)
+#define MOVE_UP(i, j) if (at == i && z <= d##j) { e##i = e##j; d##i = d##j; \
+                                                  e##j = c; d##j = z; at = j; }
 void main() {
-    vec4 color = texture(u_texture, v_uv);
-    if (color.a < ALPHA_MIN || color.a >= ALPHA_OPAQUE) discard;
+    vec4 c = texture(u_texture, v_uv);
+    if (c.a < ALPHA_MIN || c.a >= ALPHA_OPAQUE) discard;
     float z = gl_FragCoord.z;
-    vec4 entry[K + 1];
-    float depth[K + 1];
-    for (int i = 0; i < K; ++i) {
-        entry[i] = f_entry[i];
-        depth[i] = f_state[i];
-    }
+    vec4 e0 = f_e0, e1 = f_e1, e2 = f_e2, e3 = c;
+    float d0 = f_state.x, d1 = f_state.y, d2 = f_state.z, d3 = z;
     int n = int(f_state.w - u_frame);
     vec4 under = f_under;
     if (n < 0 || n > K) {  // stale stamp: the first fragment here this frame
         n = 0;
         under = f_color;
     }
-    // the new fragment goes to slot n, then moves forward past entries behind it; at an
-    // exact tie it goes in front (the later triangle in drawing order wins)
-    for (int i = 0; i <= K; ++i) {
-        if (i == n) {
-            entry[i] = color;
-            depth[i] = z;
-        }
-    }
+    if (n == 0) { e0 = c; d0 = z; }
+    if (n == 1) { e1 = c; d1 = z; }
+    if (n == 2) { e2 = c; d2 = z; }
     int at = n;
-    for (int i = K; i > 0; --i) {
-        if (i == at && z <= depth[i - 1]) {
-            entry[i] = entry[i - 1];
-            depth[i] = depth[i - 1];
-            entry[i - 1] = color;
-            depth[i - 1] = z;
-            at = i - 1;
-        }
-    }
+    MOVE_UP(3, 2)
+    MOVE_UP(2, 1)
+    MOVE_UP(1, 0)
     n += 1;
     if (n > K) {  // full: merge the two farthest (exact unless a later one falls between)
-        entry[K - 1] += (1.0 - entry[K - 1].a) * entry[K];
+        e2 += (1.0 - e2.a) * e3;
         n = K;
         atomicAdd(overflow, 1u);
     }
-    vec4 acc = vec4(0.0);
-    for (int i = 0; i < K; ++i) {
-        if (i < n) acc += (1.0 - acc.a) * entry[i];
-    }
+    vec4 acc = e0;
+    if (n > 1) acc += (1.0 - acc.a) * e1;
+    if (n > 2) acc += (1.0 - acc.a) * e2;
     f_color = acc + (1.0 - acc.a) * under;
     f_under = under;
-    for (int i = 0; i < K; ++i) f_entry[i] = entry[i];
-    vec4 state = vec4(0.0, 0.0, 0.0, u_frame + float(n));
-    for (int i = 0; i < K; ++i) state[i] = depth[i];
-    f_state = state;
+    f_e0 = e0;
+    f_e1 = e1;
+    f_e2 = e2;
+    f_state = vec4(d0, d1, d2, u_frame + float(n));
 }
 
 #elif defined FRAGMENT_SHADER && defined APPEND_PASS

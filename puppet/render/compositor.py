@@ -51,23 +51,14 @@ import numpy as np
 
 from .context import GL_REQUIRE, create_context, is_current
 from .gpu import OWN, FrameTargets, LayerMesh
-from .layers import (ALPHA_MIN, ALPHA_OPAQUE, TIE_BIAS, Z_MAX, Z_MIN, DrawLayer,  # noqa: F401
-                     check_background, check_layer, check_vertices, depth_window,
-                     mesh_edges, premultiply)
-from .programs import load_program, set_uniform
+from .layers import (ALPHA_MIN, ALPHA_OPAQUE, DrawLayer, check_background,  # noqa: F401
+                     check_layer, check_vertices, mesh_edges, premultiply)
+from .passes import K, MAX_FRAGMENTS, WIRE_COLOR, Draw, Passes  # noqa: F401
 
-#: Translucent fragments in front of the nearest opaque one that the K-buffer holds exactly.
-K = 3
-#: Translucent fragments per pixel the A-buffer sorts (the nearest ones are kept).
-MAX_FRAGMENTS = 16
-#: Wireframe colour, straight RGBA in 0..1.
-WIRE_COLOR = (0.08, 0.08, 0.08, 0.7)
-#: Most A-buffer nodes (16 bytes each) the compositor allocates.
-MAX_NODES = 1 << 23
+#: Render targets kept (per output size, format and caller texture).
+KEEP_TARGETS = 3
 METHODS = ("auto", "kbuffer", "abuffer")
 FETCH = "GL_EXT_shader_framebuffer_fetch"
-_PASSES = {"opaque": "OPAQUE_PASS", "kbuffer": "KBUFFER_PASS", "append": "APPEND_PASS",
-           "resolve": "RESOLVE_PASS"}
 
 
 class Compositor:
@@ -115,24 +106,11 @@ class Compositor:
         self.last_overflow = 0
         self._prefer_abuffer = False
         self._pending: str | None = None  # method of a frame whose counters are unread
-        self._frame = 0.0
-        consts = {"ALPHA_MIN": ALPHA_MIN, "ALPHA_OPAQUE": ALPHA_OPAQUE, "Z_MIN": Z_MIN,
-                  "Z_MAX": Z_MAX, "K": K, "K_STATE": K + 2, "MAX_FRAGMENTS": MAX_FRAGMENTS}
         with self._current():
-            ctx = self.ctx
-            self._programs = {name: load_program(ctx, "layer", defines={**consts, define: 1})
-                              for name, define in _PASSES.items()
-                              if name != "kbuffer" or self._fetch}
-            self._wire = load_program(ctx, "wire")
-            self._background_prog = load_program(ctx, "background")
-            self._straight = load_program(ctx, "straight")
-            self._fullscreen = {p: ctx.vertex_array(p, []) for p in
-                                (self._background_prog, self._straight)}
-            self._counters = ctx.buffer(reserve=16)
-            self._nodes: moderngl.Buffer | None = None
-            self._textures: dict[str, tuple[np.ndarray, moderngl.Texture]] = {}
+            self._passes: Passes | None = Passes(self.ctx, kbuffer=self._fetch)
+        self._textures: dict[str, tuple[np.ndarray, moderngl.Texture]] = {}
         self._meshes: dict[str, LayerMesh] = {}
-        self._targets: FrameTargets | None = None
+        self._targets: dict[tuple, FrameTargets] = {}
 
     # -- public -------------------------------------------------------------------
     def upload(self, layer: DrawLayer) -> None:
@@ -192,12 +170,12 @@ class Compositor:
             targets = self._targets_for(size, dtype="f2" if precise else "f1")
             method = self._choose()
             for _attempt in range(3):
-                self._frame_passes(draws, canvas, targets, background, wireframe, method, False)
-                out = self._read(targets, precise)
+                self._frame(draws, canvas, targets, background, wireframe, method, False)
+                out = self._passes.read(targets, precise)
                 overflow, used, lost = self._take_counters()
                 if method == "kbuffer" and overflow:
                     method = "abuffer"  # exact instead: redraw (rare)
-                elif not (method == "abuffer" and lost and self._grow(used)):
+                elif not (method == "abuffer" and lost and self._passes.grow(used)):
                     break
             self._finish(previous)
             return out
@@ -231,8 +209,7 @@ class Compositor:
             draws = self._prepare(layers)
             targets = self._targets_for(size, target if direct else None)
             previous = self.ctx.fbo
-            self._frame_passes(draws, canvas, targets, background, wireframe, self._choose(),
-                               flip_y)
+            self._frame(draws, canvas, targets, background, wireframe, self._choose(), flip_y)
             if not direct:
                 self.ctx.copy_framebuffer(target, targets.write_fbo)
             self._finish(previous)
@@ -254,15 +231,13 @@ class Compositor:
 
         The compositor cannot be used afterwards; a second call does nothing.
         """
-        if self._counters is None:
+        if self._passes is None:
             return
         self.invalidate()
         with self._current():
             self._drop_targets()
-            for obj in (*self._fullscreen.values(), self._counters, self._nodes):
-                if obj is not None:
-                    obj.release()
-            self._fullscreen, self._counters, self._nodes = {}, None, None
+            self._passes.release()
+            self._passes = None
         if self._own_ctx:
             self.ctx.release()
 
@@ -279,7 +254,7 @@ class Compositor:
             return self.method
         return "abuffer" if (self._prefer_abuffer or not self._fetch) else "kbuffer"
 
-    def _prepare(self, layers) -> list[tuple[int, LayerMesh, moderngl.Texture]]:
+    def _prepare(self, layers) -> list[Draw]:
         """(list position, mesh, texture) of every layer, uploading DrawLayers."""
         keys = [item if isinstance(item, str) else item.key for item in layers]
         if len(set(keys)) != len(keys):
@@ -300,107 +275,8 @@ class Compositor:
         if mesh is None or not mesh.fits(layer):
             if mesh is not None:
                 mesh.release()
-            mesh = self._meshes[layer.key] = LayerMesh(self.ctx, layer, self._programs)
+            mesh = self._meshes[layer.key] = LayerMesh(self.ctx, layer, self._passes.programs)
         mesh.write(np.asarray(layer.deformed, np.float64), np.asarray(layer.depth, np.float64))
-
-    def _frame_passes(self, draws, canvas, targets: FrameTargets, background, wireframe,
-                      method: str, flip: bool) -> None:
-        ctx = self.ctx
-        cw, ch = float(canvas[0]), float(canvas[1])
-        ndc = (2.0 / cw, 2.0 / ch, -1.0, -1.0) if not flip else (2.0 / cw, -2.0 / ch, -1.0, 1.0)
-        live = [d for d in draws if d[1].vaos]
-        hi, inv = depth_window(min((m.lo for _, m, _ in live), default=0.0),
-                               max((m.hi for _, m, _ in live), default=0.0))
-        depth = {i: (hi, inv, i * TIE_BIAS) for i, _, _ in live}
-        live.sort(key=lambda d: (hi - d[1].mean) * inv - d[0] * TIE_BIAS)  # nearest first
-        for prog in (*self._programs.values(), self._wire):
-            set_uniform(prog, "u_ndc", ndc)
-
-        self._draw_background(targets, background, flip)
-        ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<="
-        self._draw_layers("opaque", live, depth)
-        ctx.depth_func = "<"
-        self._counters.write(bytes(16))
-        self._counters.bind_to_storage_buffer(0)
-        if method == "kbuffer":
-            targets.kbuffer(K).use()
-            self._frame += K + 1
-            if self._frame > 2.0 ** 22:
-                targets.reset_kbuffer()
-                self._frame = float(K + 1)
-            set_uniform(self._programs["kbuffer"], "u_frame", self._frame)
-            self._draw_layers("kbuffer", live, depth)
-        else:
-            scale = (targets.size[0] / cw, targets.size[1] / ch)
-            capacity = self._ensure_nodes(sum(m.fragment_bound(scale) for _, m, _ in live))
-            append_fbo, heads = targets.abuffer()
-            heads.bind_to_image(0, read=True, write=True)
-            self._nodes.bind_to_storage_buffer(1)
-            set_uniform(self._programs["append"], "u_capacity", capacity)
-            append_fbo.use()
-            self._draw_layers("append", live, depth, order=True)
-            ctx.memory_barrier()
-            targets.test_fbo.use()
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_equation = moderngl.FUNC_ADD
-            ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-            self._draw_layers("resolve", live, depth)
-            ctx.memory_barrier()
-        self._pending = self.last_method = method
-        if wireframe:
-            self._draw_wireframe(live, targets)
-
-    def _draw_layers(self, name: str, live, depth, *, order: bool = False) -> None:
-        program = self._programs[name]
-        for position, (i, mesh, texture) in enumerate(live):
-            vao = mesh.vaos.get(name)
-            if vao is None:
-                continue
-            set_uniform(program, "u_depth", depth[i])
-            if order:
-                set_uniform(program, "u_order", position << 20)
-            texture.use(0)
-            vao.render(moderngl.TRIANGLES)
-
-    def _draw_background(self, targets: FrameTargets, background: np.ndarray, flip) -> None:
-        targets.write_fbo.use()
-        if background.shape[:2] == (1, 1):
-            r, g, b, a = (premultiply(background)[0, 0] / 255.0).tolist()
-            targets.write_fbo.clear(r, g, b, a, depth=1.0)
-            return
-        targets.write_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        self.ctx.enable_only(moderngl.NOTHING)
-        self._texture("\0background", background).use(0)
-        set_uniform(self._background_prog, "u_flip", 1.0 if flip else 0.0)
-        self._fullscreen[self._background_prog].render(moderngl.TRIANGLES, vertices=3)
-
-    def _draw_wireframe(self, live, targets: FrameTargets) -> None:
-        ctx = self.ctx
-        targets.test_fbo.use()
-        ctx.enable_only(moderngl.BLEND)
-        ctx.blend_equation = moderngl.FUNC_ADD
-        ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-        ctx.line_width = 1.0
-        r, g, b, a = WIRE_COLOR
-        set_uniform(self._wire, "u_color", (r * a, g * a, b * a, a))
-        for _, mesh, _ in live:
-            vao = mesh.wire(ctx, self._wire)
-            if vao is not None:
-                vao.render(moderngl.LINES)
-
-    def _read(self, targets: FrameTargets, straight: bool) -> np.ndarray:
-        fbo = targets.write_fbo
-        if straight:
-            fbo = targets.output()
-            fbo.use()
-            self.ctx.enable_only(moderngl.NOTHING)
-            targets.main.use(0)
-            self._fullscreen[self._straight].render(moderngl.TRIANGLES, vertices=3)
-        w, h = targets.size
-        out = np.empty((h, w, 4), np.uint8)
-        fbo.read_into(out, components=4)
-        return out
 
     def _finish(self, previous) -> None:
         error = self.ctx.error
@@ -409,56 +285,58 @@ class Compositor:
         if error != "GL_NO_ERROR":
             raise RuntimeError(f"OpenGL error while compositing: {error}")
 
+    def _frame(self, draws: list[Draw], canvas, targets: FrameTargets, background,
+               wireframe: bool, method: str, flip: bool) -> None:
+        texture = None if background.shape[:2] == (1, 1) else self._texture("\0background",
+                                                                            background)
+        self._passes.frame(draws, canvas, targets, background, texture, method=method,
+                           wireframe=wireframe, flip=flip)
+        self._pending = self.last_method = method
+
     def _take_counters(self) -> tuple[int, int, int]:
         """Read the last frame's counters (waits for that frame) and update the hint."""
-        overflow, used, lost, _ = np.frombuffer(self._counters.read(), np.uint32).tolist()
+        overflow, used, lost = self._passes.read_counters()
         self.last_overflow = overflow
         if self._pending == "kbuffer" and overflow:
             self._prefer_abuffer = True
         elif self._pending == "abuffer" and not overflow:
             self._prefer_abuffer = False
         if lost:
-            self._grow(used)
+            self._passes.grow(used)
         self._pending = None
         return overflow, used, lost
 
     # -- resources ----------------------------------------------------------------
-    def _ensure_nodes(self, bound: float) -> int:
-        need = int(min(max(bound, 1024), MAX_NODES))
-        if self._nodes is None or self._nodes.size < need * 16:
-            self._grow(need)
-        return self._nodes.size // 16
-
-    def _grow(self, need: int) -> bool:
-        """Make room for ``need`` A-buffer nodes (with slack); False if at the limit."""
-        have = 0 if self._nodes is None else self._nodes.size // 16
-        if need <= have and self._nodes is not None:
-            return False
-        new = int(min(MAX_NODES, max(need * 3 // 2, 1024)))
-        if new <= have:
-            return False
-        if self._nodes is not None:
-            self._nodes.release()
-        self._nodes = self.ctx.buffer(reserve=new * 16)
-        return True
-
     def _targets_for(self, size, main: moderngl.Texture | None = None, *,
                      dtype: str = "f1") -> FrameTargets:
-        t = self._targets
-        if t is None or t.size != size or (main is not None and t.main is not main) or (
-                main is None and (not t.own_main or t.dtype != dtype)):
-            self._drop_targets()
-            self._targets = FrameTargets(self.ctx, size, main, dtype)
-        return self._targets
+        """Targets of this size and format (or around the caller's texture ``main``);
+        the last :data:`KEEP_TARGETS` are kept, so render() and draw() alternate freely."""
+        key = (size, dtype if main is None else "f1", None if main is None else main.glo)
+        targets = self._targets.pop(key, None)
+        if targets is not None and main is not None and targets.main is not main:
+            self._release_targets([targets])  # a new texture under a recycled name
+            targets = None
+        if targets is None:
+            targets = FrameTargets(self.ctx, size, main, dtype)
+        self._targets[key] = targets  # most recent last
+        if len(self._targets) > KEEP_TARGETS:
+            old = next(iter(self._targets))
+            self._release_targets([self._targets.pop(old)])
+        return targets
 
     def _drop_targets(self) -> None:
-        if self._targets is not None:
-            fbo = self.ctx.fbo
-            if fbo is not None and fbo.extra is OWN:
-                # never leave a deleted framebuffer bound (GL_INVALID_OPERATION later)
-                self.ctx.detect_framebuffer(0).use()
-            self._targets.release()
-            self._targets = None
+        self._release_targets(list(self._targets.values()))
+        self._targets = {}
+
+    def _release_targets(self, targets: list[FrameTargets]) -> None:
+        if not targets:
+            return
+        fbo = self.ctx.fbo
+        if fbo is not None and fbo.extra is OWN:
+            # never leave a deleted framebuffer bound (GL_INVALID_OPERATION later)
+            self.ctx.detect_framebuffer(0).use()
+        for t in targets:
+            t.release()
 
     def _texture(self, key: str, image: np.ndarray) -> moderngl.Texture:
         """Cached texture of ``key``; re-uploaded when the array object or shape changes."""

@@ -138,10 +138,9 @@ class FrameTargets:
 
     def reset_kbuffer(self) -> None:
         """Mark every pixel's K-buffer stale (frame stamp -8 is never current)."""
-        w, h = self.size
-        state = np.zeros((h, w, 4), np.float32)
-        state[..., 3] = -8.0
-        self.kbuffer_state.write(state)
+        fbo = self.ctx.framebuffer([self.kbuffer_state])
+        fbo.clear(0.0, 0.0, 0.0, -8.0)
+        fbo.release()
 
     def abuffer(self) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
         """Depth-only framebuffer for appending, and the list-head image (zeroed)."""
