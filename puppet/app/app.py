@@ -255,7 +255,8 @@ class App:
         names = [n for n in self.selection if self.marker(n) is not None]
         if not names:
             return
-        pos = {n: (self.marker(n).xy[0] + dx, self.marker(n).xy[1] + dy) for n in names}
+        base = {n: self.marker_xy(self.marker(n)) for n in names}  # held positions of earlier nudges
+        pos = {n: (xy[0] + dx, xy[1] + dy) for n, xy in base.items()}
         if self.mode == "pin":
             self.move_pins({n: xy for n, xy in pos.items() if self.marker(n).kind != "auto"})
         else:
@@ -267,10 +268,10 @@ class App:
         if not names:
             self.say("select pins first (click a pin; Shift-click adds)", "error")
             return
-        data, active, pin_mode = self.snap.data, self.snap.active, self.mode == "pin"
-        rest = {p.name: p.depth for p in data.pins}
+        pin_mode = self.mode == "pin"
 
-        def fn(s):
+        def fn(s):  # from the scene as it is when the job runs (keys may come faster than frames)
+            rest = {p.name: p.depth for p in s.data.pins}
             with s.block("pin depth"):
                 for n in names:
                     if pin_mode:

@@ -92,6 +92,10 @@ void main() { f_color = u_color; }
 """
 
 
+#: most pixels a drag preview is composited at (about 500x500); the exact frame is full size
+PREVIEW_PIXELS = 250_000
+
+
 def depth_range(layers) -> tuple[float, float]:
     """Lowest and highest drawn depth over ``layers`` (LayerResults)."""
     ds = [np.asarray(r.depth) for r in layers if len(r.depth)]
@@ -132,6 +136,9 @@ class CanvasRenderer:
         self._frame_rect = None
         self.composite_ms = 0.0
         self.composites = 0
+        self.premultiplied = False
+        self.preview_pixels = PREVIEW_PIXELS
+        self.last_scale = 1.0
         self._edges: dict[int, tuple] = {}
 
     # -- helpers ------------------------------------------------------------------
@@ -185,66 +192,92 @@ class CanvasRenderer:
             ctx.scissor = None
             return
         (x0, y0, x1, y1), crect = vis
-        ctx.enable_only(moderngl.BLEND)
-        ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
-        self.checker_prog["u_cell"].value = 8.0
-        self._quad(self.checker_prog, screen, (x0, y0, x1, y1))
-        cw, ch = snap.canvas
+        rect = (x0, y0, x1, y1)
+        shown = [(r, im) for r, im in zip(snap.layers, snap.images) if r.name not in hidden]
         bg = snap.background
-        if isinstance(bg, np.ndarray):
-            self._image(screen, view, bg, (0, 0), (cw, ch), 1.0, "\0background")
+        u = snap.underlay if snap.underlay_image is not None else None
+        if not isinstance(bg, np.ndarray) and bg[3] == 255 and u is None and not depth_view:
+            # the common case: one opaque composite over the scene's colour, as `puppet render`
+            tex = self._composite(shown, view, rect, snap, background=tuple(bg))
+            ctx.enable_only(moderngl.NOTHING)
+            self._frame_quad(tex, screen, rect)
         else:
-            self.solid.write(np.asarray(bg, np.uint8).tobytes())
-            self.solid.use(0)
-            self.tex_prog["u_texture"].value = 0
-            self.tex_prog["u_alpha"].value = 1.0
-            self._quad(self.tex_prog, screen, (x0, y0, x1, y1))
-        u = snap.underlay
-        if u is not None and snap.underlay_image is not None:
-            h, w = snap.underlay_image.shape[:2]
-            s = float(u.get("scale", 1.0))
-            self._image(screen, view, snap.underlay_image, u.get("offset", (0, 0)), (w * s, h * s),
-                        float(u.get("opacity", 0.5)), "\0underlay")
-        shown = [(r, im) for k, (r, im) in enumerate(zip(snap.layers, snap.images)) if r.name not in hidden]
-        if depth_view:
-            self._draw_depth(shown, snap, view, screen)
-        else:
-            tex = self._composite(shown, view, (x0, y0, x1, y1), snap)
-            if tex is not None:
-                ctx.enable_only(moderngl.BLEND)
-                tex.use(0)
+            ctx.enable_only(moderngl.BLEND)
+            ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
+                              moderngl.ONE_MINUS_SRC_ALPHA)
+            if isinstance(bg, np.ndarray) or bg[3] < 255:
+                self.checker_prog["u_cell"].value = 8.0
+                self._quad(self.checker_prog, screen, rect)
+            if isinstance(bg, np.ndarray):
+                self._image(screen, view, bg, (0, 0), snap.canvas, 1.0, "\0background")
+            elif bg[3] > 0:
+                self.solid.write(np.asarray(bg, np.uint8).tobytes())
+                self.solid.use(0)
                 self.tex_prog["u_texture"].value = 0
                 self.tex_prog["u_alpha"].value = 1.0
-                self._quad(self.tex_prog, screen, (x0, y0, x1, y1))
+                self._quad(self.tex_prog, screen, rect)
+            if u is not None:
+                h, w = snap.underlay_image.shape[:2]
+                s = float(u.get("scale", 1.0))
+                self._image(screen, view, snap.underlay_image, u.get("offset", (0, 0)), (w * s, h * s),
+                            float(u.get("opacity", 0.5)), "\0underlay")
+            if depth_view:
+                self._draw_depth(shown, snap, view, screen)
+            else:
+                tex = self._composite(shown, view, rect, snap)
+                ctx.enable_only(moderngl.BLEND)
+                if self.premultiplied:
+                    ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
+                self._frame_quad(tex, screen, rect)
         if wireframe:
             self._draw_wire(shown, view, screen)
         ctx.enable_only(moderngl.NOTHING)
         ctx.scissor = None
 
-    def _composite(self, shown, view, rect, snap) -> moderngl.Texture | None:
-        """The visible layers composited at window resolution (cached)."""
+    def _frame_quad(self, tex, screen, rect) -> None:
+        tex.use(0)
+        self.tex_prog["u_texture"].value = 0
+        self.tex_prog["u_alpha"].value = 1.0
+        self._quad(self.tex_prog, screen, rect)
+
+    def _composite(self, shown, view, rect, snap, background=(0, 0, 0, 0)) -> moderngl.Texture:
+        """The visible layers composited at window resolution over ``background`` (cached
+        until the layers or the view change). A drag preview larger than
+        :attr:`preview_pixels` is composited smaller and stretched (linear filtering); the
+        exact pose on release is composited at full resolution again."""
         x0, y0, x1, y1 = rect
-        key = (snap.version, snap.file, view.scale, view.origin, rect, tuple(r.name for r, _ in shown))
+        key = (snap.version, snap.file, view.scale, view.origin, rect, tuple(r.name for r, _ in shown), background)
         if key == self._frame_key and self.frame_tex is not None:
             return self.frame_tex
         t = time.perf_counter()
+        w, h = x1 - x0, y1 - y0
+        f = 1.0
+        if snap.preview and w * h > self.preview_pixels:
+            f = float(np.sqrt(self.preview_pixels / (w * h)))
+        size = (max(1, int(round(w * f))), max(1, int(round(h * f))))
+        fx, fy = size[0] / w, size[1] / h
         origin = np.asarray(view.origin, float) - (x0, y0)
         draw = [DrawLayer(key=r.name, image=im.rgba, offset=im.offset, rest=r.rest,
-                          deformed=np.asarray(r.deformed, float) * view.scale + origin, triangles=r.triangles,
-                          depth=r.depth) for r, im in shown]
-        size = (x1 - x0, y1 - y0)
-        rgba = self.compositor.render(draw, size, background=(0, 0, 0, 0))
-        self.ctx.error  # the compositor leaves GL state; clear any flag it did not raise on
+                          deformed=(np.asarray(r.deformed, float) * view.scale + origin) * (fx, fy),
+                          triangles=r.triangles, depth=r.depth) for r, im in shown]
         if self.frame_tex is None or self.frame_tex.size != size:
             if self.frame_tex is not None:
                 self.frame_tex.release()
             self.frame_tex = self.ctx.texture(size, 4)
-            self.frame_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.frame_tex.write(rgba.tobytes())
+        self.frame_tex.filter = (moderngl.NEAREST, moderngl.NEAREST) if f == 1.0 else (moderngl.LINEAR, moderngl.LINEAR)
+        if hasattr(self.compositor, "draw"):  # the window path: no read-back, premultiplied
+            self.compositor.draw(draw, size, target=self.frame_tex, background=background)
+            self.premultiplied = True
+        else:
+            rgba = self.compositor.render(draw, size, background=background)
+            self.frame_tex.write(rgba.tobytes())
+            self.premultiplied = False
+        self.ctx.error  # noqa: B018 - clear a flag the compositor left
         self.ctx.screen.use()
         self._frame_key = key
         self.composite_ms = (time.perf_counter() - t) * 1000
         self.composites += 1
+        self.last_scale = f
         return self.frame_tex
 
     def _mesh_arrays(self, shown):

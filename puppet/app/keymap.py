@@ -38,18 +38,13 @@ def _pressed(key, repeat: bool = False) -> bool:
 def handle_keys(app, win) -> None:
     """Run the shortcut actions of this frame's key presses."""
     io = imgui.get_io()
-    if app.dialog is not None:
-        if _pressed(K.escape):
-            app.dialog = None
+    if app.dialog is not None:  # the dialog has the keys (Esc closes it there)
         return
     ctrl, shift = io.key_ctrl, io.key_shift
+    typing = io.want_text_input  # a text field has the keyboard: only file and quit keys
     if ctrl:
-        if _pressed(K.z, True):
-            app.redo() if shift else app.undo()
-        elif _pressed(K.y, True):
-            app.redo()
-        elif _pressed(K.s):
-            if shift or (app.snap.loaded and not app.snap.file):
+        if _pressed(K.s):
+            if shift:
                 win.open_dialog("save_as")
             else:
                 app.save()
@@ -57,6 +52,12 @@ def handle_keys(app, win) -> None:
             win.open_dialog("open")
         elif _pressed(K.q):
             app.request_quit()
+        elif typing:
+            pass
+        elif _pressed(K.z, True):
+            app.redo() if shift else app.undo()
+        elif _pressed(K.y, True):
+            app.redo()
         elif _pressed(K.a):
             app.selection = [m.name for m in app.markers()]
         elif _pressed(K._1):
@@ -65,7 +66,7 @@ def handle_keys(app, win) -> None:
         elif _pressed(K._0):
             app.fit()
         return
-    if io.want_text_input:
+    if typing:
         return
     if _pressed(K.slash) and shift or _pressed(K.f1):
         app.show_help = not app.show_help

@@ -120,6 +120,11 @@ def dialogs(app, win) -> None:
     opened, _ = imgui.begin_popup_modal(title, None, imgui.WindowFlags_.always_auto_resize)
     if not opened:
         return
+    if kind != "recover" and imgui.is_key_pressed(imgui.Key.escape):
+        app.dialog, app.after_dialog = None, None
+        imgui.close_current_popup()
+        imgui.end_popup()
+        return
     if kind in ("open", "save_as"):
         _path_dialog(app, win, kind)
     elif kind == "unsaved":

@@ -6,7 +6,7 @@ import os
 
 from imgui_bundle import imgui
 
-from puppet.app.widgets import THUMB, button, live, toggle
+from puppet.app.widgets import THUMB, button, live, note, toggle
 from puppet.scene.model import INPAINT_METHODS
 
 _H = imgui.TreeNodeFlags_.default_open
@@ -46,6 +46,7 @@ class Panels:
             name = snap.data.layers[k].name
             imgui.push_id(f"layer-{name}")
             vis = toggle("##vis", name not in app.hidden, "show or hide the layer in the app (not saved)")
+            note(f"visible:{name}")
             (app.hidden.discard if vis else app.hidden.add)(name)
             imgui.same_line()
             im = snap.images[k]
@@ -55,6 +56,7 @@ class Panels:
             clicked, _ = imgui.selectable(f"{name}\n{len(r.rest)} vertices, {len(r.triangles)} triangles",
                                          app.selected_layer == name, 0, imgui.ImVec2(0, THUMB))
             imgui.set_item_tooltip("select; drag onto another layer to move it there in the stacking order")
+            note(f"layer:{name}")
             if clicked:
                 app.selected_layer = name
             if imgui.begin_drag_drop_source():
@@ -89,11 +91,13 @@ class Panels:
         changed, area = imgui.slider_float("triangle size", area, 2.0, 4000.0, "%.0f px²",
                                            imgui.SliderFlags_.logarithmic)
         imgui.set_item_tooltip("mesh density: largest triangle area (smaller = denser mesh); re-meshes live")
+        note("slider:triangle size")
         live(app, "mesh", f"mesh density of {name}")
         if changed:
             app.edit(lambda s, v=area: s.set_mesh_options(name, max_area=float(v)) and None, key="mesh-live")
         changed, angle = imgui.slider_float("min angle", L.mesh.min_angle, 0.0, 34.0, "%.0f°")
         imgui.set_item_tooltip("smallest triangle angle (higher = rounder triangles, more of them)")
+        note("slider:min angle")
         live(app, "mesh", f"min angle of {name}")
         if changed:
             app.edit(lambda s, v=angle: s.set_mesh_options(name, min_angle=float(v)) and None, key="mesh-live")
@@ -120,6 +124,7 @@ class Panels:
             clicked, _ = imgui.selectable(f"{label}##pose-{name}", snap.active == name)
             imgui.set_item_tooltip("show and edit this pose" if name != "rest" else
                                    "the rest pose; dragging a pin here makes a new pose")
+            note(f"pose:{name}")
             if clicked and name != snap.active:
                 app.edit(lambda s, n=name: s.set_active_pose(n) and None)
                 app.set_mode("pose")
@@ -141,6 +146,7 @@ class Panels:
         enter, self.pose_name = imgui.input_text_with_hint("##pose-name", snap.active if not at_rest else "",
                                                           self.pose_name, imgui.InputTextFlags_.enter_returns_true)
         imgui.set_item_tooltip("new name for the active pose")
+        note("field:pose name")
         imgui.same_line()
         if (button("Rename", "rename the active pose", enabled=not at_rest and bool(self.pose_name.strip()))
                 or enter and not at_rest and self.pose_name.strip()):
@@ -168,6 +174,7 @@ class Panels:
         if imgui.radio_button("exterior", app.pin_kind == "exterior"):
             app.pin_kind = "exterior"
         imgui.set_item_tooltip("boundary control points (blue diamonds): fine edits of the outline")
+        note("radio:exterior")
         if button("Back [", "selected pins' depth -1: the region around them goes behind"):
             app.change_depth(-1.0)
         imgui.same_line()
@@ -206,6 +213,7 @@ class Panels:
             imgui.set_next_item_width(90)
             changed, i = imgui.combo("kind", kinds.index(pin.kind), kinds)
             imgui.set_item_tooltip("interior pin or exterior (boundary) control point")
+            note("combo:kind")
             if changed:
                 app.edit(lambda s: s.set_pin(name, kind=kinds[i]) and None)
         if app.mode == "pose" and snap.active != "rest":
@@ -233,6 +241,7 @@ class Panels:
         enter, self.underlay_path = imgui.input_text_with_hint("##underlay", "path to a picture", self.underlay_path,
                                                               imgui.InputTextFlags_.enter_returns_true)
         imgui.set_item_tooltip("a PNG or JPEG path (relative to the current folder, or absolute)")
+        note("field:underlay")
         imgui.same_line()
         if button("Set", "use this picture as the reference", enabled=bool(self.underlay_path.strip())) or \
                 (enter and self.underlay_path.strip()):
@@ -251,6 +260,7 @@ class Panels:
             return lambda s: s.set_underlay(u["image"], **v) and None
         changed, op = imgui.slider_float("opacity", float(u["opacity"]), 0.0, 1.0, "%.2f")
         imgui.set_item_tooltip("how strongly the reference shows through")
+        note("slider:opacity")
         live(app, "underlay", "reference opacity")
         if changed:
             app.edit(setter(opacity=float(op)), key="underlay-live")

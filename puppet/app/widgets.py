@@ -7,6 +7,15 @@ import numpy as np
 from imgui_bundle import imgui
 
 THUMB = 36  # thumbnail size, window pixels
+#: where each named widget was drawn in the last frames: label -> (x0, y0, x1, y1) window
+#: pixels (tests and the docs' screenshots find buttons with it)
+RECTS: dict[str, tuple[float, float, float, float]] = {}
+
+
+def note(label: str) -> None:
+    """Record the last item's rectangle under ``label`` in :data:`RECTS`."""
+    a, b = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    RECTS[label] = (a.x, a.y, b.x, b.y)
 
 
 def button(label: str, tip: str, enabled: bool = True, small: bool = False) -> bool:
@@ -15,6 +24,7 @@ def button(label: str, tip: str, enabled: bool = True, small: bool = False) -> b
     clicked = imgui.small_button(label) if small else imgui.button(label)
     imgui.end_disabled()
     imgui.set_item_tooltip(tip)
+    note(label)
     return clicked and enabled
 
 
@@ -22,6 +32,7 @@ def toggle(label: str, value: bool, tip: str) -> bool:
     """A checkbox with a tooltip; returns the new value."""
     _, value = imgui.checkbox(label, value)
     imgui.set_item_tooltip(tip)
+    note(label)
     return value
 
 

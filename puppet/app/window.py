@@ -28,6 +28,8 @@ from puppet.app.tools import CanvasEvent, choose_tool
 from puppet.app.widgets import Thumbs
 
 PANEL_WIDTH = 330
+#: frames a second for pointer feedback while a gesture waits for the scene thread
+BUSY_FPS = 30.0
 FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
          | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings
          | imgui.WindowFlags_.no_bring_to_front_on_focus)
@@ -97,6 +99,8 @@ class AppWindow:
         self.frame_ms = 0.0
         self.closed = False
         self._then = None  # what to do once a dialog's jobs have run
+        self._settle = 3
+        self._last_frame = 0.0
         self._expect_scene = path is not None
         if path is not None:
             self.open_scene(path)
@@ -193,7 +197,6 @@ class AppWindow:
         ctx.error  # a stale flag would make the next GL call fail
         ctx.screen.use()
         ctx.viewport = (0, 0, fb[0], fb[1])
-        ctx.clear(0.12, 0.12, 0.13, 1.0)
         self.canvas.draw(app.snap, app.view, app.area, (w, h), hidden=app.hidden, depth_view=app.depth_view,
                          wireframe=app.show_mesh, fb_height=fb[1])
         self.gui.render(imgui.get_draw_data(), fb)
@@ -290,22 +293,35 @@ class AppWindow:
                                    publish=False)
 
     # -- the loop ---------------------------------------------------------------------
+    def step(self) -> bool:
+        """One turn of the loop: take input, and draw a frame when something changed: at
+        once for a new snapshot, for input at most :data:`BUSY_FPS` times a second while
+        a gesture waits for the scene thread (so it keeps the CPU), a few frames after
+        activity (ImGui settles), and a few a second when idle. True when it drew."""
+        now = time.perf_counter()
+        self.win.switch_to()
+        self.win.dispatch_events()
+        touched, self.input.touched = self.input.touched, False
+        app = self.app
+        new = app.worker.latest is not app.snap
+        waiting = self._gesture is not None and not app.worker.idle()
+        if touched or new:
+            self._settle = 3
+        gap = now - self._last_frame
+        due = new or (self._settle > 0 and gap >= (1.0 / BUSY_FPS if waiting else 0.0)) or gap > 0.25
+        if not due:
+            return False
+        self._settle -= 1
+        self._last_frame = now
+        self.frame(dispatch=False)
+        return True
+
     def run(self, max_fps: float = 60.0) -> None:
-        """Draw frames until the app quits: every frame while something happens, a few a
-        second when idle (so the scene thread keeps the CPU)."""
-        idle_frames, last = 0, 0.0
+        """Run :meth:`step` until the app quits, at most ``max_fps`` turns a second."""
         try:
             while not self.app.quit_now:
                 t = time.perf_counter()
-                self.win.switch_to()
-                self.win.dispatch_events()
-                active = (self.input.touched or self.app.worker.latest is not self.app.snap
-                          or self._gesture is not None or not self.app.worker.idle())
-                self.input.touched = False
-                idle_frames = 0 if active else idle_frames + 1
-                if idle_frames < 4 or t - last > 0.25:
-                    self.frame(dispatch=False)
-                    last = t
+                self.step()
                 time.sleep(max(0.0, 1.0 / max_fps - (time.perf_counter() - t)))
         finally:
             self.close()

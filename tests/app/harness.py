@@ -22,7 +22,7 @@ class Driver:
     """An app window and the hands that use it. Window coordinates are top-down (as
     ImGui's); pyglet's bottom-up y is handled here."""
 
-    def __init__(self, path=None, size=(1280, 800), **kw):
+    def __init__(self, path=None, size=(960, 640), **kw):
         pyglet.window.Window._enable_event_queue = True
         self.ready = {}
         self.w = AppWindow(path, size=size, visible=False, ready=self.ready.update, **kw)
@@ -150,3 +150,11 @@ class Driver:
 
     def close(self) -> None:
         self.w.close()
+
+
+def widget(label: str):
+    """Centre of the widget drawn last under ``label`` (see puppet.app.widgets.RECTS)."""
+    from puppet.app.widgets import RECTS
+
+    x0, y0, x1, y1 = RECTS[label]
+    return (x0 + x1) / 2, (y0 + y1) / 2
