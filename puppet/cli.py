@@ -6,6 +6,7 @@ traceback, no output file); 1 only for a bug.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
 import signal
@@ -127,9 +128,17 @@ def _check_size(scene, size: tuple[int, int] | None) -> None:
         raise UsageError(f"{flag}: {problem}")
 
 
-def _gl_allocation_failed(exc: Exception) -> bool:
-    text = str(exc)
-    return "OUT_OF_MEMORY" in text or "framebuffer is not complete" in text
+@contextlib.contextmanager
+def _gl_allocation(scene, size: tuple[int, int] | None):
+    """A GL failure to allocate the frame while drawing becomes a user error (the size is too big)."""
+    try:
+        yield
+    except Exception as e:
+        text = str(e)
+        if "OUT_OF_MEMORY" not in text and "framebuffer is not complete" not in text:
+            raise
+        w, h = size or scene.canvas
+        raise UsageError(f"OpenGL could not allocate a {w}x{h} frame ({e}); give a smaller --size") from None
 
 
 def _print(text: str) -> None:
@@ -151,11 +160,6 @@ def _stdout_to_devnull() -> None:
         os.close(fd)
     except (OSError, ValueError):
         pass
-
-
-def _gl_failure(scene, size, exc: Exception) -> UsageError:
-    w, h = size or scene.canvas
-    return UsageError(f"OpenGL could not allocate a {w}x{h} frame ({exc}); give a smaller --size")
 
 
 def run(argv: list[str] | None = None) -> int:
@@ -183,12 +187,8 @@ def run(argv: list[str] | None = None) -> int:
         inputs = input_files(scene.data)
         check_file(out, inputs=inputs)
         _check_size(scene, args.size)
-        try:
+        with _gl_allocation(scene, args.size):
             rgba = scene.render(pose=args.pose, time=args.time, size=args.size, wireframe=args.wireframe)
-        except Exception as e:
-            if not _gl_allocation_failed(e):
-                raise
-            raise _gl_failure(scene, args.size, e) from None
         save_png(out, rgba, inputs=inputs)
     elif args.command == "mesh":
         check_file(out, inputs=input_files(scene.data))
@@ -199,13 +199,9 @@ def run(argv: list[str] | None = None) -> int:
         from puppet.anim.export import animate_to
 
         _check_size(scene, args.size)
-        try:
+        with _gl_allocation(scene, args.size):
             animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
                        wireframe=args.wireframe, progress=sys.stderr.isatty())
-        except Exception as e:
-            if not _gl_allocation_failed(e):
-                raise
-            raise _gl_failure(scene, args.size, e) from None
     return 0
 
 
