@@ -139,6 +139,7 @@ class CanvasRenderer:
         self.premultiplied = False
         self.preview_pixels = PREVIEW_PIXELS
         self.last_scale = 1.0
+        self._depth_fbo = self._depth_rb = self._depth_tex = None
         self._edges: dict[int, tuple] = {}
 
     # -- helpers ------------------------------------------------------------------
@@ -222,7 +223,8 @@ class CanvasRenderer:
                 self._image(screen, view, snap.underlay_image, u.get("offset", (0, 0)), (w * s, h * s),
                             float(u.get("opacity", 0.5)), "\0underlay")
             if depth_view:
-                self._draw_depth(shown, snap, view, screen)
+                self._draw_depth(shown, view, screen, rect)
+                ctx.scissor = (int(ax), int(fb_h - ay - ah), int(aw), int(ah))
             else:
                 tex = self._composite(shown, view, rect, snap)
                 ctx.enable_only(moderngl.BLEND)
@@ -299,30 +301,55 @@ class CanvasRenderer:
             buf.write(np.ascontiguousarray(arr))
         return data
 
-    def _set_view(self, prog, view, screen, rng=(0.0, 1.0)) -> None:
+    def _set_view(self, prog, view, screen) -> None:
         prog["u_screen"].value = screen
         prog["u_scale"].value = float(view.scale)
         prog["u_origin"].value = tuple(map(float, view.origin))
-        if "u_range" in prog:
-            prog["u_range"].value = rng
 
-    def _draw_depth(self, shown, snap, view, screen) -> None:
+    def _draw_depth(self, shown, view, screen, rect) -> None:
+        """Colour by interpolated depth, nearest in front, drawn offscreen (own depth buffer)
+        over the visible rect and put on the window."""
         arrays = self._mesh_arrays(shown)
         if arrays is None:
             return
         pos, dep, bases = arrays
-        tri = np.concatenate([np.asarray(r.triangles, np.int32) + b for (r, _), b in zip(shown, bases)])
+        tri = np.concatenate([np.asarray(r.triangles) + b for (r, _), b in zip(shown, bases)]).astype(np.int32)
         self._upload(pos, dep, tri)
+        x0, y0, x1, y1 = rect
+        size = (x1 - x0, y1 - y0)
+        if self._depth_fbo is None or self._depth_fbo.size != size:
+            self._release_depth_target()
+            self._depth_tex = self.ctx.texture(size, 4)
+            self._depth_rb = self.ctx.depth_renderbuffer(size)
+            self._depth_fbo = self.ctx.framebuffer([self._depth_tex], self._depth_rb)
         ctx = self.ctx
-        ctx.clear(depth=1.0)  # inside the scissor box
+        ctx.scissor = None
+        self._depth_fbo.use()
+        self._depth_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.enable_only(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
-        self._set_view(self.depth_prog, view, screen, depth_range([r for r, _ in shown]))
-        vao = ctx.vertex_array(self.depth_prog, [(self.mesh_vbo, "2f 1f", "in_pos", "in_depth")],
+        prog = self.depth_prog
+        prog["u_screen"].value = tuple(map(float, size))
+        prog["u_scale"].value = float(view.scale)
+        prog["u_origin"].value = (float(view.origin[0] - x0), float(view.origin[1] - y0))
+        prog["u_range"].value = depth_range([r for r, _ in shown])
+        vao = ctx.vertex_array(prog, [(self.mesh_vbo, "2f 1f", "in_pos", "in_depth")],
                                index_buffer=self.mesh_ibo, index_element_size=4)
         vao.render(moderngl.TRIANGLES, vertices=tri.size)
         vao.release()
+        ctx.screen.use()
         ctx.enable_only(moderngl.BLEND)
+        ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
+        self._depth_tex.use(0)
+        self.tex_prog["u_texture"].value = 0
+        self.tex_prog["u_alpha"].value = 0.9
+        self._quad(self.tex_prog, screen, rect, uv=(0, 1, 1, 0))
+
+    def _release_depth_target(self) -> None:
+        for obj in (self._depth_fbo, self._depth_rb, self._depth_tex):
+            if obj is not None:
+                obj.release()
+        self._depth_fbo = self._depth_rb = self._depth_tex = None
 
     def _draw_wire(self, shown, view, screen) -> None:
         arrays = self._mesh_arrays(shown)
@@ -353,4 +380,5 @@ class CanvasRenderer:
         self.textures.clear()
         if self.frame_tex is not None:
             self.frame_tex.release()
+        self._release_depth_target()
         self.compositor.release()

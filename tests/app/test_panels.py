@@ -1,0 +1,192 @@
+"""Panels (layers, poses, pins, reference picture) and the canvas views, clicked through
+ImGui in a headless window."""
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+import pytest
+from pyglet.window import key
+
+from tests.app.harness import widget
+from tests.conftest import write_rgba
+
+pytestmark = pytest.mark.gl
+
+
+def px(d, xy):
+    x, y = (int(round(v)) for v in d.screen_of(xy))
+    return d.pixels()[y, x].astype(int)
+
+
+def test_layer_visibility_select_and_reorder(two_bars):
+    d = two_bars
+    app = d.app
+    d.key(key.H)  # no pin markers in the way
+    overlap = (60, 27)  # red (back) and blue (front) both cover it
+    assert abs(px(d, overlap) - (40, 40, 200)).max() <= 2
+    d.click(*widget("visible:blue"))
+    d.settle()
+    assert app.hidden == {"blue"}
+    assert abs(px(d, overlap) - (200, 40, 40)).max() <= 2
+    d.click(*widget("visible:blue"))
+    d.click(*widget("layer:red"))
+    assert app.selected_layer == "red"
+    # drag the red layer's row onto the blue one: red goes to blue's place, in front
+    a, b = widget("layer:red"), widget("layer:blue")
+    d.drag_path([a, (a[0], a[1] - 10), (b[0], b[1] - 5), b])
+    d.settle()
+    assert [L.name for L in d.scene().data.layers] == ["blue", "red"]
+    assert abs(px(d, overlap) - (200, 40, 40)).max() <= 2
+    d.key(key.Z, key.MOD_CTRL)
+    d.settle()
+    assert [L.name for L in d.scene().data.layers] == ["red", "blue"]
+
+
+def test_mesh_slider_remeshes_only_that_layer_live_in_one_step(two_bars):
+    d = two_bars
+    d.click(*widget("layer:red"))
+    d.settle()
+    scene = d.scene()
+    blue_mesh = scene.built.meshes[1]
+    red_tris = len(scene.built.meshes[0].F)
+    steps = len(scene.history.undo_stack)
+    from puppet.app.widgets import RECTS
+
+    x0, y0, x1, y1 = RECTS["slider:triangle size"]  # the label is right of the slider's frame
+    y = (y0 + y1) / 2
+    d.press(x0 + 0.7 * (x1 - x0), y)
+    for x in np.linspace(x0 + 0.6 * (x1 - x0), x0 + 4, 5):
+        d.drag(x, y)
+        d.settle()
+    d.release()
+    d.settle()
+    scene = d.scene()
+    area = scene.data.layers[0].mesh.max_area
+    assert area is not None and area < 5
+    assert len(scene.built.meshes[0].F) > red_tris  # denser
+    assert scene.built.meshes[1] is blue_mesh  # the other layer was not re-meshed
+    assert len(scene.history.undo_stack) == steps + 1
+    d.key(key.Z, key.MOD_CTRL)
+    d.settle()
+    assert d.scene().data.layers[0].mesh.max_area is None
+
+
+def test_inpaint_and_mesh_views(two_bars):
+    d = two_bars
+    d.key(key.H)
+    plain = d.pixels()
+    d.key(key.M)
+    wire = d.pixels()
+    changed = np.any(wire != plain, axis=2)
+    assert changed.sum() > 500  # mesh edges drawn over the bars
+    assert d.app.show_mesh
+    d.key(key.M)
+    d.key(key.D)  # depth view: back layer blue-ish, front layer red-ish
+    back, front = px(d, (20, 20)), px(d, (130, 35))
+    assert back[2] > back[0] and front[0] > front[2]
+    d.key(key.D)
+    d.key(key.L)
+    assert d.app.show_links
+
+
+def test_poses_panel(bar_app):
+    d = bar_app
+    app = d.app
+    d.click(*widget("pose:bend"))
+    d.settle()
+    assert app.snap.active == "bend" and app.mode == "pose"
+    d.click(*widget("Duplicate"))
+    d.settle()
+    assert app.snap.active == "bend copy"
+    assert d.scene().to_dict()["poses"]["bend copy"] == d.scene().to_dict()["poses"]["bend"]
+    d.click(*widget("field:pose name"))
+    d.type("reach")
+    d.key(key.ENTER)
+    d.settle()
+    assert app.snap.active == "reach" and "bend copy" not in app.snap.poses
+    d.click(*widget("Delete"))
+    d.settle()
+    assert app.snap.active == "rest" and "reach" not in app.snap.poses
+    d.click(*widget("New"))
+    d.settle()
+    assert app.snap.active == "pose" and d.scene().data.poses["pose"] == {}
+    # rest is read-only: no rename, no delete
+    d.click(*widget("pose:rest"))
+    d.settle()
+    n = len(app.snap.poses)
+    d.click(*widget("Delete"))
+    d.settle()
+    assert len(app.snap.poses) == n and app.snap.active == "rest"
+
+
+def test_switching_to_a_solved_pose_is_instant(bar_app):
+    d = bar_app
+    for name in ("bend", "rest", "bend"):
+        d.click(*widget(f"pose:{name}"))
+        d.settle()
+    memo = d.scene().rig.memo
+    solves = memo.count("solve")
+    for name in ("rest", "bend", "rest"):
+        d.click(*widget(f"pose:{name}"))
+        d.settle()
+    assert memo.count("solve") == solves  # nothing solved again
+
+
+def test_exterior_pins_have_their_own_kind_and_colour(bar_app):
+    d = bar_app
+    d.key(key._1)
+    d.click(*widget("radio:exterior"))
+    assert d.app.pin_kind == "exterior"
+    where = tuple(round(v) for v in d.screen_of((60, 12)))
+    d.click(*where)
+    d.settle()
+    new = [p for p in d.scene().data.pins if p.name not in ("left", "right")]
+    assert len(new) == 1 and new[0].kind == "exterior" and new[0].name.startswith("epin")
+    r, g, b = d.pixels()[where[1], where[0]].astype(int)
+    assert b > 200 and r < 120  # blue diamond, not a yellow dot
+
+
+def test_pin_names_show_on_hover(bar_app):
+    d = bar_app
+    far = d.pixels()
+    d.move(*d.pin_screen("left"))
+    d.frame(2)
+    near = d.pixels()
+    x, y = (int(v) for v in d.pin_screen("left"))
+    label = near[y - 30:y, x + 8:x + 120]
+    assert (np.abs(label.astype(int) - far[y - 30:y, x + 8:x + 120]).sum(axis=2) > 60).sum() > 50
+
+
+def test_reference_picture(bar_app, tmp_path):
+    d = bar_app
+    ref = np.zeros((40, 120, 4), np.uint8)
+    ref[..., 2] = 255
+    ref[..., 3] = 255
+    path = write_rgba(tmp_path / "ref.png", ref)
+    d.app.edit(lambda s: s.set_underlay(path, opacity=0.5) and None)
+    d.settle()
+    d.key(key.H)
+    # under the (transparent part of the) canvas: blue at half opacity over white
+    r, g, b = px(d, (60, 36))
+    assert abs(b - 255) <= 2 and abs(r - 128) <= 3
+    assert abs(px(d, (60, 20)) - (200, 40, 40)).max() <= 2  # the layer is over it
+    d.key(key.S, key.MOD_CTRL)
+    d.settle()
+    import json
+
+    saved = json.loads(open(d.app.snap.file).read())
+    assert saved["app"]["underlay"]["image"] == "ref.png"
+
+
+def test_every_button_has_a_tooltip():
+    """Buttons go through widgets.button (tooltip argument required), never bare."""
+    root = os.path.join(os.path.dirname(__file__), "..", "..", "puppet", "app")
+    for name in os.listdir(root):
+        if name.endswith(".py") and name != "widgets.py":
+            text = open(os.path.join(root, name)).read()
+            assert not re.search(r"imgui\.(small_)?button\(", text), name
+            for m in re.finditer(r"imgui\.(checkbox|radio_button|slider_float|combo|drag_float2?)\(", text):
+                after = text[m.end():m.end() + 400]
+                assert "set_item_tooltip" in after, f"{name}: {m.group(0)} without a tooltip"
