@@ -131,7 +131,7 @@ def results(tmp_path_factory):
         p = folder / f"{name}.json"
         if content == "HUGE":
             with open(p, "wb") as f:
-                f.truncate(17 * 1024 * 1024)  # sparse: no disk used
+                f.truncate(9 * 1024 * 1024)  # sparse: no disk used
         elif content == "FOLDER":
             p.mkdir()
         elif content == "FIFO":
