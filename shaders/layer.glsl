@@ -52,21 +52,19 @@ void main() {
 
 #elif defined FRAGMENT_SHADER && defined KBUFFER_PASS
 // Written out for K = 3 with constant indices only (llvmpipe runs indexed arrays lane
-// by lane, several times slower).
+// by lane, several times slower); the state is packed into two integer attachments
+// (each attachment costs llvmpipe per shaded block, whatever its size).
 #if K != 3
 #error "the K-buffer pass is written for K = 3"
 #endif
 layout(early_fragment_tests) in;
 uniform sampler2D u_texture;
-uniform float u_frame;  // frame stamp; steps by K + 1 each frame
+uniform uint u_frame;  // frame stamp; steps by K + 1 each frame
 layout(std430, binding = 0) buffer Counters { uint overflow; uint used; uint lost; };
 in vec2 v_uv;
-layout(location = 0) inout vec4 f_color;  // the composite
-layout(location = 1) inout vec4 f_under;  // colour under the entries
-layout(location = 2) inout vec4 f_e0;     // translucent fragments, nearest first
-layout(location = 3) inout vec4 f_e1;
-layout(location = 4) inout vec4 f_e2;
-layout(location = 5) inout vec4 f_state;  // their window depths, u_frame + count
+layout(location = 0) inout vec4 f_color;   // the composite
+layout(location = 1) inout uvec4 f_colors; // RGBA8: under the entries, entries 0-2
+layout(location = 2) inout uvec4 f_depths; // entries' window depths, u_frame + count
 // the new fragment c (depth z) sits in slot i; move it before slot j when not behind it
 // (at an exact tie it goes in front: the later triangle in drawing order wins)
 #define MOVE_UP(i, j) if (at == i && z <= d##j) { e##i = e##j; d##i = d##j; \
@@ -75,36 +73,36 @@ void main() {
     vec4 c = texture(u_texture, v_uv);
     if (c.a < ALPHA_MIN || c.a >= ALPHA_OPAQUE) discard;
     float z = gl_FragCoord.z;
-    vec4 e0 = f_e0, e1 = f_e1, e2 = f_e2, e3 = c;
-    float d0 = f_state.x, d1 = f_state.y, d2 = f_state.z, d3 = z;
-    int n = int(f_state.w - u_frame);
-    vec4 under = f_under;
-    if (n < 0 || n > K) {  // stale stamp: the first fragment here this frame
-        n = 0;
+    uvec4 colors = f_colors, depths = f_depths;
+    uint n = depths.w - u_frame;  // a stale stamp wraps to a large number
+    vec4 under = unpackUnorm4x8(colors.x);
+    if (n > uint(K)) {  // the first fragment here this frame
+        n = 0u;
         under = f_color;
     }
-    if (n == 0) { e0 = c; d0 = z; }
-    if (n == 1) { e1 = c; d1 = z; }
-    if (n == 2) { e2 = c; d2 = z; }
-    int at = n;
+    vec4 e0 = unpackUnorm4x8(colors.y), e1 = unpackUnorm4x8(colors.z);
+    vec4 e2 = unpackUnorm4x8(colors.w), e3 = c;
+    float d0 = uintBitsToFloat(depths.x), d1 = uintBitsToFloat(depths.y);
+    float d2 = uintBitsToFloat(depths.z), d3 = z;
+    if (n == 0u) { e0 = c; d0 = z; }
+    if (n == 1u) { e1 = c; d1 = z; }
+    if (n == 2u) { e2 = c; d2 = z; }
+    int at = int(n);
     MOVE_UP(3, 2)
     MOVE_UP(2, 1)
     MOVE_UP(1, 0)
-    n += 1;
-    if (n > K) {  // full: merge the two farthest (exact unless a later one falls between)
+    n += 1u;
+    if (n > uint(K)) {  // full: merge the two farthest (exact unless a later one falls between)
         e2 += (1.0 - e2.a) * e3;
-        n = K;
+        n = uint(K);
         atomicAdd(overflow, 1u);
     }
     vec4 acc = e0;
-    if (n > 1) acc += (1.0 - acc.a) * e1;
-    if (n > 2) acc += (1.0 - acc.a) * e2;
+    if (n > 1u) acc += (1.0 - acc.a) * e1;
+    if (n > 2u) acc += (1.0 - acc.a) * e2;
     f_color = acc + (1.0 - acc.a) * under;
-    f_under = under;
-    f_e0 = e0;
-    f_e1 = e1;
-    f_e2 = e2;
-    f_state = vec4(d0, d1, d2, u_frame + float(n));
+    f_colors = uvec4(packUnorm4x8(under), packUnorm4x8(e0), packUnorm4x8(e1), packUnorm4x8(e2));
+    f_depths = uvec4(floatBitsToUint(d0), floatBitsToUint(d1), floatBitsToUint(d2), u_frame + n);
 }
 
 #elif defined FRAGMENT_SHADER && defined APPEND_PASS

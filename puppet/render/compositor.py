@@ -269,14 +269,18 @@ class Compositor:
         return [(i, self._meshes[k], self._textures[k][1]) for i, k in enumerate(keys)]
 
     def _upload(self, layer: DrawLayer) -> None:
-        check_layer(layer)
-        self._texture(layer.key, layer.image)
         mesh = self._meshes.get(layer.key)
-        if mesh is None or not mesh.fits(layer):
+        if mesh is not None and mesh.fits(layer):  # a new pose of the same mesh
+            deformed, depth = check_vertices(layer.key, len(mesh.posz), layer.deformed,
+                                             layer.depth)
+        else:
+            check_layer(layer)
+            self._texture(layer.key, layer.image)
             if mesh is not None:
                 mesh.release()
             mesh = self._meshes[layer.key] = LayerMesh(self.ctx, layer, self._passes.programs)
-        mesh.write(np.asarray(layer.deformed, np.float64), np.asarray(layer.depth, np.float64))
+            deformed, depth = layer.deformed, layer.depth
+        mesh.write(np.asarray(deformed, np.float64), np.asarray(depth, np.float64))
 
     def _finish(self, previous) -> None:
         error = self.ctx.error

@@ -29,6 +29,7 @@ class LayerMesh:
                  programs: dict[str, moderngl.Program]):
         h, w = layer.image.shape[:2]
         self.image = layer.image
+        self._sources = (layer.rest, layer.triangles)  # identity: the cheap fits() test
         self.offset = tuple(float(v) for v in layer.offset)
         self.rest = np.array(layer.rest, np.float64)
         self.triangles = np.array(layer.triangles, np.int32).reshape(-1, 3)
@@ -58,12 +59,18 @@ class LayerMesh:
         return ctx.vertex_array(program, content, index_buffer=ibo, index_element_size=4)
 
     def fits(self, layer: DrawLayer) -> bool:
-        """True when ``layer`` has this mesh's image object, offset, rest and triangles."""
-        return (layer.image is self.image
-                and tuple(float(v) for v in layer.offset) == self.offset
-                and np.shape(layer.rest) == self.rest.shape
+        """True when ``layer`` has this mesh's image object, offset, rest and triangles
+        (the same arrays, or equal ones)."""
+        if layer.image is not self.image or tuple(float(v) for v in layer.offset) != self.offset:
+            return False
+        if layer.rest is self._sources[0] and layer.triangles is self._sources[1]:
+            return True
+        if (np.shape(layer.rest) == self.rest.shape
                 and np.array_equal(layer.triangles, self.triangles)
-                and np.array_equal(layer.rest, self.rest))
+                and np.array_equal(layer.rest, self.rest)):
+            self._sources = (layer.rest, layer.triangles)
+            return True
+        return False
 
     def write(self, deformed: np.ndarray | None = None, depth: np.ndarray | None = None) -> None:
         """Write new positions and/or depths into the vertex buffer (no re-creation)."""
@@ -115,7 +122,7 @@ class FrameTargets:
         self.write_fbo = self._fbo([self.main], self.depth)  # depth test + write
         self.test_fbo = self._fbo([self.main], self.depth)   # depth test, no write
         self.test_fbo.depth_mask = False
-        self.kbuffer_fbo = self.kbuffer_state = None
+        self.kbuffer_fbo = None
         self.append_fbo = self.heads = None
         self.out_fbo = None
         self._objects = [self.depth]
@@ -125,22 +132,17 @@ class FrameTargets:
         fbo.extra = OWN  # never rebound as "the caller's" framebuffer
         return fbo
 
-    def kbuffer(self, k: int) -> moderngl.Framebuffer:
-        """Framebuffer [composite, under, k entries, state] sharing the depth buffer."""
+    def kbuffer(self) -> moderngl.Framebuffer:
+        """Framebuffer [composite, packed colours, packed depths + stamp] sharing the
+        depth buffer (the K-buffer pass, K = 3)."""
         if self.kbuffer_fbo is None:
-            extra = [self.ctx.texture(self.size, 4, dtype=self.dtype) for _ in range(k + 1)]
-            self.kbuffer_state = self.ctx.texture(self.size, 4, dtype="f4")
-            self.reset_kbuffer()
-            self._objects += [*extra, self.kbuffer_state]
-            self.kbuffer_fbo = self._fbo([self.main, *extra, self.kbuffer_state], self.depth)
+            w, h = self.size
+            zeros = np.zeros(w * h * 4, np.uint32)  # stamp 0: stale from the first frame on
+            extra = [self.ctx.texture(self.size, 4, zeros, dtype="u4") for _ in range(2)]
+            self._objects += extra
+            self.kbuffer_fbo = self._fbo([self.main, *extra], self.depth)
             self.kbuffer_fbo.depth_mask = False
         return self.kbuffer_fbo
-
-    def reset_kbuffer(self) -> None:
-        """Mark every pixel's K-buffer stale (frame stamp -8 is never current)."""
-        fbo = self.ctx.framebuffer([self.kbuffer_state])
-        fbo.clear(0.0, 0.0, 0.0, -8.0)
-        fbo.release()
 
     def abuffer(self) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
         """Depth-only framebuffer for appending, and the list-head image (zeroed)."""

@@ -49,7 +49,7 @@ class Passes:
         self._fullscreen = {p: ctx.vertex_array(p, []) for p in (self._background, self._straight)}
         self.counters = ctx.buffer(reserve=16)  # overflow, nodes used, nodes lost, -
         self.nodes: moderngl.Buffer | None = None
-        self._stamp = 0.0
+        self._stamp = 0
 
     # -- the frame ----------------------------------------------------------------
     def frame(self, draws: list[Draw], canvas, targets: FrameTargets, background: np.ndarray,
@@ -75,11 +75,9 @@ class Passes:
         self.counters.write(bytes(16))
         self.counters.bind_to_storage_buffer(0)
         if method == "kbuffer":
-            targets.kbuffer(K).use()
-            self._stamp += K + 1
-            if self._stamp > 2.0 ** 22:  # keep stamp + count exact in float
-                targets.reset_kbuffer()
-                self._stamp = float(K + 1)
+            targets.kbuffer().use()
+            # a stamp never seen before by these targets: 2^32 / 4 frames before a wrap
+            self._stamp = (self._stamp + K + 1) % (1 << 32) or K + 1
             set_uniform(self.programs["kbuffer"], "u_frame", self._stamp)
             self._draw_layers("kbuffer", live, depth)
         else:
