@@ -16,22 +16,36 @@ _PILLOW_EXACT = {"1", "L", "LA", "P", "PA", "RGB", "RGBA", "RGBa", "RGBX", "YCbC
 _ALPHA_MODES = {"LA", "La", "PA", "RGBA", "RGBa"}
 
 
+_LUT16 = ((np.arange(65536, dtype=np.uint32) * 255 + 32767) // 65535).astype(np.uint8)
+_BLOCK = 1 << 22  # samples converted at a time: temporaries stay small whatever the image
+
+
 def scale16(a: np.ndarray) -> np.ndarray:
     """16-bit samples (any shape, values clipped to 0..65535) to 8-bit: round(v / 257)."""
-    v = np.clip(a, 0, 65535).astype(np.uint32)
-    return ((v * 255 + 32767) // 65535).astype(np.uint8)
+    a = np.asarray(a)
+    return _LUT16[a if a.dtype == np.uint16 else np.clip(a, 0, 65535)]
 
 
 def scale_float(a: np.ndarray) -> np.ndarray:
     """Float samples to 8-bit: 0.0 -> 0, 1.0 -> 255, rounded half up, clipped; NaN -> 0."""
-    v = np.nan_to_num(np.asarray(a, np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-    return np.floor(np.clip(v, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    a = np.ascontiguousarray(a)
+    out = np.empty(a.shape, np.uint8)
+    src, dst = a.reshape(-1), out.reshape(-1)
+    for s in range(0, src.size, _BLOCK):
+        v = np.nan_to_num(src[s:s + _BLOCK].astype(np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+        dst[s:s + _BLOCK] = np.floor(np.clip(v, 0.0, 1.0) * 255.0 + 0.5)
+    return out
 
 
 def luma(rgba: np.ndarray) -> np.ndarray:
     """Grey of (h, w, 4) uint8 pixels exactly as Pillow's ``convert("L")``, (h, w) uint8."""
-    c = rgba[..., :3].astype(np.uint32)
-    return ((c[..., 0] * 19595 + c[..., 1] * 38470 + c[..., 2] * 7471 + 0x8000) >> 16).astype(np.uint8)
+    h, w = rgba.shape[:2]
+    out = np.empty((h, w), np.uint8)
+    step = max(1, _BLOCK // max(w, 1))
+    for i in range(0, h, step):
+        c = rgba[i:i + step, :, :3].astype(np.uint32)
+        out[i:i + step] = (c[..., 0] * 19595 + c[..., 1] * 38470 + c[..., 2] * 7471 + 0x8000) >> 16
+    return out
 
 
 def _grey(g: np.ndarray, alpha: np.ndarray | None = None) -> np.ndarray:
@@ -52,7 +66,7 @@ def pillow_to_rgba(im) -> tuple[np.ndarray, bool]:
     mode = im.mode
     key = im.info.get("transparency")
     if mode.startswith("I;16") or mode == "I":
-        raw = np.asarray(im).astype(np.int64)
+        raw = np.asarray(im)
         alpha = None if not isinstance(key, int) else np.where(raw == key, 0, 255).astype(np.uint8)
         return _grey(scale16(raw), alpha), alpha is not None
     if mode == "F":
@@ -64,7 +78,7 @@ def pillow_to_rgba(im) -> tuple[np.ndarray, bool]:
     if mode not in _PILLOW_EXACT:
         raise ValueError(f"pixel format {mode!r} is not supported")
     has_alpha = mode in _ALPHA_MODES or key is not None
-    return np.asarray(im.convert("RGBA")).copy(), has_alpha
+    return np.array(im.convert("RGBA")), has_alpha
 
 
 def _colour_managed(im) -> np.ndarray:

@@ -14,9 +14,15 @@ def has_transparency(rgba: np.ndarray) -> bool:
 
 
 def luminance(rgba: np.ndarray) -> np.ndarray:
-    """Rec. 601 luma of an (h, w, 4) uint8 image, (h, w) float in 0..255."""
-    rgb = rgba[..., :3].astype(np.float32)
-    return rgb @ np.array([0.299, 0.587, 0.114], np.float32)
+    """Rec. 601 luma of an (h, w, 4) uint8 image, (h, w) float32 in 0..255 (computed a
+    band of rows at a time: no full-size float copy of the colours)."""
+    h, w = rgba.shape[:2]
+    out = np.empty((h, w), np.float32)
+    weights = np.array([0.299, 0.587, 0.114], np.float32)
+    step = max(1, (1 << 20) // max(w, 1))
+    for i in range(0, h, step):
+        out[i:i + step] = rgba[i:i + step, :, :3].astype(np.float32) @ weights
+    return out
 
 
 def alpha_mask(rgba: np.ndarray) -> np.ndarray:
