@@ -67,6 +67,50 @@ def _open_regular(path: str, fail):
     return os.fdopen(fd, "rb")
 
 
+def _probe(f, fail):
+    """Open an image from its header: (Pillow image or None for a TIFF only OpenCV
+    reads, (width, height) as stored, EXIF orientation). Sizes are checked."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        im = Image.open(f)
+    except UnidentifiedImageError:
+        f.seek(0)
+        if f.read(4) in (b"II*\x00", b"MM\x00*"):  # float colour TIFFs: Pillow has no mode for them
+            size = _tiff_size(f, fail)
+            _check_size(*size, fail)
+            return None, size, 1
+        raise fail("not an image file (PNG, JPEG, ... expected)") from None
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning):
+        raise fail(f"too large (more than {MAX_PIXELS} pixels)") from None
+    except (OSError, ValueError, SyntaxError, EOFError) as e:
+        raise fail(f"cannot be read ({e})") from None
+    _check_size(*im.size, fail)
+    try:
+        orientation = int(im.getexif().get(0x0112, 1))
+    except Exception:  # a broken EXIF block only loses the orientation
+        orientation = 1
+    return im, im.size, orientation
+
+
+@contextlib.contextmanager
+def _opened(path: str, scene_file: str | None, json_path: str | None):
+    from PIL import Image
+
+    fail = _fail_for(path, scene_file, json_path)
+    with _open_regular(path, fail) as f, warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # decoder chatter must not reach the user's terminal
+        warnings.simplefilter("error", Image.DecompressionBombWarning)
+        yield (f, fail) + _probe(f, fail)
+
+
+def image_size(path: str, *, scene_file: str | None = None, json_path: str | None = None) -> tuple[int, int]:
+    """(width, height) of an image as :func:`decode_image` returns it (EXIF orientation
+    applied), from the header alone. Raises ImageError like :func:`decode_image`."""
+    with _opened(path, scene_file, json_path) as (_, _, _, (w, h), orientation):
+        return (h, w) if orientation in (5, 6, 7, 8) else (w, h)
+
+
 def decode_image(path: str, *, scene_file: str | None = None,
                  json_path: str | None = None) -> tuple[np.ndarray, bool]:
     """Read an image file as 8-bit RGBA, as it looks (see :mod:`puppet.imaging.decode`).
@@ -82,31 +126,10 @@ def decode_image(path: str, *, scene_file: str | None = None,
         Missing, not a regular file, not an image, corrupt or too large (checked from
         the header, before any pixel is decoded).
     """
-    from PIL import Image, UnidentifiedImageError
-
-    fail = _fail_for(path, scene_file, json_path)
-    with _open_regular(path, fail) as f, warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # decoder chatter must not reach the user's terminal
-        warnings.simplefilter("error", Image.DecompressionBombWarning)
+    with _opened(path, scene_file, json_path) as (f, fail, im, size, orientation):
         try:
-            im = Image.open(f)
-        except UnidentifiedImageError:
-            f.seek(0)
-            if f.read(4) in (b"II*\x00", b"MM\x00*"):  # float colour TIFFs: Pillow has no mode for them
-                return _decode_with_opencv(f, _tiff_size(f, fail), 0, fail)
-            raise fail("not an image file (PNG, JPEG, ... expected)") from None
-        except (Image.DecompressionBombError, Image.DecompressionBombWarning):
-            raise fail(f"too large (more than {MAX_PIXELS} pixels)") from None
-        except (OSError, ValueError, SyntaxError, EOFError) as e:
-            raise fail(f"cannot be read ({e})") from None
-        _check_size(*im.size, fail)
-        try:
-            orientation = int(im.getexif().get(0x0112, 1))
-        except Exception:  # a broken EXIF block only loses the orientation
-            orientation = 1
-        try:
-            if _wide_colour(im, f):  # 16-bit colour: Pillow would keep only the high byte
-                return _decode_with_opencv(f, im.size, orientation, fail)
+            if im is None or _wide_colour(im, f):  # 16-bit colour: Pillow would keep only the high byte
+                return _decode_with_opencv(f, size, orientation, fail)
             with _c_stderr_captured(im.format == "TIFF") as said:
                 try:
                     im.load()

@@ -187,11 +187,10 @@ class Document(Edits):
         if d.canvas is not None:
             return d.canvas
         if d.source is not None:
-            def size():
-                from PIL import Image
+            def size():  # from the header, checked like every image (a FIFO must not hang)
+                from puppet.imaging.io import image_size
 
-                with Image.open(d.source) as im:
-                    return im.size
+                return image_size(d.source, scene_file=self.file, json_path="source")
             return tuple(self.rig.memo.get("pixels", fingerprint("size", file_stamp(d.source)), size))
         h, w = self.built.images[0].rgba.shape[:2]
         return (w, h)

@@ -244,3 +244,23 @@ def test_corrupt_tiff_message_is_one_line(tmp_path, capfd):
         load_rgba(str(p))
     out, err = capfd.readouterr()
     assert err == "" and "\n" not in str(e.value)
+
+
+def test_image_size_agrees_with_decoding(tmp_path):
+    from puppet.imaging.io import image_size
+    import cv2
+
+    a = np.zeros((3, 5, 3), np.uint8)
+    exif = Image.Exif()
+    exif[0x0112] = 6  # rotated: shown 3 wide, 5 tall
+    Image.fromarray(a).save(tmp_path / "o.png", exif=exif)
+    assert image_size(str(tmp_path / "o.png")) == (3, 5) == load_rgba(str(tmp_path / "o.png")).shape[1::-1]
+    assert cv2.imwrite(str(tmp_path / "f.tif"), np.zeros((4, 7, 3), np.float32))  # Pillow cannot open it
+    assert image_size(str(tmp_path / "f.tif")) == (7, 4)
+    os.mkfifo(tmp_path / "p.png")
+    _no_hang()
+    try:
+        with pytest.raises(ImageError, match="not a regular file"):
+            image_size(str(tmp_path / "p.png"))
+    finally:
+        signal.alarm(0)

@@ -197,3 +197,29 @@ def test_accepted(results, name, capsys):
     _, r = _outcome(results, name, capsys)
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stderr == "" and "layer" in r.stdout
+
+
+def test_source_fifo_refused_when_only_its_size_is_needed(tmp_path, capsys):
+    """No layer takes pixels from ``source``: only its size is read (for the canvas),
+    through the same checks; ``puppet render`` used to block on the FIFO."""
+    import signal
+
+    write_rgba(tmp_path / "bar.png", bar_image())
+    os.mkfifo(tmp_path / "pipe.png")
+    s = bar_scene()
+    del s["canvas"]
+    s["source"] = "pipe.png"
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps(s))
+
+    def alarm(*_):
+        raise TimeoutError("blocked on a FIFO")
+    signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(30)
+    try:
+        rc = main(["render", str(scene), "-o", str(tmp_path / "m.png")])
+    finally:
+        signal.alarm(0)
+    line, = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and f"{scene}: source: image" in line and "not a regular file" in line
+    assert not (tmp_path / "m.png").exists()
