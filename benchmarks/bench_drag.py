@@ -46,15 +46,17 @@ def drag_path(start, steps: int, radius: float) -> np.ndarray:
 def floor_draw(scene, layers) -> float:
     """Median time of a plain single-pass depth-tested textured draw of the layers, read back."""
     from benchmarks.bench_render import Floor
+    from puppet.render.layers import DrawLayer
 
-    floor = Floor(scene.compositor.ctx)
-    floor.upload(layers, scene.built.images)
+    draw = [DrawLayer(r.name, im.rgba, im.offset, r.rest, r.deformed, r.triangles, r.depth)
+            for r, im in zip(layers, scene.built.images)]
+    floor = Floor(scene.compositor.ctx, draw, scene.canvas)
     times = []
     for _ in range(15):
         t0 = time.perf_counter()
-        floor.draw(scene.canvas, read=True)
+        floor.draw(draw, scene.canvas)
+        floor.fbo.read(components=4)
         times.append(time.perf_counter() - t0)
-    floor.release()
     return float(np.median(times))
 
 
