@@ -4,10 +4,10 @@
 //                  depth test LEQUAL + write (exact ties: the later triangle wins).
 //   KBUFFER_PASS   edge triangles; early depth test LESS against the opaque depth, no
 //                  write; keeps fragments with ALPHA_MIN <= alpha < ALPHA_OPAQUE and
-//                  inserts them, by depth, into a per-pixel K-entry buffer held in colour
-//                  attachments read back with framebuffer fetch (coherent, primitive
-//                  order); rewrites the pixel as the sorted entries over the colour found
-//                  under the first of them (the opaque layer or the background).
+//                  inserts them, by depth, into a per-pixel K-entry buffer packed in two
+//                  integer colour attachments read back with framebuffer fetch (coherent,
+//                  in primitive order); rewrites the pixel as the sorted entries over the
+//                  colour found under the first of them (the opaque layer or background).
 //   APPEND_PASS    edge triangles, same tests; appends the fragments to per-pixel linked
 //                  lists (a node buffer and an image of list heads): the A-buffer.
 //   RESOLVE_PASS   edge triangles again, same early test; the first fragment at a pixel

@@ -124,6 +124,7 @@ class FrameTargets:
         self.test_fbo.depth_mask = False
         self.kbuffer_fbo = None
         self.append_fbo = self.heads = None
+        self.heads_dirty = False
         self.out_fbo = None
         self._objects = [self.depth]
 
@@ -145,13 +146,18 @@ class FrameTargets:
         return self.kbuffer_fbo
 
     def abuffer(self) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
-        """Depth-only framebuffer for appending, and the list-head image (zeroed)."""
+        """Depth-only framebuffer for appending, and the list-head image, all zero (the
+        resolve pass empties every head it reads; ``heads_dirty`` marks a frame cut short
+        between the two passes)."""
+        w, h = self.size
         if self.append_fbo is None:
-            w, h = self.size
             self.heads = self.ctx.texture(self.size, 1, np.zeros(w * h, np.uint32), dtype="u4")
             self._objects.append(self.heads)
             self.append_fbo = self._fbo([], self.depth)
             self.append_fbo.depth_mask = False
+        elif self.heads_dirty:
+            self.heads.write(np.zeros(w * h, np.uint32))
+        self.heads_dirty = False
         return self.append_fbo, self.heads
 
     def output(self) -> moderngl.Framebuffer:

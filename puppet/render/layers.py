@@ -131,13 +131,10 @@ def fragment_bound(deformed: np.ndarray, triangles: np.ndarray, scale: tuple[flo
 
 
 def mesh_edges(triangles: np.ndarray) -> np.ndarray:
-    """Unique undirected edges, shape (k, 2) int32, of triangles (m, 3)."""
-    try:  # the shared mesh primitives, once puppet.geom has them
-        from puppet.geom.mesh import edges
-    except ImportError:
-        edges = None
-    if edges is not None:
-        return np.asarray(edges(np.asarray(triangles)), np.int32).reshape(-1, 2)
+    """Unique undirected edges, shape (k, 2) int32, of triangles (m, 3).
+
+    (To be replaced by the shared mesh primitives in ``puppet.geom`` once they exist.)
+    """
     t = np.asarray(triangles, np.int64).reshape(-1, 3)
     e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     n = int(t.max(initial=0)) + 1

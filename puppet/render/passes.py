@@ -88,11 +88,13 @@ class Passes:
             self.nodes.bind_to_storage_buffer(1)
             set_uniform(self.programs["append"], "u_capacity", capacity)
             append_fbo.use()
+            targets.heads_dirty = True
             self._draw_layers("append", live, depth, order=True)
             ctx.memory_barrier()
             targets.test_fbo.use()
             self._blend_over()
             self._draw_layers("resolve", live, depth)
+            targets.heads_dirty = False
             ctx.memory_barrier()
         if wireframe:
             self._draw_wireframe(live, targets)
