@@ -125,7 +125,8 @@ def test_more_translucent_fragments_than_k_fall_back_to_the_abuffer(comp):
     want = reference.reference_composite(layers, CANVAS, background=WHITE)
     assert_matches(comp.render(layers, CANVAS, background=WHITE), want)
     assert comp.last_method == "abuffer" and comp.last_overflow > 0
-    overflow, used, lost = comp._passes.read_counters()  # the A-buffer's frame
+    with comp.ctx:
+        overflow, used, lost = comp._passes.read_counters()  # the A-buffer's frame
     assert used > 0 and lost == 0 and used <= comp._passes.nodes.size // 16
     # the next previews use the A-buffer, and return to the K-buffer when it suffices
     with comp.ctx:
