@@ -94,6 +94,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("check", help="validate a scene, build its meshes and print a summary")
     c.add_argument("scene")
+
+    w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
+    w.add_argument("scene", nargs="?")
+    w.add_argument("--size", type=_size, default=(1280, 800), metavar="WxH", help="window size (default 1280x800)")
     return p
 
 
@@ -164,6 +168,10 @@ def _stdout_to_devnull() -> None:
 
 def run(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.command == "app":  # imported here only: render and mesh never load pyglet
+        import puppet.app
+
+        return puppet.app.run(args.scene, size=args.size)
     from puppet.output import check_file, check_folder
 
     # what can be checked without the scene is checked first (fast); again with its inputs after loading

@@ -68,7 +68,7 @@ def handle_keys(app, win) -> None:
         return
     if typing:
         return
-    if _pressed(K.slash) and shift or _pressed(K.f1):
+    if "?" in win.input.chars or _pressed(K.f1):
         app.show_help = not app.show_help
     elif _pressed(K.escape):
         if app.show_help:

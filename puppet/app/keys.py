@@ -38,6 +38,7 @@ class ImGuiInput:
     def __init__(self, window):
         self.window = window
         self.io = imgui.get_io()
+        self.chars = ""  # characters typed since the window last cleared it (shortcuts like "?")
 
     def _y(self, y: float) -> float:
         return self.window.height - y
@@ -61,6 +62,7 @@ class ImGuiInput:
         return True
 
     def on_text(self, text):
+        self.chars += text
         for ch in text:
             if ch.isprintable():
                 self.io.add_input_character(ord(ch))

@@ -190,6 +190,7 @@ class AppWindow:
         menus.status_line(app, cursor)
         imgui.end()
         keymap.handle_keys(app, self)
+        self.input.chars = ""
         menus.dialogs(app, self)
         menus.help_overlay(app)
         imgui.render()
