@@ -8,7 +8,6 @@ messages), feeds canvas events to the tools (:mod:`puppet.app.tools`) and key pr
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
 
@@ -297,7 +296,6 @@ class App:
         def job(w):
             import puppet
 
-            t = time.perf_counter()
             scene = puppet.load_scene(path)
             saved = scene.to_dict()
             if recover_from is not None:
@@ -306,7 +304,7 @@ class App:
             scene.built  # build (images, meshes, groups) here, not in the first frame
             w.set_scene(scene, saved)
             w.show_rest = self.mode == "pin"
-            return f"opened {path} in {time.perf_counter() - t:.1f} s" + (" (recovered)" if recover_from else "")
+            return f"opened {os.path.basename(path)}" + (" (recovered from its autosave)" if recover_from else "")
         self.selection, self.selected_layer, self.hidden = [], None, set()
         self.worker.submit(job)
 

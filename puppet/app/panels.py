@@ -22,6 +22,7 @@ class Panels:
         self.pin_name = ""
         self.underlay_path = ""
         self._auto_area: dict[str, float] = {}
+        self._had_underlay = False
 
     def draw(self) -> None:
         app = self.app
@@ -34,6 +35,10 @@ class Panels:
             self.poses()
         if imgui.collapsing_header("Pins", _H):
             self.pins()
+        has = app.snap.underlay is not None
+        if has and not self._had_underlay:  # a picture was just set: show its settings
+            imgui.set_next_item_open(True)
+        self._had_underlay = has
         if imgui.collapsing_header("Reference picture"):
             self.reference()
 

@@ -73,6 +73,7 @@ class AppWindow:
         moderngl.init_context()
         self.ctx = moderngl.get_context()
         self.imgui_ctx = imgui.create_context()
+        imgui.set_current_context(self.imgui_ctx)  # create_context keeps an earlier one current
         io = imgui.get_io()
         io.set_ini_filename("")
         io.config_windows_move_from_title_bar_only = True
@@ -153,6 +154,7 @@ class AppWindow:
         t0 = time.perf_counter()
         win, app = self.win, self.app
         win.switch_to()
+        imgui.set_current_context(self.imgui_ctx)  # several windows may live in one process
         if dispatch:
             win.dispatch_events()
         self._follow_up()
@@ -338,6 +340,7 @@ class AppWindow:
             autosave.remove(worker.scene.file)
         worker.stop()
         self.win.switch_to()
+        imgui.set_current_context(self.imgui_ctx)
         self.thumbs.release()
         self.canvas.release()
         self.gui.release()
