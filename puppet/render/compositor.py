@@ -170,7 +170,7 @@ class Compositor:
             targets = self._targets_for(size, dtype="f2" if precise else "f1")
             method = self._choose()
             for _attempt in range(3):
-                self._frame(draws, canvas, targets, background, wireframe, method, False)
+                method = self._frame(draws, canvas, targets, background, wireframe, method, False)
                 out = self._passes.read(targets, precise)
                 overflow, used, lost = self._take_counters()
                 if method == "kbuffer" and overflow:
@@ -290,12 +290,13 @@ class Compositor:
             raise RuntimeError(f"OpenGL error while compositing: {error}")
 
     def _frame(self, draws: list[Draw], canvas, targets: FrameTargets, background,
-               wireframe: bool, method: str, flip: bool) -> None:
+               wireframe: bool, method: str, flip: bool) -> str:
         texture = None if background.shape[:2] == (1, 1) else self._texture("\0background",
                                                                             background)
-        self._passes.frame(draws, canvas, targets, background, texture, method=method,
-                           wireframe=wireframe, flip=flip)
+        method = self._passes.frame(draws, canvas, targets, background, texture,
+                                    method=method, wireframe=wireframe, flip=flip)
         self._pending = self.last_method = method
+        return method
 
     def _take_counters(self) -> tuple[int, int, int]:
         """Read the last frame's counters (waits for that frame) and update the hint."""

@@ -123,6 +123,7 @@ class FrameTargets:
         self.test_fbo = self._fbo([self.main], self.depth)   # depth test, no write
         self.test_fbo.depth_mask = False
         self.kbuffer_fbo = None
+        self.kbuffer_failed = False
         self.append_fbo = self.heads = None
         self.heads_dirty = False
         self.out_fbo = None
@@ -137,10 +138,18 @@ class FrameTargets:
         """Framebuffer [composite, packed colours, packed depths + stamp] sharing the
         depth buffer (the K-buffer pass, K = 3)."""
         if self.kbuffer_fbo is None:
+            if self.kbuffer_failed:
+                raise moderngl.Error("no memory for the K-buffer at this size")
             w, h = self.size
             zeros = np.zeros(w * h * 4, np.uint32)  # stamp 0: stale from the first frame on
-            extra = [self.ctx.texture(self.size, 4, zeros, dtype="u4") for _ in range(2)]
-            self._objects += extra
+            extra = []
+            try:
+                for _ in range(2):
+                    extra.append(self.ctx.texture(self.size, 4, zeros, dtype="u4"))
+                    self._objects.append(extra[-1])
+            except moderngl.Error:
+                self.kbuffer_failed = True
+                raise
             self.kbuffer_fbo = self._fbo([self.main, *extra], self.depth)
             self.kbuffer_fbo.depth_mask = False
         return self.kbuffer_fbo

@@ -54,8 +54,12 @@ class Passes:
     # -- the frame ----------------------------------------------------------------
     def frame(self, draws: list[Draw], canvas, targets: FrameTargets, background: np.ndarray,
               background_texture: moderngl.Texture | None, *, method: str, wireframe: bool,
-              flip: bool) -> None:
-        """Draw one frame into ``targets.main`` (premultiplied), nothing read back."""
+              flip: bool) -> str:
+        """Draw one frame into ``targets.main`` (premultiplied), nothing read back.
+
+        Returns the edge method used: "abuffer" also when the K-buffer's attachments
+        (32 more bytes a pixel) cannot be allocated at this size.
+        """
         ctx = self.ctx
         cw, ch = float(canvas[0]), float(canvas[1])
         ndc = (2.0 / cw, -2.0 / ch, -1.0, 1.0) if flip else (2.0 / cw, 2.0 / ch, -1.0, -1.0)
@@ -75,7 +79,13 @@ class Passes:
         self.counters.write(bytes(16))
         self.counters.bind_to_storage_buffer(0)
         if method == "kbuffer":
-            targets.kbuffer().use()
+            try:
+                kbuffer_fbo = targets.kbuffer()
+            except moderngl.Error:
+                method = "abuffer"
+                self.ctx.error  # noqa: B018 - the failed allocation's flag
+        if method == "kbuffer":
+            kbuffer_fbo.use()
             # a stamp never seen before by these targets: 2^32 / 4 frames before a wrap
             self._stamp = (self._stamp + K + 1) % (1 << 32) or K + 1
             set_uniform(self.programs["kbuffer"], "u_frame", self._stamp)
@@ -98,6 +108,7 @@ class Passes:
             ctx.memory_barrier()
         if wireframe:
             self._draw_wireframe(live, targets)
+        return method
 
     def _draw_layers(self, name: str, live: list[Draw], depth, *, order: bool = False) -> None:
         program = self.programs[name]

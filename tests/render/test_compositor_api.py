@@ -141,6 +141,23 @@ def test_more_translucent_fragments_than_k_fall_back_to_the_abuffer(comp):
 
 
 @pytest.mark.gl
+def test_no_memory_for_the_kbuffer_falls_back_to_the_abuffer(monkeypatch):
+    from puppet.render.gpu import FrameTargets
+
+    def no_memory(self):
+        raise moderngl.Error("out of memory")
+    monkeypatch.setattr(FrameTargets, "kbuffer", no_memory)
+    layers = crossing_scene()
+    c = Compositor(method="kbuffer")
+    try:
+        got = c.render(layers, CANVAS, background=WHITE)
+        assert c.last_method == "abuffer"
+    finally:
+        c.release()
+    assert_matches(got, reference.reference_composite(layers, CANVAS, background=WHITE))
+
+
+@pytest.mark.gl
 def test_forced_kbuffer_preview_merges_beyond_k(comp):
     # a draw() cannot redraw: beyond K it merges the two farthest entries, exact when the
     # fragments arrive in depth order (layers whose depths do not cross), and the
