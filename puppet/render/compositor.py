@@ -29,7 +29,8 @@ Textures are premultiplied. A frame is:
    K-buffer overflowed, so its output is always exact; :meth:`Compositor.draw` switches
    to the A-buffer from the next frame on (and back when no pixel needs it).
 
-No step waits for the GPU; :meth:`~Compositor.render` reads back once at the end.
+No pass waits for the GPU: :meth:`~Compositor.render` reads back once at the end, and
+:meth:`~Compositor.draw` reads the previous frame's 16-byte counter when it starts the next.
 
 Tie rule (the CPU reference ``tests/render/reference.py`` follows it):
     * the larger depth is in front;
