@@ -55,7 +55,7 @@ def test_conflicts_hand_checked():
 
 def test_conflicts_match_exact_reference_on_grid_degeneracies():
     rng = np.random.default_rng(3)
-    for _ in range(150):
+    for _ in range(70):
         P = np.unique(rng.integers(0, 7, (int(rng.integers(3, 30)), 2)).astype(float), axis=0)
         if len(P) < 3:
             continue
@@ -84,7 +84,7 @@ def test_noisy_masks_mesh_without_crashing(seed):
     rng = np.random.default_rng(seed)
     if seed == 0:
         m = cv2.GaussianBlur(rng.random((600, 600)), (0, 0), 3) > 0.5
-        cases = [(2.0, 25.0, 1.0)]
+        cases = [(10.0, 25.0, 1.0)]
     else:  # the fuzzer's recipe
         n = int(rng.integers(20, 200))
         sig = float(rng.uniform(0.3, 4))
@@ -97,6 +97,12 @@ def test_noisy_masks_mesh_without_crashing(seed):
         m = (m, off)
     mask, off = m if isinstance(m, tuple) else (m, (0.0, 0.0))
     regions = mask_regions(mask, off)
+    if seed == 0:  # the case exercised: a hole ring that touches itself (repeats a vertex)
+        from puppet.geom.contour import resample_ring
+
+        h = tr.edge_length_for_area(cases[0][0])
+        rings = [resample_ring(tr._simplified(x, 1.0), h) for r in regions for x in r.holes]
+        assert any(len(np.unique(np.round(R, 9), axis=0)) < len(R) for R in rings)
     for a, ang, simp in cases:
         M = tr.triangulate_regions(regions, max_area=a, min_angle=ang, simplify=simp)
         assert len(M.F) > 0
