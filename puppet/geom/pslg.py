@@ -2,7 +2,7 @@
 
 Triangle, run with ``YY`` (no Steiner points on segments), cannot resolve two input
 segments that cross or overlap, and may crash outright on repeated vertices; these
-helpers make sure it never sees either.
+helpers merge the repeated vertices and find the segments in conflict.
 """
 from __future__ import annotations
 

@@ -3,8 +3,8 @@
 Pins become vertices; link segments become constrained edges. Segments are never split
 by Triangle (switch ``YY``): we subdivide them ourselves first, so two linked layers get
 exactly the same vertices along a shared link segment. The number of triangles is
-estimated and bounded (:data:`MAX_TRIANGLES`) before Triangle runs, and Triangle never
-sees repeated vertices or crossing segments (see :mod:`puppet.geom.pslg`).
+estimated and bounded (:data:`MAX_TRIANGLES`) before Triangle runs; Triangle is given
+no repeated vertices and no outline crossing another (see :mod:`puppet.geom.pslg`).
 """
 from __future__ import annotations
 

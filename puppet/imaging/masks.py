@@ -44,7 +44,7 @@ def threshold_mask(rgba: np.ndarray, threshold: float, invert: bool = False) -> 
 #: Most row crossings a polygon mask may need (edges x pixel rows they span).
 MAX_CROSSINGS = 10_000_000
 #: Crossings rasterised at a time (bounds the memory of one step).
-CHUNK = 1 << 22
+CHUNK = 1 << 20
 
 
 def _edges(polygon, offset):
