@@ -15,6 +15,7 @@ import glob
 import json
 import os
 import re
+import shutil
 import tempfile
 from collections import Counter
 
@@ -160,6 +161,7 @@ def _check_error(e: SceneError, path: str) -> None:
 @pytest.fixture(scope="module", autouse=True)
 def _report():
     yield
+    shutil.rmtree(WORK, ignore_errors=True)
     report = os.environ.get("PUPPET_SWEEP_REPORT")
     if report:
         with open(report, "w") as f:
