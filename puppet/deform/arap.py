@@ -407,7 +407,10 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     Returns
     -------
     U : (n, 2) float
-        Deformed positions; ``U[b] == bc`` exactly, held components at rest.
+        Deformed positions; ``U[b] == bc`` exactly, held components at rest; always
+        finite (an iteration whose solve breaks down ends the loop at the last finite
+        iterate). Work: ``iterations`` units of :mod:`puppet.deform.budget` plus the
+        initial guess.
     """
     bc = _check_bc(data, bc)
     V, b = data.V, data.b
@@ -417,6 +420,8 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
         U = np.array(U0, dtype=np.float64, order="C")
         if U.shape != V.shape:
             raise ValueError(f"U0 must have shape {V.shape}, got {U.shape}")
+    lost = ~np.isfinite(U).all(axis=1)
+    U[lost] = V[lost]
     U[data.held] = V[data.held]
     U[b] = bc
     if data.factor is None or int(iterations) <= 0:
@@ -435,7 +440,10 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
             q += q0
             rhs = data.R @ _rotation_minus_one(q, sigma)
             rhs -= rb
-            xf = solve(rhs)
+            x_new = solve(rhs)
+            if not np.isfinite(x_new).all():  # a breakdown (e.g. indefinite raw weights):
+                break  # keep the last finite iterate
+            xf = x_new
             if callback is not None:
                 U[free, 0], U[free, 1] = V[free, 0] + xf.real, V[free, 1] + xf.imag
                 callback(it, U.copy())

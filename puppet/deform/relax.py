@@ -16,55 +16,54 @@ thin tip of the shape. Two stages, the second only for what the first leaves:
    has no fold left: otherwise stage 2 starts from the ARAP result, as a partial
    relaxation moves the region (8 px, 20 px away from the folds, on T-rex ``roar``)
    without making the untangling easier.
-2. **Untangling** of what is still folded: the free vertices of a region around the
-   folds (3, 6, 12 rings with the outer ring fixed, then the whole mesh; mesh-boundary
-   vertices inside a region are free, pins and pinless components fixed) minimise the
-   foldover-free energy of Garanzha, Kaporin, Kudryavtseva, Protais, Ray and Sokolov,
-   "Foldover-free maps in 50 lines of code" (SIGGRAPH 2021)::
-
-       E_eps = sum_t A_t [(1 - theta) |J_t|^2 + theta (1 + det J_t^2)] / chi(det J_t, eps)
-       chi(D, eps) = (D + sqrt(eps^2 + D^2)) / 2,   theta = 1/128
-
-   (``J_t`` the rest-to-deformed Jacobian of triangle t, ``A_t`` its rest area), by
-   projected Newton steps (per-triangle 4x4 Hessians clamped to positive semi-definite,
-   one sparse solve of the region's small system per step: this is not the ARAP matrix,
-   which is never refactorised; steps of at most 2 typical edge lengths), lowering
-   ``eps`` by the paper's rule ``eps <- 2 sqrt(mu (mu - D_min))``,
-   ``mu = (1 - sigma) chi(D_min, eps)``, until every determinant is positive, then at
-   ``eps = 1e-10`` (a barrier: the orientation is kept) until the energy settles.
-   ``sigma >= 0.85`` here rather than the paper's 0.1 (measured on 109 synthetic drags
-   that need this stage: same success, about 15x faster).
+2. **Untangling** of what is still folded (:mod:`puppet.deform.untangle`): the free
+   vertices of a region around the folds (3, 6, 12 rings with the outer ring fixed, then
+   the whole mesh; mesh-boundary vertices inside a region are free, pins and pinless
+   components fixed) minimise the foldover-free energy of Garanzha et al. (SIGGRAPH
+   2021) by projected Newton steps on the region's own system (the ARAP matrix is never
+   refactorised).
 
 Both stages keep every pin exactly on its target and never move a component without
 a pin. If a fold cannot be removed (e.g. three pins of one triangle given reversed
 targets), the result with the fewest folds is returned, never more than given.
+
+**Bounded work.** A relaxation spends at most ``budget`` work units
+(:mod:`puppet.deform.budget`; one unit = one ARAP iteration of the mesh, a plain solve
+is 20): every similarity iteration, fold check, Newton step and line-search energy is
+charged by the size it works on (only the fold checks of the given pose are free), and a stage that cannot be paid for is cut short or
+skipped. The result is the one with the fewest folds found within the budget (ties:
+the earliest), so the same pins always give the same shape; the wall-clock cap of
+:class:`~puppet.deform.budget.Budget` only backs this up. Far drags (pins moved several
+times the layer's size) that tangle most of a mesh come out with fewer folds in bounded
+time instead of minutes (``benchmarks/bench_fardrag.py``).
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
+from puppet.deform import budget as cost
 from puppet.deform.arap import ArapData
+from puppet.deform.budget import Budget
 from puppet.deform.factor import pair_solver as _pair_solver
+from puppet.deform.untangle import untangle
 
-__all__ = ["folded_triangles", "relax_foldovers", "untangle"]
+__all__ = ["folded_triangles", "relax_foldovers", "untangle", "default_budget", "BUDGET"]
 
-#: Weight of the area term of the untangling energy (the paper's 2D value).
-THETA = 1.0 / 128.0
-#: Lower bound of the paper's eps decrease factor sigma (0.1 there; see the module doc).
-SIGMA_MIN = 0.85
 #: Rings of the local untangling regions, tried in turn before the whole mesh.
 UNTANGLE_RINGS = (3, 6, 12)
 #: Rounds given to a local region before the next, larger one (its fixed outer ring
 #: may leave no fold-free solution).
 LOCAL_ROUNDS = 6
-#: Untangling ends once fold-free and a round lowers the energy by less than this
-#: fraction. The rounds after the first fold-free one pull back what the first steps
-#: inflated (a thin tip flung 230 px out on trex-cutout ``reach`` without them).
-POLISH_TOL = 1e-3
-#: Longest Newton step of a vertex, in typical edge lengths of the region.
-STEP_EDGES = 2.0
+#: Default work budget of a relaxation, in work units (:mod:`puppet.deform.budget`: one
+#: unit = one ARAP iteration of the mesh): 7 plain 20-iteration solves. The far-drag
+#: benchmark keeps a relaxed pose within 10x the time of the plain one with it.
+BUDGET = 140.0
+#: Meshes with fewer vertices than this get ``BUDGET * FLOOR_VERTICES / n`` units: the
+#: work of ``BUDGET`` iterations on a mesh of this size (a few tens of milliseconds), as
+#: their own iterations cost next to nothing and their regions are most of the mesh.
+FLOOR_VERTICES = 5000
 
 
 def _areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -107,8 +106,16 @@ def _grow(F: np.ndarray, mask: np.ndarray, rings: int) -> np.ndarray:
     return mask
 
 
+def default_budget(n: int) -> float:
+    """Work units of a relaxation on an ``n``-vertex mesh: ``BUDGET``, raised below
+    ``FLOOR_VERTICES`` vertices to the work of ``BUDGET`` iterations at that size."""
+    return BUDGET * max(1.0, FLOOR_VERTICES / max(int(n), 1))
+
+
 def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5, s_max: float = 1.5,
-                    iterations: int = 20, rounds: int = 3, untangle_folds: bool = True) -> np.ndarray:
+                    iterations: int = 20, rounds: int = 3, untangle_folds: bool = True,
+                    budget: float | None = None, time_limit: float | None = None,
+                    info: dict | None = None) -> np.ndarray:
     """Remove folded triangles from an ARAP result: bounded-scale similarity cells, then untangling.
 
     Parameters
@@ -131,51 +138,84 @@ def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5
     iterations : int
         Local/global iterations per similarity round.
     rounds : int
-        Similarity rounds while folds remain (0: untangle straight away). Their result is
-        used only when it has no fold left. 3: more rounds (8+ rings, ``s_min`` <= 1/8)
-        rarely remove the last folds and drift the region.
+        Similarity rounds while folds remain (0: untangle straight away). The untangling
+        starts from the ARAP result, not from theirs. 3: more rounds (8+ rings,
+        ``s_min`` <= 1/8) rarely remove the last folds and drift the region.
     untangle_folds : bool
         Run the untangling stage (:func:`untangle`) on folds the similarity rounds leave.
+    budget : float, optional
+        Work units the relaxation may spend (module docstring; one unit = one ARAP
+        iteration of this mesh); ``inf``: unbounded. Default :func:`default_budget`:
+        ``BUDGET`` = 140 units (seven plain 20-iteration solves) from
+        ``FLOOR_VERTICES`` = 5000 vertices on, the work of 140 iterations on a
+        5000-vertex mesh below.
+    time_limit : float, optional
+        Wall-clock cap in seconds; default ``budget.TIME_CAP`` times the expected time
+        of the budget (measured on the first fold check). Only a safety net: the budget
+        ends the work first unless the machine gets much busier meanwhile.
+    info : dict, optional
+        Filled with ``"folds_in"``, ``"folds_out"``, ``"units"`` (spent), ``"budget"``,
+        ``"late"`` (the wall-clock cap was reached) and ``"stage"`` (``"none"``,
+        ``"similarity"``, ``"untangle"`` or ``"given"``: where the result comes from).
 
     Returns
     -------
     U : (n, 2) float
         ``U`` itself (the same array, untouched) when nothing is folded, which costs one
-        vectorised sign check; otherwise a new array with pins exactly on ``bc`` and
-        pinless components at rest.
+        vectorised sign check; otherwise a new finite array with pins exactly on ``bc``,
+        pinless components at rest and no more folds than ``U`` had.
     """
     U = np.asarray(U, dtype=np.float64)
     V, F = data.V, data.F
     bad = folded_triangles(V, U, F)
-    if len(bad) == 0:
+    if info is not None:
+        info.update(folds_in=len(bad), folds_out=len(bad), units=0.0, late=False, stage="none",
+                    budget=float(default_budget(data.n) if budget is None else budget))
+    if len(bad) == 0 and np.isfinite(U).all():
         return U
     bc = np.asarray(bc, dtype=np.float64).reshape(-1, 2)
+    meter = Budget(default_budget(data.n) if budget is None else budget, time_limit)
     best = U.copy()
+    lost = ~np.isfinite(best).all(axis=1)
+    best[lost] = V[lost]  # never hand on a non-finite vertex
     best[data.b] = bc
     best[data.held] = V[data.held]
-    bad = folded_triangles(V, best, F)
+    t0 = time.perf_counter()
+    bad = folded_triangles(V, best, F)  # of the given pose, pins on bc: not charged
+    meter.calibrate((time.perf_counter() - t0) / cost.CHECK)
+    start, stage = best, "given"
     if data.factor is not None and rounds > 0 and len(bad):
-        X, left = _similarity_rounds(data, best, bc, bad, rings, s_min, s_max, iterations, rounds)
-        if len(left) == 0:  # a partial relaxation only drifts the region: not kept
-            best, bad = X, left
+        X, left = _similarity_rounds(data, best, bc, bad, rings, s_min, s_max, iterations, rounds, meter)
+        if len(left) < len(bad):
+            best, bad, stage = X, left, "similarity"
     if untangle_folds and len(bad):
-        start, seed, tried = best, bad, []
+        seed, tried = folded_triangles(V, start, F), []
         for k in UNTANGLE_RINGS + (None,):
             move = _untangle_region(data, seed, k)
             if not move.any() or any(np.array_equal(move, m) for m in tried):
                 continue
             tried.append(move)
-            X = untangle(V, F, start, np.flatnonzero(move), max_rounds=60 if k is None else LOCAL_ROUNDS)
+            if not meter.affords(cost.CHECK):
+                break
+            meter.charge(cost.CHECK)  # the fold check of its result, paid in advance
+            X = untangle(V, F, start, np.flatnonzero(move),
+                         max_rounds=60 if k is None else LOCAL_ROUNDS, budget=meter)
             left = folded_triangles(V, X, F)
             if len(left) < len(bad):
-                best, bad = X, left
+                best, bad, stage = X, left, "untangle"
             if len(bad) == 0:
                 break
+    if info is not None:
+        info.update(folds_out=len(bad), units=meter.used, late=meter.late, stage=stage)
     return best
 
 
-def _similarity_rounds(data: ArapData, U, bc, bad, rings, s_min, s_max, iterations, rounds):
-    """Stage 1: local/global rounds with bounded-scale similarity cells around the folds."""
+def _similarity_rounds(data: ArapData, U, bc, bad, rings, s_min, s_max, iterations, rounds,
+                       meter: Budget):
+    """Stage 1: local/global rounds with bounded-scale similarity cells around the folds.
+
+    Each iteration is charged one unit and each fold check ``CHECK``; the rounds stop
+    where ``meter`` ends. Returns the last result and its folded triangles."""
     V, F, free, b = data.V, data.F, data.free, data.b
     region = np.zeros(data.n, bool)
     region[F[bad].ravel()] = True
@@ -193,16 +233,25 @@ def _similarity_rounds(data: ArapData, U, bc, bad, rings, s_min, s_max, iteratio
     solve, close = _pair_solver(data.factor, len(free), iterations * rounds)
     try:
         for _ in range(rounds):
+            if not meter.affords(1.0 + cost.CHECK):
+                break
             cells = np.flatnonzero(region)
             S_c, q0_c, rest_c = data.S_f[cells], q0[cells], rest[cells]
             for _ in range(iterations):
+                if not meter.affords(1.0 + cost.CHECK):
+                    break
+                meter.charge(1.0)
                 qc = S_c @ xf + q0_c
                 rc = np.abs(qc)
                 rc[rc == 0] = 1.0
                 sigma[cells] = qc / rc * np.clip(rc / rest_c, lo, s_max)
-                xf = solve(data.R @ (sigma - 1.0) - rb)
+                x_new = solve(data.R @ (sigma - 1.0) - rb)
+                if not np.isfinite(x_new).all():
+                    break
+                xf = x_new
             X = U.copy()
             X[free, 0], X[free, 1] = V[free, 0] + xf.real, V[free, 1] + xf.imag
+            meter.charge(cost.CHECK)
             bad = folded_triangles(V, X, F)
             if len(bad) == 0:
                 break
@@ -233,173 +282,3 @@ def _untangle_region(data: ArapData, bad, rings) -> np.ndarray:
     return move
 
 
-def _chi(D: np.ndarray, eps: float) -> np.ndarray:
-    """``(D + sqrt(eps^2 + D^2)) / 2``, without cancellation for ``D < 0``."""
-    h = np.sqrt(eps * eps + D * D)
-    return np.where(D > 0, 0.5 * (D + h), 0.5 * eps * eps / np.where(D > 0, 1.0, h - D))
-
-
-_HD = np.zeros((4, 4))  # Hessian of det J in vec(J) = (J00, J01, J10, J11)
-_HD[0, 3] = _HD[3, 0] = 1.0
-_HD[1, 2] = _HD[2, 1] = -1.0
-
-
-class _Untangling:
-    """The untangling energy over the triangles that touch the moving vertices."""
-
-    def __init__(self, V, F, U, move):
-        n = len(V)
-        moving = np.zeros(n, bool)
-        moving[move] = True
-        F = F[moving[F].any(axis=1)]
-        e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
-        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        ok = det != 0
-        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        g0 = np.stack([e2[:, 1], -e2[:, 0]], 1) * inv[:, None]  # rows of [e1 e2]^-1
-        g1 = np.stack([-e1[:, 1], e1[:, 0]], 1) * inv[:, None]
-        self.M = np.stack([-(g0 + g1), g0, g1], axis=2)  # (t, 2, 3): J[r, c] = sum_v M[c, v] U[v, r]
-        self.w = np.abs(det) / max(np.abs(det).sum(), 1e-300)
-        self.F, self.U, self.move = F, np.array(U, dtype=np.float64), move
-        local = np.full(n, -1, np.int64)
-        local[move] = np.arange(len(move))
-        dof = local[F][:, :, None]
-        self.dof = np.where(dof >= 0, 2 * dof + np.arange(2), -1).reshape(-1, 6)  # (t, 6), -1 fixed
-        ii = np.repeat(self.dof, 6, axis=1).ravel()
-        jj = np.tile(self.dof, (1, 6)).ravel()
-        self.hkeep = (ii >= 0) & (jj >= 0)
-        self.hi, self.hj = ii[self.hkeep], jj[self.hkeep]
-        self.gkeep = self.dof.ravel() >= 0
-        self.ndof = 2 * len(move)
-        self.step = STEP_EDGES * float(np.sqrt(np.abs(det).mean()))  # longest step
-
-    def jacobians(self, x) -> np.ndarray:
-        self.U[self.move] = x.reshape(-1, 2)
-        return np.einsum("tcv,tvr->trc", self.M, self.U[self.F]).reshape(-1, 4)
-
-    @staticmethod
-    def _det(j):
-        return j[:, 0] * j[:, 3] - j[:, 1] * j[:, 2]
-
-    def dets(self, x) -> np.ndarray:
-        return self._det(self.jacobians(x))
-
-    def energy(self, x, eps) -> float:
-        j = self.jacobians(x)
-        D = self._det(j)
-        num = (1 - THETA) * (j * j).sum(1) + THETA * (1 + D * D)
-        return float(self.w @ (num / _chi(D, eps)))
-
-    def newton(self, x, eps):
-        """Energy, gradient (2p,) and projected Hessian (2p, 2p) csc at ``x``."""
-        j = self.jacobians(x)
-        D = self._det(j)
-        h = np.sqrt(eps * eps + D * D)
-        chi, dchi, ddchi = _chi(D, eps), 0.5 + 0.5 * D / h, 0.5 * eps * eps / h ** 3
-        gD = np.stack([j[:, 3], -j[:, 2], -j[:, 1], j[:, 0]], 1)
-        num = (1 - THETA) * (j * j).sum(1) + THETA * (1 + D * D)
-        gn = 2 * (1 - THETA) * j + 2 * THETA * D[:, None] * gD
-        gc = dchi[:, None] * gD
-        c1, c2, c3 = 1 / chi, num / chi ** 2, 2 * num / chi ** 3
-        grad = c1[:, None] * gn - c2[:, None] * gc
-
-        def outer(p, q):
-            return p[:, :, None] * q[:, None, :]
-        H = (2 * (1 - THETA) * c1)[:, None, None] * np.eye(4) \
-            + (2 * THETA * c1)[:, None, None] * (outer(gD, gD) + D[:, None, None] * _HD) \
-            - c1[:, None, None] * c1[:, None, None] * (outer(gn, gc) + outer(gc, gn)) \
-            - c2[:, None, None] * (ddchi[:, None, None] * outer(gD, gD) + dchi[:, None, None] * _HD) \
-            + c3[:, None, None] * outer(gc, gc)
-        lam, Q = np.linalg.eigh(H)
-        H = (Q * np.maximum(lam, 0.0)[:, None, :]) @ np.transpose(Q, (0, 2, 1))
-        w = self.w
-        gu = np.einsum("trc,tcv->tvr", (grad * w[:, None]).reshape(-1, 2, 2), self.M).reshape(-1)
-        H6 = np.einsum("trcsd,tcv,tdw->tvrws", (H * w[:, None, None]).reshape(-1, 2, 2, 2, 2),
-                       self.M, self.M).reshape(-1)
-        g = np.bincount(self.dof.ravel()[self.gkeep], weights=gu[self.gkeep], minlength=self.ndof)
-        A = sp.csc_matrix((H6[self.hkeep], (self.hi, self.hj)), shape=(self.ndof, self.ndof))
-        return float(w @ (num * c1)), g, A
-
-
-def untangle(V, F, U, move, *, max_rounds: int = 60, newton_steps: int = 5) -> np.ndarray:
-    """Move the vertices ``move`` so that no triangle touching them is folded.
-
-    Minimises the foldover-free energy of Garanzha et al. 2021 (module docstring) over
-    the positions of ``move``, everything else fixed, by projected Newton steps (a vertex
-    moves at most ``STEP_EDGES`` typical edge lengths per step) with the ``eps``
-    continuation of the paper, then at ``eps = 1e-10`` until the energy settles
-    (``POLISH_TOL``).
-
-    Parameters
-    ----------
-    V : (n, 2) float
-        Rest positions: the reference shape of every triangle.
-    F : (m, 3) int
-        Triangles.
-    U : (n, 2) float
-        Deformed positions to start from, folded or not (not modified).
-    move : (p,) int
-        Vertices allowed to move.
-    max_rounds : int
-        Cap on the ``eps`` rounds.
-    newton_steps : int
-        Newton steps per round (each one sparse solve of a (2p, 2p) system).
-
-    Returns
-    -------
-    X : (n, 2) float
-        ``U`` with the moving vertices replaced; every triangle touching them has a
-        positive Jacobian determinant when the continuation succeeds, which it does
-        whenever the fixed vertices leave a fold-free solution in reach.
-    """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    move = np.asarray(move, dtype=np.int64)
-    out = np.array(U, dtype=np.float64)
-    if len(move) == 0:
-        return out
-    en = _Untangling(V, F, out, move)
-    x = out[move].ravel()
-    detmin = en.dets(x).min()
-    eps = float(np.sqrt(1e-10 + 0.04 * min(detmin, 0.0) ** 2))
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        for _ in range(max_rounds):
-            x, E_prev, E = _newton_round(en, x, eps, newton_steps)
-            detmin = en.dets(x).min()
-            if not np.isfinite(x).all() or not np.isfinite(E):
-                break
-            if detmin > 0 and abs(E_prev - E) <= POLISH_TOL * E:
-                break
-            sigma = max(1.0 - E / E_prev, SIGMA_MIN)
-            mu = (1.0 - sigma) * float(_chi(np.array(detmin), eps))
-            eps = max(2.0 * np.sqrt(mu * (mu - detmin)), 1e-10) if detmin < mu else 1e-10
-    if np.isfinite(x).all():
-        out[move] = x.reshape(-1, 2)
-    return out
-
-
-def _newton_round(en: _Untangling, x, eps, steps):
-    """Up to ``steps`` projected Newton steps with Armijo backtracking at fixed ``eps``."""
-    E0 = E = en.energy(x, eps)
-    for _ in range(steps):
-        E, g, A = en.newton(x, eps)
-        A = A + sp.identity(en.ndof, format="csc") * (1e-9 * max(A.diagonal().max(), 1e-300))
-        p = -spla.spsolve(A, g)
-        p /= max(np.abs(p).max() / en.step, 1.0)
-        dec = -float(g @ p)
-        if not dec > 1e-12 * E:
-            break
-        t = 1.0
-        while t > 1e-8:
-            E_new = en.energy(x + t * p, eps)
-            if E_new <= E - 1e-4 * t * dec:
-                break
-            t *= 0.5
-        else:
-            break
-        x = x + t * p
-        converged = E - E_new <= 1e-9 * E
-        E = E_new
-        if converged:
-            break
-    return x, E0, E

@@ -1,0 +1,100 @@
+"""Work budgets: every solve is bounded by a count of work units, not by luck.
+
+A **work unit** is the cost of one ARAP local/global iteration on the mesh at hand: the
+sparse products over the Laplacian's pattern and one solve per coordinate with the
+precomputed factor. A plain ``arap_solve`` costs ``iterations`` units (20 by default)
+plus its initial guess. Everything else the relaxation does is charged in these units
+by a cost model of the sizes it works on (counts of triangles, vertices and solves, never
+measured time), so the same input always does the same work and gives the same shape:
+
+=============================================  =========================================
+operation                                      units charged
+=============================================  =========================================
+similarity iteration (ARAP factor reused)      1
+fold check over the whole mesh                 ``CHECK``
+Newton step of the untangling, region of       ``NEWTON_TRI * t / m``
+``t`` triangles and ``p`` moving vertices      ``+ NEWTON_SOLVE * (p / n) ** 1.5``
+                                               (assembly with the PSD projection; sparse
+                                               LDL^T factorisation and solve)
+energy evaluation in its line search           ``EVAL_TRI * t / m``
+setting up an untangling region                ``SETUP_TRI * t / m``
+=============================================  =========================================
+
+(``m``, ``n``: triangles and vertices of the whole mesh.) The constants are measured
+ratios on the 5k and 20k discs of ``benchmarks/bench_fardrag.py``.
+
+A wall-clock cap backs the count up: :class:`Budget` also stops once
+``TIME_CAP`` times the time the budget should take has passed (the time of one unit is
+measured on the first one), which only happens on a machine that is far busier than when
+the work started. Reaching it makes the result depend on timing; ``Budget.late`` says so.
+"""
+from __future__ import annotations
+
+import time
+
+__all__ = ["Budget", "CHECK", "NEWTON_TRI", "NEWTON_SOLVE", "EVAL_TRI", "SETUP_TRI", "TIME_CAP", "newton_cost"]
+
+#: Units of one fold check (signed areas of every triangle; measured 0.2-0.4).
+CHECK = 0.4
+#: Units of a Newton step over all the triangles of the mesh (assembly of the 6x6
+#: element Hessians with their positive semi-definite projection; measured 5-11) ...
+NEWTON_TRI = 10.0
+#: ... and for all its vertices moving (factorisation with the symbolic analysis reused,
+#: and solve; measured 35-45, growing as (p / n) ** 1.5 from 5 % of the mesh on).
+NEWTON_SOLVE = 50.0
+#: Units of setting up an untangling region over all the triangles of the mesh (the
+#: sparsity pattern of its Hessian; measured 10-20, a sort of 21 keys per triangle).
+SETUP_TRI = 20.0
+#: Units of one evaluation of the untangling energy over all the triangles of the mesh
+#: (measured 0.7-1.4).
+EVAL_TRI = 1.5
+#: The wall-clock cap, as a multiple of the expected time of the whole budget.
+TIME_CAP = 10.0
+#: Floor of the wall-clock cap, seconds (timer resolution, a cold cache).
+TIME_CAP_MIN = 0.05
+
+
+def newton_cost(t: float, p: float) -> float:
+    """Units of a Newton step over a fraction ``t`` of the triangles and ``p`` of the
+    vertices of the mesh."""
+    return NEWTON_TRI * t + NEWTON_SOLVE * p ** 1.5
+
+
+class Budget:
+    """A count of work units with a wall-clock safety cap.
+
+    Parameters
+    ----------
+    units : float
+        Work units that may be spent.
+    time_limit : float or None
+        Seconds after which :meth:`affords` refuses everything. ``None``: set by
+        :meth:`calibrate` to ``TIME_CAP`` times the expected time of ``units``.
+    """
+
+    def __init__(self, units: float, time_limit: float | None = None):
+        self.units = float(units)
+        self.used = 0.0
+        self.start = time.perf_counter()
+        self.deadline = None if time_limit is None else self.start + float(time_limit)
+        self.late = False
+
+    def calibrate(self, seconds_per_unit: float) -> None:
+        """Set the cap from the measured time of one unit (unless a limit was given)."""
+        if self.deadline is None:
+            cap = max(TIME_CAP_MIN, TIME_CAP * self.units * max(seconds_per_unit, 0.0))
+            self.deadline = self.start + cap
+
+    @property
+    def left(self) -> float:
+        return self.units - self.used
+
+    def affords(self, cost: float) -> bool:
+        """Whether ``cost`` more units fit (and the wall-clock cap is not reached)."""
+        if self.deadline is not None and time.perf_counter() > self.deadline:
+            self.late = True
+            return False
+        return self.used + cost <= self.units
+
+    def charge(self, cost: float) -> None:
+        self.used += cost
