@@ -29,7 +29,7 @@ from puppet.app.widgets import Thumbs
 
 PANEL_WIDTH = 330
 #: frames a second for pointer feedback while a gesture waits for the scene thread
-BUSY_FPS = 30.0
+BUSY_FPS = 15.0
 FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
          | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings
          | imgui.WindowFlags_.no_bring_to_front_on_focus)

@@ -37,7 +37,7 @@ def test_pose_mode_and_a_drag(trex):
     d.press(*a)
     for k in range(1, 6):
         d.drag(a[0] + 10 * k, a[1] - 14 * k)
-    d.settle()
+        d.settle()  # every move solved in turn: the same preview every run
     assert d.app.snap.preview
     d.shot("drag-preview")
     d.release()
