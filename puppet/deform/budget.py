@@ -32,7 +32,8 @@ from __future__ import annotations
 
 import time
 
-__all__ = ["Budget", "CHECK", "NEWTON_TRI", "NEWTON_SOLVE", "EVAL_TRI", "SETUP_TRI", "TIME_CAP", "newton_cost"]
+__all__ = ["Budget", "CHECK", "NEWTON_TRI", "NEWTON_SOLVE", "EVAL_TRI", "SETUP_TRI", "TIME_CAP",
+           "newton_cost"]
 
 #: Units of one fold check (signed areas of every triangle; measured 0.2-0.4).
 CHECK = 0.4

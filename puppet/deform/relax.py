@@ -30,8 +30,8 @@ targets), the result with the fewest folds is returned, never more than given.
 **Bounded work.** A relaxation spends at most ``budget`` work units
 (:mod:`puppet.deform.budget`; one unit = one ARAP iteration of the mesh, a plain solve
 is 20): every similarity iteration, fold check, Newton step and line-search energy is
-charged by the size it works on (only the fold checks of the given pose are free), and a stage that cannot be paid for is cut short or
-skipped. The result is the one with the fewest folds found within the budget (ties:
+charged by the size it works on (only the fold checks of the given pose are free), and
+a stage that cannot be paid for is cut short or skipped. The result is the one with the fewest folds found within the budget (ties:
 the earliest), so the same pins always give the same shape; the wall-clock cap of
 :class:`~puppet.deform.budget.Budget` only backs this up. Far drags (pins moved several
 times the layer's size) that tangle most of a mesh come out with fewer folds in bounded

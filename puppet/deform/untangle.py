@@ -8,8 +8,8 @@ lines of code" (SIGGRAPH 2021)::
 
 (``J_t`` the rest-to-deformed Jacobian of triangle t, ``A_t`` its rest area), minimised
 over the moving vertices by projected Newton steps (per-triangle 4x4 Hessians clamped
-to positive semi-definite through their closed-form eigensystem, one sparse solve of the region's system per step, the
-symbolic factorisation reused between steps; steps of at most ``STEP_EDGES`` typical
+to positive semi-definite through their closed-form eigensystem, one sparse solve of
+the region's system per step, the symbolic factorisation reused between steps; steps of at most ``STEP_EDGES`` typical
 edge lengths), lowering ``eps`` by the paper's rule ``eps <- 2 sqrt(mu (mu - D_min))``,
 ``mu = (1 - sigma) chi(D_min, eps)``, until every determinant is positive, then at
 ``eps = 1e-10`` (a barrier: the orientation is kept) until the energy settles.

@@ -25,7 +25,7 @@ from puppet.deform import (arap_precompute, arap_solve, arap_solve_rotated, fold
 
 SWEEP = int(os.environ.get("PUPPET_SWEEP", "0"))
 settings.register_profile("deform", derandomize=True, deadline=None, print_blob=True,
-                          max_examples=SWEEP or 25,
+                          database=None, max_examples=SWEEP or 25,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 PROFILE = settings.get_profile("deform")
 
