@@ -154,10 +154,10 @@ class App:
         return self.worker.submit(job, key=key)
 
     def undo(self) -> None:
-        self.edit(lambda s: None if s.undo() else "nothing to undo")
+        self.edit(lambda s: f"undo: {s.history.redo_stack[-1].label}" if s.undo() else "nothing to undo")
 
     def redo(self) -> None:
-        self.edit(lambda s: None if s.redo() else "nothing to redo")
+        self.edit(lambda s: f"redo: {s.history.undo_stack[-1].label}" if s.redo() else "nothing to redo")
 
     def set_mode(self, mode: str) -> None:
         if mode not in MODES or mode == self.mode:

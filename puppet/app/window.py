@@ -305,6 +305,9 @@ class AppWindow:
         self.win.switch_to()
         self.win.dispatch_events()
         touched, self.input.touched = self.input.touched, False
+        # ImGui takes queued input a few events a frame (a fast key press and release land in
+        # different frames): keep drawing until its queue is empty, or typed text lags
+        touched = touched or self.imgui_ctx.input_events_queue.size() > 0
         app = self.app
         new = app.worker.latest is not app.snap
         waiting = self._gesture is not None and not app.worker.idle()

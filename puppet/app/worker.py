@@ -141,12 +141,20 @@ class Worker:
                     self._running -= 1
                     self._cv.notify_all()
 
+    def _top(self):
+        h = self.scene.history if self.scene is not None else None
+        return (h.undo_stack[-1] if h and h.undo_stack else None, len(h.undo_stack) if h else 0)
+
     def _run(self, fn, publish: bool, job_id: int) -> None:
         self.done = job_id
         try:
+            before = self._top()
             result = fn(self)
             if isinstance(result, str):
                 self.say(result)
+            elif self.scene is not None and self._top() != before and self._top()[0] is not None \
+                    and not self.scene.history.in_block:
+                self.say(self._top()[0].label)  # what was done replaces an old error
         except SceneError as e:
             self.say(str(e), "error")
         except Exception as e:  # a bug: keep the window alive, say what happened
