@@ -33,6 +33,8 @@ from scipy.sparse import csgraph
 
 from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
+from puppet.geom.laplacian import cotangent_weights, uniform_weights
+from puppet.geom.mesh import check_mesh
 
 __all__ = ["ArapData", "arap_precompute", "arap_solve", "arap_energy", "WEIGHTS"]
 
@@ -128,34 +130,6 @@ class ArapData:
         return self.V.shape[0]
 
 
-def _check_inputs(V, F, b):
-    V = np.array(V, dtype=np.float64, order="C")
-    if V.ndim != 2 or V.shape[1] != 2:
-        raise ValueError(f"V must have shape (n, 2), got {V.shape}")
-    if not np.isfinite(V).all():
-        raise ValueError("V must be finite")
-    n = V.shape[0]
-    F = np.asarray(F)
-    if F.size == 0:
-        F = np.zeros((0, 3), dtype=np.int64)
-    if F.ndim != 2 or F.shape[1] != 3 or not np.issubdtype(F.dtype, np.integer):
-        raise ValueError(f"F must be an integer array of shape (m, 3), got {F.shape} {F.dtype}")
-    F = F.astype(np.int64)
-    if len(F) and (F.min() < 0 or F.max() >= n):
-        raise ValueError("F refers to a vertex index out of range")
-    b = np.asarray(b)
-    if b.size == 0:
-        b = np.zeros(0, dtype=np.int64)
-    if not np.issubdtype(b.dtype, np.integer):
-        raise ValueError(f"b must hold integer vertex indices, got dtype {b.dtype}")
-    b = b.astype(np.int64).reshape(-1)
-    if len(b) and (b.min() < 0 or b.max() >= n):
-        raise ValueError("b refers to a vertex index out of range")
-    if len(np.unique(b)) != len(b):
-        raise ValueError("b has repeated vertex indices")
-    return V, F, b
-
-
 def _cell_operators(V, W, free):
     """Covariance operator C (2n, n), rotation->rhs operator K (nf, 2n), edge lists."""
     n = V.shape[0]
@@ -175,41 +149,16 @@ def _cell_operators(V, W, free):
 
 
 def _edge_weights(V, F, weights: str) -> sp.csr_matrix:
-    """Symmetric edge weights W (n, n) from one pass over the triangles' corners.
+    """Symmetric edge weights W (n, n) with every mesh edge stored (``puppet.geom.laplacian``).
 
-    Cotangent: ``(cot a + cot b) / 2`` (one angle on the boundary, 0 for a degenerate
-    triangle), as ``puppet.geom.laplacian.cotangent_weights``, clamped at 0;
-    cotangent-raw: the same unclamped (libigl's weights); uniform: 1 per edge.
+    Obtuse triangles beside constrained edges (links, thin parts) give negative cotangent
+    weights; a cell whose weights sum negative would fit a 180-degree "rotation" even at
+    rest. "cotangent" clamps them at 0, which keeps every cell well posed and L an
+    M-matrix (meshes without negative weights are unchanged); "cotangent-raw" keeps them.
     """
-    n = V.shape[0]
-    T = F.T.astype(np.int32)  # n < 2^31 for any mesh that fits in memory here
-    w = np.ones((3, len(F)))  # w[c]: weight of the edge opposite corner c
-    if weights in ("cotangent", "cotangent-raw"):
-        X, Y = V[:, 0].copy(), V[:, 1].copy()
-        x, y = [X[t] for t in T], [Y[t] for t in T]
-        dx = [x[2] - x[1], x[0] - x[2], x[1] - x[0]]  # edge c is opposite corner c
-        dy = [y[2] - y[1], y[0] - y[2], y[1] - y[0]]
-        cross = np.abs(dx[1] * dy[2] - dy[1] * dx[2])
-        half = np.divide(-0.5, cross, out=np.zeros_like(cross), where=cross > 0)
-        for c in range(3):  # the angle at corner c lies between edges c+1 and c+2
-            a, b = (c + 1) % 3, (c + 2) % 3
-            np.multiply(dx[a] * dx[b] + dy[a] * dy[b], half, out=w[c])
-    i, j = T[[1, 2, 0]].ravel(), T[[2, 0, 1]].ravel()  # corner c sees the edge (c+1, c+2)
-    w = w.ravel()
-    if (i == j).any():  # a triangle with a repeated vertex: its loops cancel out of L
-        i, j, w = i[i != j], j[i != j], w[i != j]
-    W = sp.coo_matrix((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))),
-                      shape=(n, n)).tocsr()
-    W.sum_duplicates()
     if weights == "uniform":
-        W.data[:] = 1.0
-    elif weights == "cotangent":
-        # Obtuse triangles beside constrained edges (links, thin parts) give negative
-        # cotangent weights; a cell whose weights sum negative would fit a 180-degree
-        # "rotation" even at rest. Clamping at 0 keeps every cell well posed and L an
-        # M-matrix (meshes without negative weights, e.g. the benchmark's, are unchanged).
-        np.maximum(W.data, 0.0, out=W.data)
-    return W
+        return uniform_weights(V, F)
+    return cotangent_weights(V, F, clamp=weights == "cotangent")
 
 
 class _Pattern:
@@ -290,7 +239,7 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         raise ValueError(f"weights must be one of {WEIGHTS}, got {weights!r}")
     if solver not in factor.SOLVERS:
         raise ValueError(f"solver must be one of {factor.SOLVERS}, got {solver!r}")
-    V, F, b = _check_inputs(V, F, b)
+    V, F, b = check_mesh(V, F, b)
     W = _edge_weights(V, F, weights)
     P = _Pattern(W)
     L = P.matrix(P.data(-W.data, np.bincount(P.wrows, weights=W.data, minlength=len(V))))

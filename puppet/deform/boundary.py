@@ -57,7 +57,7 @@ from scipy.sparse import csgraph
 
 from puppet.deform.mls import KINDS, inverse_distance_weights, mls_from_weights
 from puppet.geom.geodesic import edge_graph
-from puppet.geom.laplacian import edges
+from puppet.geom.mesh import boundary_edges, check_faces, check_vertices, edges
 
 __all__ = [
     "ExteriorFrame",
@@ -88,30 +88,6 @@ def _points(X, name) -> np.ndarray:
     if X.ndim != 2 or X.shape[1] != 2:
         raise ValueError(f"{name} must have shape (k, 2), got {X.shape}")
     return X
-
-
-def boundary_edges(F) -> np.ndarray:
-    """Directed boundary edges of a triangle mesh.
-
-    Parameters
-    ----------
-    F : (m, 3) int
-
-    Returns
-    -------
-    E : (b, 2) int64
-        Every edge used by exactly one triangle, directed as in that triangle (so the
-        mesh is on the same side of all of them), sorted by first vertex.
-    """
-    F = np.asarray(F, dtype=np.int64).reshape(-1, 3)
-    if len(F) == 0:
-        return np.zeros((0, 2), np.int64)
-    H = np.stack([F.ravel(), F[:, [1, 2, 0]].ravel()], axis=1)  # half-edges
-    n = int(F.max()) + 1
-    key = np.minimum(H[:, 0], H[:, 1]) * n + np.maximum(H[:, 0], H[:, 1])
-    uniq, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    E = H[counts[inverse] == 1]
-    return E[np.lexsort((E[:, 1], E[:, 0]))]
 
 
 def _frame_from_edges(V, e, a, b) -> ExteriorFrame:
@@ -359,7 +335,8 @@ def _check_fine(V_rest, F, ext_rest, ext_target, mode, distance, kind):
     q = _points(ext_target, "ext_target")
     if p.shape != q.shape:
         raise ValueError(f"ext_rest and ext_target differ in shape: {p.shape}, {q.shape}")
-    return _points(V_rest, "V_rest"), np.asarray(F, np.int64).reshape(-1, 3), p, q
+    V = check_vertices(V_rest, name="V_rest")
+    return V, check_faces(F, len(V)), p, q
 
 
 def _controls(V, F, p, q, pins, front, falloff, mode, segments, line_spacing):

@@ -52,11 +52,11 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from puppet.deform.arap import _check_bc, _check_inputs
+from puppet.deform.arap import _check_bc
 from puppet.deform.factor import SOLVERS
 from puppet.deform.factor import factorize as _factorize
 from puppet.geom.geodesic import connected_components
-from puppet.geom.laplacian import edges
+from puppet.geom.mesh import check_mesh, edges
 
 __all__ = ["IgarashiData", "igarashi_precompute", "igarashi_solve", "edge_neighbourhoods",
            "edge_similarities"]
@@ -135,7 +135,7 @@ def edge_neighbourhoods(F: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, 
     Returns
     -------
     E : (e, 2) int
-        Unique undirected edges, ``E[:, 0] < E[:, 1]`` (as :func:`puppet.geom.laplacian.edges`).
+        Unique undirected edges, ``E[:, 0] < E[:, 1]`` (as :func:`puppet.geom.mesh.edges`).
     k : (p,) int
         Edge index of each (edge, vertex) membership, sorted.
     m : (p,) int
@@ -244,7 +244,7 @@ def igarashi_precompute(V, F, b, *, solver: str = "cholespy") -> IgarashiData:
     """
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
-    V, F, b = _check_inputs(V, F, b)
+    V, F, b = check_mesh(V, F, b)
     n = V.shape[0]
     E, k, m = edge_neighbourhoods(F, n)
     ev = V[E[:, 1]] - V[E[:, 0]]

@@ -18,13 +18,14 @@ The weights are ``w_i = d_i^(-2 alpha)`` where ``d_i`` is the Euclidean distance
 (object space, :func:`mls_object_space`). Both go through the same core
 :func:`mls_from_weights` with the weights of :func:`inverse_distance_weights`.
 
-Line segments (paper section 5, :func:`mls_deform_lines`): each control is a segment
+Line segments (paper section 5, :func:`puppet.deform.mls_lines.mls_deform_lines`, which
+imports this module and not the other way round): each control is a segment
 ``p_i(t) = (1-t) a_i + t b_i`` mapped to ``q_i(t) = (1-t) c_i + t d_i`` and the sums
 become integrals with ``w_i(t) = |p_i'(t)| / |p_i(t) - v|^(2 alpha)``. Every quantity
 of the fit is the integral of a polynomial of degree <= 2 in ``t`` against ``w_i``, so
 it is reproduced exactly by three virtual point controls per segment, at ``t = 0, 1/2,
 1``, with the signed weights ``omega_ij = int w_i(t) l_j(t) dt`` (``l_j`` the quadratic
-Lagrange basis of those nodes). :func:`segment_weights` computes them (closed form for
+Lagrange basis of those nodes). ``mls_lines.segment_weights`` computes them (closed form for
 alpha = 1, sinh-substituted Gauss-Legendre otherwise) and the same core does the rest.
 """
 from __future__ import annotations
@@ -36,8 +37,6 @@ __all__ = [
     "mls_object_space",
     "mls_from_weights",
     "inverse_distance_weights",
-    "mls_deform_lines",
-    "segment_weights",
     "KINDS",
 ]
 
@@ -140,7 +139,7 @@ def mls_from_weights(X, p, q, W, *, kind: str = "rigid") -> np.ndarray:
         Finite weights; every column must have a positive sum. Normally
         non-negative; signed columns are fine when they are the exact quadrature
         weights of a positive measure (the virtual controls of
-        :func:`segment_weights`), since every sum below is linear in ``W``.
+        ``puppet.deform.mls_lines.segment_weights``), since every sum below is linear in ``W``.
     kind : {"affine", "similarity", "rigid"}
 
     Returns
@@ -315,12 +314,3 @@ def mls_object_space(V, D, q, p=None, *, kind: str = "rigid", alpha: float = 1.0
     if len(p) == 0:
         return V.copy()
     return _mls_distances(V, D, p, q, kind, alpha)
-
-
-# ---- line segments (section 5) ----------------------------------------------------
-
-# l_j(t) for the nodes t = 0, 1/2, 1 as coefficients of (1, t, t^2)
-
-
-# Line-segment controls live in puppet.deform.mls_lines (re-exported here).
-from puppet.deform.mls_lines import mls_deform_lines, segment_weights  # noqa: E402

@@ -39,6 +39,7 @@ import numpy as np
 
 from puppet.deform.mls import KINDS, mls_from_weights
 from puppet.geom.geodesic import geodesic_distances
+from puppet.geom.mesh import check_mesh
 
 __all__ = ["SkeletonData", "skeleton_precompute", "skeleton_solve", "skeleton_weights",
            "mls_skeleton"]
@@ -81,13 +82,7 @@ class SkeletonData:
 
 
 def _check(V, F, b, bones, k):
-    V = np.asarray(V, dtype=np.float64)
-    if V.ndim != 2 or V.shape[1] != 2:
-        raise ValueError(f"V must have shape (n, 2), got {V.shape}")
-    F = np.asarray(F, dtype=np.int64).reshape(-1, 3)
-    b = np.asarray(b, dtype=np.int64).reshape(-1)
-    if len(b) and (b.min() < 0 or b.max() >= len(V)):
-        raise ValueError("pin vertex index out of range")
+    V, F, b = check_mesh(V, F, b)
     bones = np.asarray(bones, dtype=np.int64).reshape(-1, 2)
     if len(bones) and (bones.min() < 0 or bones.max() >= len(b)):
         raise ValueError(f"bones must index pins 0..{len(b) - 1}")

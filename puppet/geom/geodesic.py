@@ -11,7 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from puppet.geom.laplacian import edges
+from puppet.geom.mesh import check_faces, edges
 
 __all__ = ["edge_graph", "geodesic_distances", "connected_components"]
 
@@ -32,9 +32,7 @@ def edge_graph(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
     """
     V = np.asarray(V, dtype=np.float64)
     n = V.shape[0]
-    E = edges(F)
-    if len(E) and E.max() >= n:
-        raise ValueError("F refers to a vertex index out of range")
+    E = edges(check_faces(F, n))
     length = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
     rows = np.concatenate([E[:, 0], E[:, 1]])
     cols = np.concatenate([E[:, 1], E[:, 0]])
@@ -88,9 +86,7 @@ def connected_components(n: int, F: np.ndarray) -> tuple[int, np.ndarray]:
     labels : (n,) int
         Component index of every vertex, in ``0 .. ncomp-1``.
     """
-    E = edges(F)
-    if len(E) and E.max() >= n:
-        raise ValueError("F refers to a vertex index out of range")
+    E = edges(check_faces(F, n))
     A = sp.csr_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
     ncomp, labels = csgraph.connected_components(A, directed=False)
     return int(ncomp), labels.astype(np.int64)

@@ -11,72 +11,35 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from puppet.geom.mesh import check_faces, check_vertices, edges
+
 __all__ = [
     "edges",
     "cotangent_weights",
     "uniform_weights",
+    "laplacian_from_weights",
     "cotangent_laplacian",
     "uniform_laplacian",
 ]
 
 
-def _check_faces(F: np.ndarray, n: int | None = None) -> np.ndarray:
-    F = np.asarray(F)
-    if F.size == 0:
-        return np.zeros((0, 3), dtype=np.int64)
-    if F.ndim != 2 or F.shape[1] != 3:
-        raise ValueError(f"F must have shape (m, 3), got {F.shape}")
-    if not np.issubdtype(F.dtype, np.integer):
-        raise ValueError(f"F must hold integer vertex indices, got dtype {F.dtype}")
-    F = F.astype(np.int64, copy=False)
-    if F.min() < 0 or (n is not None and F.max() >= n):
-        raise ValueError("F refers to a vertex index out of range")
-    return F
-
-
-def _check_vertices(V: np.ndarray) -> np.ndarray:
-    V = np.asarray(V, dtype=np.float64)
-    if V.ndim != 2 or V.shape[1] not in (2, 3):
-        raise ValueError(f"V must have shape (n, 2) or (n, 3), got {V.shape}")
-    return V
-
-
-def edges(F: np.ndarray) -> np.ndarray:
-    """Unique undirected edges of a triangle mesh.
-
-    Parameters
-    ----------
-    F : (m, 3) int
-        Triangles as vertex indices.
-
-    Returns
-    -------
-    E : (e, 2) int64
-        Each edge once, with ``E[:, 0] < E[:, 1]``, sorted lexicographically.
-    """
-    F = _check_faces(F)
-    if len(F) == 0:
-        return np.zeros((0, 2), dtype=np.int64)
-    i = F.ravel()
-    j = F[:, [1, 2, 0]].ravel()
-    lo, hi = np.minimum(i, j), np.maximum(i, j)
-    n = int(hi.max()) + 1
-    key = np.unique(lo * n + hi)  # 1-D unique: much faster than unique(axis=0)
-    return np.stack([key // n, key % n], axis=1)
-
-
-def _symmetric(n: int, i: np.ndarray, j: np.ndarray, w: np.ndarray) -> sp.csr_matrix:
-    """Sum ``w`` into entries (i, j) and (j, i) of an (n, n) csr matrix."""
-    rows = np.concatenate([i, j])
-    cols = np.concatenate([j, i])
-    vals = np.concatenate([w, w])
-    W = sp.coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+def _corner_weights(V: np.ndarray, F: np.ndarray, w: np.ndarray) -> sp.csr_matrix:
+    """Symmetric W from ``w[c, t]``, the weight triangle t gives the edge opposite its
+    corner c; every mesh edge is stored (also where the weights sum to 0), no loops."""
+    n = V.shape[0]
+    T = F.T
+    i, j = T[[1, 2, 0]].ravel(), T[[2, 0, 1]].ravel()  # corner c sees the edge (c+1, c+2)
+    w = w.ravel()
+    if (i == j).any():  # a triangle with a repeated vertex: its loops cancel out of L
+        i, j, w = i[i != j], j[i != j], w[i != j]
+    W = sp.coo_matrix((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))),
+                      shape=(n, n)).tocsr()
     W.sum_duplicates()
     return W
 
 
-def cotangent_weights(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
-    """Symmetric cotangent edge weights.
+def cotangent_weights(V, F, *, clamp: bool = False) -> sp.csr_matrix:
+    """Symmetric cotangent edge weights, in one pass over the triangles' corners.
 
     Parameters
     ----------
@@ -84,37 +47,41 @@ def cotangent_weights(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
         Vertex positions.
     F : (m, 3) int
         Triangles (orientation does not matter).
+    clamp : bool
+        Clamp negative weights (obtuse triangles) at 0, as ARAP's default does.
 
     Returns
     -------
     W : (n, n) scipy.sparse.csr_matrix
         ``W[i, j] = (cot a + cot b) / 2`` for every mesh edge ``ij`` (one angle on
-        the boundary), zero diagonal. Weights can be negative (obtuse angles) or
-        exactly zero (two right angles). A degenerate (zero-area) triangle adds 0.
+        the boundary), zero diagonal. Weights can be negative (obtuse angles, unless
+        ``clamp``) or exactly zero (two right angles); zero weights stay stored, so the
+        pattern of ``W`` is exactly the mesh's edges. A degenerate (zero-area) triangle
+        adds 0.
     """
-    V = _check_vertices(V)
-    n = V.shape[0]
-    F = _check_faces(F, n)
-    cots = []
-    pairs = []
-    for c in range(3):
-        o, a, b = F[:, c], F[:, (c + 1) % 3], F[:, (c + 2) % 3]
-        e1 = V[a] - V[o]
-        e2 = V[b] - V[o]
-        dot = np.einsum("ij,ij->i", e1, e2)
-        if V.shape[1] == 2:
-            cross = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-        else:
-            cross = np.linalg.norm(np.cross(e1, e2), axis=1)
-        cot = np.divide(dot, cross, out=np.zeros_like(dot), where=cross > 0)
-        cots.append(0.5 * cot)
-        pairs.append((a, b))
-    i = np.concatenate([p[0] for p in pairs])
-    j = np.concatenate([p[1] for p in pairs])
-    return _symmetric(n, i, j, np.concatenate(cots))
+    V = check_vertices(V, dims=(2, 3), finite=False)
+    F = check_faces(F, V.shape[0])
+    T = F.T
+    P = [V[:, k][T] for k in range(V.shape[1])]  # per coordinate, (3, m) corner values
+    d = [[p[(c + 2) % 3] - p[(c + 1) % 3] for c in range(3)] for p in P]  # edge c: opposite c
+    if len(P) == 2:
+        cross = np.abs(d[0][1] * d[1][2] - d[1][1] * d[0][2])
+    else:
+        cx = [d[(k + 1) % 3][1] * d[(k + 2) % 3][2] - d[(k + 2) % 3][1] * d[(k + 1) % 3][2]
+              for k in range(3)]
+        cross = np.sqrt(cx[0] ** 2 + cx[1] ** 2 + cx[2] ** 2)
+    half = np.divide(-0.5, cross, out=np.zeros_like(cross), where=cross > 0)
+    w = np.empty((3, len(F)))
+    for c in range(3):  # the angle at corner c lies between edges c+1 and c+2
+        a, b = (c + 1) % 3, (c + 2) % 3
+        np.multiply(sum(dk[a] * dk[b] for dk in d), half, out=w[c])
+    W = _corner_weights(V, F, w)
+    if clamp:
+        np.maximum(W.data, 0.0, out=W.data)
+    return W
 
 
-def uniform_weights(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
+def uniform_weights(V, F) -> sp.csr_matrix:
     """Weight 1 on every mesh edge (graph adjacency).
 
     Parameters
@@ -127,11 +94,14 @@ def uniform_weights(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
     Returns
     -------
     W : (n, n) scipy.sparse.csr_matrix
-        Symmetric 0/1 adjacency, zero diagonal.
+        Symmetric 0/1 adjacency, zero diagonal; the same pattern as
+        :func:`cotangent_weights`.
     """
-    n = np.asarray(V).shape[0]
-    E = edges(_check_faces(F, n))
-    return _symmetric(n, E[:, 0], E[:, 1], np.ones(len(E)))
+    V = np.asarray(V)
+    F = check_faces(F, V.shape[0])
+    W = _corner_weights(V, F, np.ones((3, len(F))))
+    W.data[:] = 1.0
+    return W
 
 
 def laplacian_from_weights(W: sp.spmatrix) -> sp.csr_matrix:

@@ -12,7 +12,7 @@ from puppet.deform.boundary import (
 )
 from puppet.geom.contour import Region
 from puppet.geom.geodesic import edge_graph
-from puppet.geom.laplacian import edges
+from puppet.geom.mesh import edges
 from puppet.geom.triangulate import triangulate_regions
 
 

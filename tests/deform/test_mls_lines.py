@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from puppet.deform.mls import KINDS, mls_deform, mls_deform_lines, segment_weights
+from puppet.deform.mls import KINDS, mls_deform
+from puppet.deform.mls_lines import mls_deform_lines, segment_weights
 
 rng = np.random.default_rng(7)
 P = np.array([[[0.0, 0.0], [10.0, 2.0]], [[3.0, 8.0], [-4.0, 5.0]], [[12.0, -6.0], [15.0, 3.0]]])

@@ -6,7 +6,7 @@ import puppet.deform.skeleton as skeleton
 from puppet.deform.mls import KINDS
 from puppet.deform.skeleton import (mls_skeleton, skeleton_precompute, skeleton_solve,
                                     skeleton_weights)
-from puppet.geom.laplacian import edges
+from puppet.geom.mesh import edges
 
 # A stick figure, y up: legs x in [-20,-5] and [5,20] below y = 20, torso [-20,20] x
 # [20,85], arms [-60,60] x [70,85], neck [-6,6] x [85,120], head [-18,18] x [120,156].

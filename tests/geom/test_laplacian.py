@@ -130,3 +130,34 @@ def test_bad_faces_raise():
         cotangent_weights(SQUARE_V, np.array([[0, 1, 7]]))
     with pytest.raises(ValueError):
         cotangent_weights(SQUARE_V, np.array([[0.0, 1.0, 2.0]]))
+
+
+def test_obtuse_triangle_weight_is_negative_unless_clamped():
+    # angle of 120 degrees at vertex 2, opposite edge 0-1: cot 120 / 2 = -1 / (2 sqrt 3)
+    V = np.array([[-np.sqrt(3) / 2, 0.0], [np.sqrt(3) / 2, 0.0], [0.0, 0.5]])
+    F = np.array([[0, 1, 2]])
+    assert cotangent_weights(V, F)[0, 1] == pytest.approx(-0.5 / np.sqrt(3))
+    W = cotangent_weights(V, F, clamp=True)
+    assert W[0, 1] == 0.0 and W[0, 2] == pytest.approx(0.5 * np.sqrt(3))
+
+
+def test_every_edge_is_stored_even_with_zero_weight():
+    # the square's diagonal has weight 0 (two right angles) but stays in the pattern,
+    # which is the mesh's edge list (the ARAP solver builds its geodesic graph on it)
+    for W in (cotangent_weights(SQUARE_V, SQUARE_F), uniform_weights(SQUARE_V, SQUARE_F)):
+        rows = np.repeat(np.arange(4), np.diff(W.indptr))
+        upper = rows < W.indices
+        np.testing.assert_array_equal(np.c_[rows[upper], W.indices[upper]], edges(SQUARE_F))
+    assert cotangent_weights(SQUARE_V, SQUARE_F)[0, 2] == 0.0
+
+
+def test_3d_weights_of_a_bent_pair_by_hand():
+    # two right isosceles triangles folded 90 degrees about their shared leg 0-1, the
+    # right angle at vertex 0 in both: the leg is opposite a 45-degree angle in each
+    # (cot 1, twice), the other legs 0-2 and 0-3 in one (cot 1), the hypotenuses 1-2
+    # and 1-3 opposite the right angles (cot 0)
+    V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    W = cotangent_weights(V, np.array([[0, 1, 2], [0, 1, 3]])).toarray()
+    assert W[0, 1] == pytest.approx(1.0)
+    assert W[0, 2] == pytest.approx(0.5) and W[0, 3] == pytest.approx(0.5)
+    assert W[1, 2] == pytest.approx(0.0, abs=1e-15) and W[1, 3] == pytest.approx(0.0, abs=1e-15)
