@@ -50,18 +50,26 @@ def run(steps: int, size: tuple[int, int], pose: str) -> dict:
         last_version = app.snap.version
         t_start = time.perf_counter()
         period = 1.0 / 60.0
-        for k, p in enumerate(path):
+        next_event = time.perf_counter()
+        k = 0
+        while k < len(path):  # the app's own loop (window.run), pointer events at 60 Hz
             t0 = time.perf_counter()
-            d.w.win.dispatch_event("on_mouse_drag", float(p[0]), size[1] - float(p[1]), 0, 0, pyglet.window.mouse.LEFT, 0)
-            d.pos = (float(p[0]), float(p[1]))
-            drew = d.w.step()  # the app's own loop turn: draws when something changed
+            if t0 >= next_event:
+                p = path[k]
+                d.w.win.dispatch_event("on_mouse_drag", float(p[0]), size[1] - float(p[1]), 0, 0,
+                                       pyglet.window.mouse.LEFT, 0)
+                d.pos = (float(p[0]), float(p[1]))
+                k += 1
+                next_event += period
+            drew = d.w.step()
             t1 = time.perf_counter()
             if drew:
                 frame_ms.append((t1 - t0) * 1000)
-            if app.snap.version != last_version and app.snap.preview:
-                shown.append(t1)
-                last_version = app.snap.version
-            time.sleep(max(0.0, period - (time.perf_counter() - t0)))  # pointer events at 60 Hz
+                if app.snap.version != last_version and app.snap.preview:
+                    shown.append(t1)
+                    last_version = app.snap.version
+            else:
+                time.sleep(0.004)
         elapsed = time.perf_counter() - t_start
         d.release()
         t0 = time.perf_counter()

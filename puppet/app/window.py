@@ -30,6 +30,8 @@ from puppet.app.widgets import Thumbs
 PANEL_WIDTH = 330
 #: frames a second for pointer feedback while a gesture waits for the scene thread
 BUSY_FPS = 15.0
+#: most frames a second for input alone (a new snapshot is drawn at once)
+MAX_FPS = 60.0
 FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
          | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings
          | imgui.WindowFlags_.no_bring_to_front_on_focus)
@@ -314,7 +316,7 @@ class AppWindow:
         if touched or new:
             self._settle = 3
         gap = now - self._last_frame
-        due = new or (self._settle > 0 and gap >= (1.0 / BUSY_FPS if waiting else 0.0)) or gap > 0.25
+        due = new or (self._settle > 0 and gap >= 1.0 / (BUSY_FPS if waiting else MAX_FPS)) or gap > 0.25
         if not due:
             return False
         self._settle -= 1
@@ -322,13 +324,13 @@ class AppWindow:
         self.frame(dispatch=False)
         return True
 
-    def run(self, max_fps: float = 60.0) -> None:
-        """Run :meth:`step` until the app quits, at most ``max_fps`` turns a second."""
+    def run(self) -> None:
+        """Run :meth:`step` until the app quits (a turn every few ms: a new snapshot is shown
+        as soon as it is published; frames themselves are paced by :meth:`step`)."""
         try:
             while not self.app.quit_now:
-                t = time.perf_counter()
-                self.step()
-                time.sleep(max(0.0, 1.0 / max_fps - (time.perf_counter() - t)))
+                if not self.step():
+                    time.sleep(0.004)
         finally:
             self.close()
 
