@@ -3,9 +3,10 @@ the scene background, the reference underlay, the composited layers, and the mes
 (wireframe, colour by interpolated depth).
 
 The layers are composited by puppet's :class:`~puppet.render.compositor.Compositor`
-(the same depth peeling as ``puppet render``) at window resolution over the visible
-part of the canvas only, and composited again only when the shown layers or the view
-change; every other frame redraws a cached texture.
+(the same per-pixel depth compositing as ``puppet render``, through its window path
+``draw``: into a texture, no read-back) at window resolution over the visible part of
+the canvas only, and composited again only when the shown layers or the view change;
+every other frame redraws the cached texture.
 """
 from __future__ import annotations
 
@@ -136,7 +137,6 @@ class CanvasRenderer:
         self._frame_rect = None
         self.composite_ms = 0.0
         self.composites = 0
-        self.premultiplied = False
         self.preview_pixels = PREVIEW_PIXELS
         self.last_scale = 1.0
         self._depth_fbo = self._depth_rb = self._depth_tex = None
@@ -228,8 +228,7 @@ class CanvasRenderer:
             else:
                 tex = self._composite(shown, view, rect, snap)
                 ctx.enable_only(moderngl.BLEND)
-                if self.premultiplied:
-                    ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
+                ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)  # premultiplied
                 self._frame_quad(tex, screen, rect)
         if wireframe:
             self._draw_wire(shown, view, screen)
@@ -267,13 +266,8 @@ class CanvasRenderer:
                 self.frame_tex.release()
             self.frame_tex = self.ctx.texture(size, 4)
         self.frame_tex.filter = (moderngl.NEAREST, moderngl.NEAREST) if f == 1.0 else (moderngl.LINEAR, moderngl.LINEAR)
-        if hasattr(self.compositor, "draw"):  # the window path: no read-back, premultiplied
-            self.compositor.draw(draw, size, target=self.frame_tex, background=background)
-            self.premultiplied = True
-        else:
-            rgba = self.compositor.render(draw, size, background=background)
-            self.frame_tex.write(rgba.tobytes())
-            self.premultiplied = False
+        # the compositor's window path: into the texture, no read-back, premultiplied RGBA
+        self.compositor.draw(draw, size, target=self.frame_tex, background=background)
         self.ctx.error  # noqa: B018 - clear a flag the compositor left
         self.ctx.screen.use()
         self._frame_key = key

@@ -161,7 +161,7 @@ class Worker:
             self.say(f"internal error: {type(e).__name__}: {e}", "error")
             if self.debug:
                 traceback.print_exc(file=sys.stderr)
-        if publish and result_is_not_preview(fn):
+        if publish:
             try:
                 self.publish()
             except SceneError as e:
@@ -233,7 +233,3 @@ class Worker:
         if ctx is not None:
             ctx.__exit__(None, None, None)
 
-
-def result_is_not_preview(fn) -> bool:
-    """Jobs that publish a preview themselves are marked ``fn.preview = True``."""
-    return not getattr(fn, "preview", False)
