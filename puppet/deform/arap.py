@@ -33,6 +33,7 @@ from scipy.sparse import csgraph
 
 from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
+from puppet.deform.threads import blas_capped
 from puppet.geom.laplacian import cotangent_weights, uniform_weights
 from puppet.geom.mesh import check_mesh
 
@@ -203,6 +204,7 @@ class _Pattern:
         return sp.csr_matrix((data[keep], c, indptr), shape=shape)
 
 
+@blas_capped
 def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
                     solver: str = "qdldl") -> ArapData:
     """Prepare ARAP for a mesh and a set of pinned vertices (factorises once).
@@ -334,6 +336,7 @@ def _check_bc(data: ArapData, bc) -> np.ndarray:
     return bc
 
 
+@blas_capped
 def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
                callback: Callable[[int, np.ndarray], None] | None = None) -> np.ndarray:
     """Deform the mesh so that the pins reach their targets, as rigidly as possible.
@@ -402,6 +405,7 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     return U
 
 
+@blas_capped
 def arap_energy(data: ArapData, U) -> float:
     """Sorkine-Alexa ARAP energy of a deformation, with the optimal cell rotations.
 

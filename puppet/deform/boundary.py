@@ -56,6 +56,7 @@ import numpy as np
 from scipy.sparse import csgraph
 
 from puppet.deform.mls import KINDS, inverse_distance_weights, mls_from_weights
+from puppet.deform.threads import blas_capped
 from puppet.geom.geodesic import edge_graph
 from puppet.geom.mesh import boundary_edges, check_faces, check_vertices, edges
 
@@ -237,6 +238,7 @@ def _consecutive(j: int) -> np.ndarray:
     return np.stack([np.arange(j), (np.arange(j) + 1) % j], axis=1)
 
 
+@blas_capped
 def fine_deform(
     V_rest,
     F,

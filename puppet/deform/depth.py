@@ -9,10 +9,12 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.deform.mls import inverse_distance_weights
+from puppet.deform.threads import blas_capped
 
 __all__ = ["depth_field"]
 
 
+@blas_capped
 def depth_field(D: np.ndarray, pin_depth, *, alpha: float = 1.0) -> np.ndarray:
     """Weighted average of pin depths with weights ``D^(-2 alpha)``.
 

@@ -55,6 +55,7 @@ import scipy.sparse as sp
 from puppet.deform.arap import _check_bc
 from puppet.deform.factor import SOLVERS
 from puppet.deform.factor import factorize as _factorize
+from puppet.deform.threads import blas_capped
 from puppet.geom.geodesic import connected_components
 from puppet.geom.mesh import check_mesh, edges
 
@@ -207,6 +208,7 @@ def _partition(n: int, F: np.ndarray, b: np.ndarray):
     return free, held, moved[keep], moved_pin[keep]
 
 
+@blas_capped
 def igarashi_precompute(V, F, b, *, solver: str = "cholespy") -> IgarashiData:
     """Build and factorise both steps of the two-step solver for a mesh and a pin set.
 
@@ -302,6 +304,7 @@ def _rotations(am1: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.where(ok, cm1, 0.0), np.where(ok, b / r, 0.0)
 
 
+@blas_capped
 def igarashi_solve(data: IgarashiData, bc, *, steps: int = 2) -> np.ndarray:
     """Deform the mesh so the pins reach their targets, as rigidly as possible.
 

@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from puppet.deform.threads import blas_capped
+
 __all__ = [
     "mls_deform",
     "mls_object_space",
@@ -117,6 +119,7 @@ def _moment_columns(p, dq, kind):
     return np.stack(cols, axis=1)
 
 
+@blas_capped
 def mls_from_weights(X, p, q, W, *, kind: str = "rigid") -> np.ndarray:
     """MLS core: deform points with given per-point control weights.
 
@@ -210,6 +213,7 @@ def _mls_distances(X, D, p, q, kind, alpha):
     return U
 
 
+@blas_capped
 def mls_deform(X, p, q, *, kind: str = "rigid", alpha: float = 1.0) -> np.ndarray:
     """Image-space MLS deformation of points (Schaefer et al. 2006).
 
@@ -277,6 +281,7 @@ def _mls_image_chunk(X, p, q, kind, alpha):
     return U
 
 
+@blas_capped
 def mls_object_space(V, D, q, p=None, *, kind: str = "rigid", alpha: float = 1.0) -> np.ndarray:
     """Object-space MLS: the MLS closed forms with weights from given distances.
 

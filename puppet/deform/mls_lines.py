@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.deform.mls import KINDS, _check_points, mls_from_weights
+from puppet.deform.threads import blas_capped
 
 _LAGRANGE = np.array([[1.0, -3.0, 2.0], [0.0, 4.0, -4.0], [0.0, -1.0, 2.0]])
 _HIT = 1e-12      # a point closer than _HIT * L to a segment is on it
@@ -140,6 +141,7 @@ def segment_weights(X, P, *, alpha: float = 1.0) -> np.ndarray:
     return _line_weights(X, P, float(alpha))[0]
 
 
+@blas_capped
 def mls_deform_lines(X, P, Q, *, kind: str = "rigid", alpha: float = 1.0) -> np.ndarray:
     """Image-space MLS deformation with line-segment controls (Schaefer et al. 2006, s.5).
 

@@ -47,6 +47,7 @@ from puppet.deform import budget as cost
 from puppet.deform.arap import ArapData
 from puppet.deform.budget import Budget
 from puppet.deform.factor import pair_solver as _pair_solver
+from puppet.deform.threads import blas_capped
 from puppet.deform.untangle import untangle
 
 __all__ = ["folded_triangles", "relax_foldovers", "untangle", "default_budget", "BUDGET"]
@@ -112,6 +113,7 @@ def default_budget(n: int) -> float:
     return BUDGET * max(1.0, FLOOR_VERTICES / max(int(n), 1))
 
 
+@blas_capped
 def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5, s_max: float = 1.5,
                     iterations: int = 20, rounds: int = 3, untangle_folds: bool = True,
                     budget: float | None = None, time_limit: float | None = None,

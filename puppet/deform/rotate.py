@@ -51,6 +51,7 @@ import numpy as np
 from puppet.deform.arap import ArapData, _check_bc, arap_solve
 from puppet.deform.factor import factorize as _factorize
 from puppet.deform.mls import mls_object_space
+from puppet.deform.threads import blas_capped
 
 __all__ = ["screen_rotation", "rotation_initial_guess", "held_rotations", "cell_residuals",
            "default_eps", "arap_solve_rotated"]
@@ -98,6 +99,7 @@ def _nearest_pin(data: ArapData) -> np.ndarray:
     return np.where(np.isfinite(data.D.min(axis=0)), near, -1)
 
 
+@blas_capped
 def rotation_initial_guess(data: ArapData, bc, angles_deg) -> np.ndarray:
     """Initial guess with every vertex turned about its nearest pin by that pin's angle.
 
@@ -287,6 +289,7 @@ def _grow(data: ArapData, mask: np.ndarray) -> np.ndarray:
     return out
 
 
+@blas_capped
 def arap_solve_rotated(data: ArapData, bc, angles_deg, *, iterations: int = 20,
                        eps: float | None = None, rounds: int = 3, hold: float = 0.5,
                        info: dict | None = None) -> np.ndarray:

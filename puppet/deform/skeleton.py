@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from puppet.deform.mls import KINDS, mls_from_weights
+from puppet.deform.threads import blas_capped
 from puppet.geom.geodesic import geodesic_distances
 from puppet.geom.mesh import check_mesh
 
@@ -166,6 +167,7 @@ def _compact_weights(D, R):
     return W, lam, exact
 
 
+@blas_capped
 def skeleton_precompute(V, F, b, bones, *, k: float = 1.2) -> SkeletonData:
     """Distances, ranges and compact weights of a skeleton over pins (the expensive part).
 
@@ -206,6 +208,7 @@ def skeleton_weights(V, F, b, bones, *, k: float = 1.2) -> np.ndarray:
     return skeleton_precompute(V, F, b, bones, k=k).W
 
 
+@blas_capped
 def skeleton_solve(data: SkeletonData, q, *, kind: str = "rigid") -> np.ndarray:
     """Deform with precomputed skeleton weights (cheap: no distances, no weights).
 
