@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from puppet.geom.mesh import edges
+
 #: Fragments whose premultiplied texture alpha is below this are discarded.
 ALPHA_MIN = 0.5 / 255.0
 #: Fragments whose texture alpha is at least this are opaque: they write depth and hide
@@ -131,15 +133,9 @@ def fragment_bound(deformed: np.ndarray, triangles: np.ndarray, scale: tuple[flo
 
 
 def mesh_edges(triangles: np.ndarray) -> np.ndarray:
-    """Unique undirected edges, shape (k, 2) int32, of triangles (m, 3).
-
-    (To be replaced by the shared mesh primitives in ``puppet.geom`` once they exist.)
-    """
-    t = np.asarray(triangles, np.int64).reshape(-1, 3)
-    e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    n = int(t.max(initial=0)) + 1
-    keys = np.unique(e[:, 0] * n + e[:, 1])
-    return np.stack([keys // n, keys % n], axis=1).astype(np.int32)
+    """Unique undirected edges of triangles (m, 3) as GL indices, shape (k, 2) int32
+    (:func:`puppet.geom.mesh.edges`, the one home of the primitive)."""
+    return edges(triangles).astype(np.int32)
 
 
 def check_background(background) -> np.ndarray:
