@@ -92,6 +92,16 @@ class App:
         if self.snap.loaded and self.area[2] > 1 and self.area[3] > 1:
             self.view.fit(self.snap.canvas, self.area)
             self.fit_pending = False
+            self._fitted = (self.area, self.view.scale, self.view.origin)
+
+    def set_area(self, area) -> None:
+        """The canvas area of this frame; a fitted view that nobody zoomed or panned since
+        stays fitted when the window is resized."""
+        area = tuple(map(float, area))
+        fitted = getattr(self, "_fitted", None)
+        self.area = area
+        if fitted is not None and fitted[0] != area and fitted[1:] == (self.view.scale, self.view.origin):
+            self.fit()
 
     def zoom(self, cursor, notches: float) -> None:
         from puppet.app.view import WHEEL_STEP

@@ -186,7 +186,7 @@ class AppWindow:
         imgui.begin("##panels", None, FIXED)
         self.panels.draw()
         imgui.end()
-        app.area = (0.0, float(top + tool_h), float(w - PANEL_WIDTH), float(body))
+        app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body))
         cursor = self._canvas_window()
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
         imgui.set_next_window_size(imgui.ImVec2(w, status_h))

@@ -178,6 +178,46 @@ def test_reference_picture(bar_app, tmp_path):
 
     saved = json.loads(open(d.app.snap.file).read())
     assert saved["app"]["underlay"]["image"] == "ref.png"
+    import puppet
+
+    again = puppet.load_scene(d.app.snap.file)  # render ignores the app's key
+    try:
+        np.testing.assert_array_equal(again.render(pose="bend"), d.scene().render(pose="bend"))
+        again.set_underlay(None)
+        np.testing.assert_array_equal(again.render(pose="bend"), d.scene().render(pose="bend"))
+    finally:
+        again.close()
+
+
+def test_checkerboard_behind_transparency(make_scene):
+    from tests.app.harness import Driver
+    from tests.conftest import bar_image, bar_scene
+
+    doc = dict(bar_scene(), background=[0, 0, 0, 0])
+    d = Driver(make_scene(doc, {"bar.png": bar_image()}))
+    try:
+        d.key(key.H)
+        x0, y0 = (int(v) for v in d.screen_of((2, 2)))
+        x1, y1 = (int(v) for v in d.screen_of((118, 8)))
+        greys = d.pixels()[y0:y1, x0:x1].reshape(-1, 3)
+        assert set(np.unique(greys[:, 0]).tolist()) == {204, 255}  # two greys, nothing else
+        assert (greys[:, 0] == greys[:, 1]).all()
+        assert abs(px(d, (60, 20)) - (200, 40, 40)).max() <= 2
+    finally:
+        d.close()
+
+
+def test_resizing_keeps_a_fitted_canvas_fitted(bar_app):
+    # a headless window cannot be resized: feed the canvas area a resize would give
+    app = bar_app.app
+    x, y, w, h = app.area
+    w0 = app.view.canvas_rect(app.snap.canvas)[2]
+    app.set_area((x, y, w + 300, h + 200))
+    assert app.view.canvas_rect(app.snap.canvas)[2] > w0 + 100  # refitted
+    app.zoom((300, 300), 1)  # zoomed by hand: a resize leaves the view alone
+    view = (app.view.scale, app.view.origin)
+    app.set_area((x, y, w, h))
+    assert (app.view.scale, app.view.origin) == view
 
 
 def test_every_button_has_a_tooltip():
