@@ -12,28 +12,31 @@ operation                                      units charged
 =============================================  =========================================
 similarity iteration (ARAP factor reused)      1
 fold check over the whole mesh                 ``CHECK``
-Newton step of the untangling, region of       ``NEWTON_TRI * t / m``
-``t`` triangles and ``p`` moving vertices      ``+ NEWTON_SOLVE * (p / n) ** 1.5``
-                                               (assembly with the PSD projection; sparse
-                                               LDL^T factorisation and solve)
-energy evaluation in its line search           ``EVAL_TRI * t / m``
-setting up an untangling region                ``SETUP_TRI * t / m``
+rings around the folds, one untangling region  ``REGION``
+setting up an untangling region                ``SETUP_TRI * t + SETUP_MESH``
+Newton step of the untangling, region of       ``NEWTON_TRI * t + NEWTON_SOLVE * p ** 1.5``
+``t`` triangles and ``p`` vertices (shares of  ``+ NEWTON_FIXED / n`` (assembly with the
+the mesh's ``m`` and ``n``)                    PSD projection; sparse LDL^T and solve)
+energy evaluation in its line search           ``EVAL_TRI * t + EVAL_FIXED / n``
 =============================================  =========================================
 
-(``m``, ``n``: triangles and vertices of the whole mesh.) The constants are measured
-ratios on the 5k and 20k discs of ``benchmarks/bench_fardrag.py``.
+The ``*_FIXED`` terms are the interpreter's fixed cost of an operation, as the number of
+vertices whose ARAP iteration takes as long: they matter on small regions of small
+meshes. The constants are measured ratios on the 5k and 20k discs of
+``benchmarks/bench_fardrag.py``.
 
 A wall-clock cap backs the count up: :class:`Budget` also stops once
 ``TIME_CAP`` times the time the budget should take has passed (the time of one unit is
-measured on the first one), which only happens on a machine that is far busier than when
+measured on the first fold check), which only happens on a machine that is far busier than when
 the work started. Reaching it makes the result depend on timing; ``Budget.late`` says so.
 """
 from __future__ import annotations
 
 import time
 
-__all__ = ["Budget", "CHECK", "NEWTON_TRI", "NEWTON_SOLVE", "EVAL_TRI", "SETUP_TRI", "TIME_CAP",
-           "newton_cost"]
+__all__ = ["Budget", "CHECK", "REGION", "NEWTON_TRI", "NEWTON_SOLVE", "NEWTON_FIXED", "EVAL_TRI",
+           "EVAL_FIXED", "SETUP_TRI", "SETUP_MESH", "TIME_CAP", "newton_cost", "eval_cost",
+           "setup_cost"]
 
 #: Units of one fold check (signed areas of every triangle; measured 0.2-0.4).
 CHECK = 0.4
@@ -44,8 +47,17 @@ NEWTON_TRI = 10.0
 #: and solve; measured 35-45, growing as (p / n) ** 1.5 from 5 % of the mesh on).
 NEWTON_SOLVE = 50.0
 #: Units of setting up an untangling region over all the triangles of the mesh (the
-#: sparsity pattern of its Hessian; measured 10-20, a sort of 21 keys per triangle).
+#: sparsity pattern of its Hessian; measured 10-20, a sort of 21 keys per triangle) ...
 SETUP_TRI = 20.0
+#: ... plus its passes over the whole mesh (measured 0.6).
+SETUP_MESH = 0.8
+#: Units of the ring distances around the folds or of one region built from them (passes
+#: over the whole mesh).
+REGION = 0.5
+#: Fixed cost of a Newton step, in vertices (measured 0.5-0.8 units at 5069 vertices).
+NEWTON_FIXED = 4000.0
+#: Fixed cost of an energy evaluation, in vertices (measured 0.1-0.17 units at 5069).
+EVAL_FIXED = 900.0
 #: Units of one evaluation of the untangling energy over all the triangles of the mesh
 #: (measured 0.7-1.4).
 EVAL_TRI = 1.5
@@ -55,10 +67,20 @@ TIME_CAP = 10.0
 TIME_CAP_MIN = 0.05
 
 
-def newton_cost(t: float, p: float) -> float:
-    """Units of a Newton step over a fraction ``t`` of the triangles and ``p`` of the
-    vertices of the mesh."""
-    return NEWTON_TRI * t + NEWTON_SOLVE * p ** 1.5
+def newton_cost(t: float, p: float, n: int) -> float:
+    """Units of a Newton step over a share ``t`` of the triangles and ``p`` of the
+    vertices of an ``n``-vertex mesh."""
+    return NEWTON_TRI * t + NEWTON_SOLVE * p ** 1.5 + NEWTON_FIXED / max(n, 1)
+
+
+def eval_cost(t: float, n: int) -> float:
+    """Units of an energy evaluation over a share ``t`` of the triangles."""
+    return EVAL_TRI * t + EVAL_FIXED / max(n, 1)
+
+
+def setup_cost(t: float) -> float:
+    """Units of setting up an untangling region over a share ``t`` of the triangles."""
+    return SETUP_TRI * t + SETUP_MESH
 
 
 class Budget:

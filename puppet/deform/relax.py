@@ -42,6 +42,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
 
 from puppet.deform import budget as cost
 from puppet.deform.arap import ArapData
@@ -190,10 +192,15 @@ def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5
         X, left = _similarity_rounds(data, best, bc, bad, rings, s_min, s_max, iterations, rounds, meter)
         if len(left) < len(bad):
             best, bad, stage = X, left, "similarity"
-    if untangle_folds and len(bad):
-        seed, tried = folded_triangles(V, start, F), []
+    if untangle_folds and len(bad) and meter.affords(cost.REGION):
+        tried = []
+        meter.charge(cost.REGION)
+        hops = _hops(data, folded_triangles(V, start, F), max(UNTANGLE_RINGS, default=0))
         for k in UNTANGLE_RINGS + (None,):
-            move = _untangle_region(data, seed, k)
+            if not meter.affords(cost.REGION + cost.CHECK):
+                break
+            meter.charge(cost.REGION)
+            move = _untangle_region(data, hops, k)
             if not move.any() or any(np.array_equal(move, m) for m in tried):
                 continue
             tried.append(move)
@@ -266,21 +273,27 @@ def _similarity_rounds(data: ArapData, U, bc, bad, rings, s_min, s_max, iteratio
     return X, bad
 
 
-def _untangle_region(data: ArapData, bad, rings) -> np.ndarray:
+def _hops(data: ArapData, bad, limit: int) -> np.ndarray:
+    """Rings (edge hops) from the folded triangles' vertices, ``inf`` beyond ``limit``."""
+    W = data.W
+    G = sp.csr_matrix((np.ones(len(W.indices)), W.indices, W.indptr), shape=W.shape)
+    seed = np.unique(data.F[bad])
+    if len(seed) == 0:
+        return np.full(data.n, np.inf)
+    return csgraph.dijkstra(G, indices=seed, min_only=True, unweighted=True, limit=limit + 0.5)
+
+
+def _untangle_region(data: ArapData, hops, rings) -> np.ndarray:
     """Vertices the untangling may move: ``rings`` rings around the folded triangles
-    minus the outermost ring (fixed), or everything for ``rings=None``; never pins or
-    pinless components. (n,) bool."""
+    (``hops`` from :func:`_hops`) minus the outermost ring (fixed), or everything for
+    ``rings=None``; never pins or pinless components. (n,) bool."""
     F = data.F
     if rings is None:
         move = np.ones(data.n, bool)
     else:
-        region = np.zeros(data.n, bool)
-        region[F[bad].ravel()] = True
-        region = _grow(F, region, rings)
+        region = hops <= rings
         move = region.copy()
         move[F[~region[F].all(axis=1)].ravel()] = False
     move[data.b] = False
     move[data.held] = False
     return move
-
-

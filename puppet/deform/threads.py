@@ -14,6 +14,7 @@ counter). The rest of the process keeps its own setting: nothing is changed glob
 from __future__ import annotations
 
 import functools
+import sys
 import threading
 from contextlib import contextmanager
 
@@ -26,16 +27,21 @@ _lock = threading.Lock()
 _depth = 0
 _limiter = None
 _controller = None
+_modules = 0  # len(sys.modules) when the controller looked for pools
 
 
 def _limit():
-    """Cap the BLAS pools; returns the limiter that restores them (or None)."""
-    global _controller
+    """Cap the BLAS pools; returns the limiter that restores them (or None).
+
+    The pools are looked up again (about 1 ms) only when modules were imported since the
+    last look, as an import may load another BLAS (SciPy's own, for instance)."""
+    global _controller, _modules
     try:
-        if _controller is None:
+        if _controller is None or len(sys.modules) != _modules:
             from threadpoolctl import ThreadpoolController
 
             _controller = ThreadpoolController()
+            _modules = len(sys.modules)
         return _controller.limit(limits=BLAS_THREADS, user_api="blas")
     except Exception:  # threadpoolctl missing or a pool it cannot drive: run as is
         return None

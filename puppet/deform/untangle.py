@@ -75,8 +75,8 @@ class _Energy:
         self._pattern()
         self.step = STEP_EDGES * float(np.sqrt(np.abs(det).mean())) if len(F) else 1.0
         t = len(F) / max(m_mesh, 1)
-        self.newton_cost = cost.newton_cost(t, len(move) / max(n_mesh, 1))
-        self.eval_cost = cost.EVAL_TRI * t
+        self.newton_cost = cost.newton_cost(t, len(move) / max(n_mesh, 1), n_mesh)
+        self.eval_cost = cost.eval_cost(t, n_mesh)
 
     def _pattern(self):
         """csc pattern of the region's Hessian (upper triangle) and the slot of every
@@ -288,8 +288,9 @@ def untangle(V, F, U, move, *, max_rounds: int = 60, newton_steps: int = 5,
     moving = np.zeros(len(V), bool)
     moving[move] = True
     t = np.count_nonzero(moving[F].any(axis=1)) / max(len(F), 1)  # share of the triangles
-    setup = cost.SETUP_TRI * t
-    if not budget.affords(setup + cost.newton_cost(t, len(move) / len(V)) + 3 * cost.EVAL_TRI * t):
+    setup = cost.setup_cost(t)
+    if not budget.affords(setup + cost.newton_cost(t, len(move) / len(V), len(V))
+                          + 3 * cost.eval_cost(t, len(V))):
         return out
     en = _Energy(V, F, out, move, len(V), len(F))
     budget.charge(setup + en.eval_cost)

@@ -77,7 +77,7 @@ def test_budget_counts_and_caps():
     assert b.left == 6.0 and not b.affords(6.5)
     late = Budget(1e9, time_limit=0.0)
     assert not late.affords(0.0) and late.late
-    assert cost.newton_cost(1.0, 1.0) == cost.NEWTON_TRI + cost.NEWTON_SOLVE
+    assert cost.newton_cost(1.0, 1.0, 4000) == cost.NEWTON_TRI + cost.NEWTON_SOLVE + cost.NEWTON_FIXED / 4000
     assert default_budget(100) == pytest.approx(50 * default_budget(5000))
     assert default_budget(20000) == default_budget(5000)
 
