@@ -7,7 +7,7 @@
 from puppet.errors import ImageError, SceneError
 
 __version__ = "0.1.0"
-__all__ = ["load_scene", "Scene", "SceneError", "ImageError", "deform", "__version__"]
+__all__ = ["load_scene", "new_scene", "Scene", "SceneError", "ImageError", "deform", "__version__"]
 
 
 def load_scene(path):
@@ -15,6 +15,13 @@ def load_scene(path):
     from puppet.api import load_scene as _load
 
     return _load(path)
+
+
+def new_scene(image, **options):
+    """A new one-layer scene over a picture, not yet saved (see ``docs/api.md``)."""
+    from puppet.api import new_scene as _new
+
+    return _new(image, **options)
 
 
 def __getattr__(name):

@@ -65,6 +65,11 @@ class Scene(Document):
             self._compositor = None
 
 
+def new_scene(image: str, **options) -> Scene:
+    """A new one-layer scene over a picture (see :meth:`Scene.from_image`)."""
+    return Scene.from_image(image, **options)
+
+
 def load_scene(path: str) -> Scene:
     """Read and validate a scene file; raises :class:`puppet.SceneError`."""
     return Scene.load(path)

@@ -23,6 +23,7 @@ from puppet.output import write_text
 from puppet.scene import evaluate as ev, timeline
 from puppet.scene.cache import file_stamp, fingerprint
 from puppet.scene.edits import Edits
+from puppet.scene.files import PendingFiles
 from puppet.scene.history import Event, Events, History, Step
 from puppet.scene.inputs import input_files
 from puppet.scene.load import Ctx, _pose, parse_scene, read_json
@@ -68,6 +69,8 @@ class Document(Edits):
         self._active = "rest"
         self._data: SceneData | None = None
         self._built: Built | None = None
+        #: pixels painted in the app, kept as PNGs until the scene is saved
+        self.pending = PendingFiles()
         self._set(doc, "rest", build=False)
 
     @classmethod
@@ -79,6 +82,20 @@ class Document(Edits):
         if isinstance(raw, dict):  # paths absolute inside the model; parse_scene reports bad ones
             raw = map_paths(raw, lambda p: os.path.normpath(os.path.join(folder, p)))
         return cls(raw, path)
+
+    @classmethod
+    def from_image(cls, image: str, *, layer: str = "layer1", scene_file: str | None = None):
+        """A new one-layer scene over a picture: the picture is the scene's ``source``
+        (the template that layers take pixels from) and the first layer takes all of it
+        with the default mask (alpha when the picture has transparency, else non-white).
+        Not written anywhere until :meth:`save`; ``scene_file`` (default: the picture's
+        name with ``.json``) is where it would be saved."""
+        image = os.path.abspath(image)
+        from puppet.imaging.io import load_rgba
+
+        load_rgba(image)  # a missing or bad picture is refused before anything is made
+        doc = {"puppet": 1, "source": image, "layers": [{"name": layer}]}
+        return cls(doc, scene_file or os.path.splitext(image)[0] + ".json")
 
     # -- the model and what is derived from it -----------------------------------
     @property
@@ -304,11 +321,21 @@ class Document(Edits):
         """Write the scene as it is now, atomically; file paths inside are written relative
         to the new location, so the saved scene loads and renders the same pixels.
 
-        Goes through :mod:`puppet.output`: an image the scene reads is never overwritten
-        (the scene file itself may be), and a write failure raises an OutputError."""
+        Pixels painted since loading (:meth:`set_mask_pixels`, :meth:`set_layer_pixels`)
+        are written beside the scene, in ``SCENE.files/``, first. Goes through
+        :mod:`puppet.output`: an image the scene reads is never overwritten (the scene
+        file itself may be), and a write failure raises an OutputError."""
+        inputs = input_files(self.data, scene_file=False)
+        used: set[str] = set()
+        map_paths(self._doc, lambda p: used.add(p) or p)
+        moved = self.pending.publish({p for p in used if self.pending.owns(p)}, path, inputs)
+        doc = map_paths(self._doc, lambda p: moved.get(p, p))
         folder = os.path.dirname(os.path.realpath(path))
-        text = json.dumps(self.to_json(folder), indent=1)
-        write_text(path, text + "\n", inputs=input_files(self.data, scene_file=False))
+        text = json.dumps(map_paths(json.loads(json.dumps(doc)), lambda p: os.path.relpath(p, folder)
+                                    .replace(os.sep, "/")), indent=1)
+        write_text(path, text + "\n", inputs=inputs)
+        if moved:  # from now on the scene reads the saved copies (same pixels, same keys)
+            self._set(doc, self._active)
 
     def write_mesh(self, path: str, pose: PoseLike = None, time: float | None = None) -> None:
         """Write :meth:`mesh` as JSON (``puppet mesh``), through :mod:`puppet.output`."""

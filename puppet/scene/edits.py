@@ -195,6 +195,23 @@ class Edits:
                 mesh[k] = v
         return self.set_layer(name, mesh=mesh or None)
 
+    def set_mask_pixels(self, name: str, mask) -> bool:
+        """A layer's mask as pixels: ``mask`` (h, w) bool in the layer image's grid (the
+        source's for a layer without its own image). Kept as a PNG until :meth:`save`
+        writes it beside the scene (``mask: {"file": ...}``)."""
+        from puppet.scene.files import mask_rgba
+
+        return self.set_mask(name, {"file": self.pending.add(mask_rgba(mask), f"{name}-mask")})
+
+    def set_layer_pixels(self, name: str, rgba) -> bool:
+        """A layer's own pixels ((h, w, 4) uint8, placed at its offset): a repainted or
+        cloned layer. Kept as a PNG until :meth:`save` writes it beside the scene."""
+        path = self.pending.add(rgba, name)
+
+        def m(doc):
+            self._layer(doc, name)["image"] = path
+        return self._edit(Event("layer", name, "mesh", f"paint layer {name}"), m)
+
     # links --------------------------------------------------------------------------
     def add_link(self, a: str, b: str, segment) -> bool:
         """A link segment ``[[x0, y0], [x1, y1]]`` between layers ``a`` and ``b``."""

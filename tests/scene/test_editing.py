@@ -291,3 +291,39 @@ def test_underlay_is_an_app_only_key(bars, tmp_path):
     (tmp_path / "bad.json").write_text(json.dumps(bad))
     with pytest.raises(puppet.SceneError, match=r"app\.underlay\.opacity"):
         Document.load(str(tmp_path / "bad.json"))
+
+
+def test_painted_pixels_are_saved_beside_the_scene(bars, tmp_path):
+    doc = Document.load(bars)
+    mask = np.zeros((40, 120), bool)
+    mask[12:28, 10:110] = True
+    assert doc.set_mask_pixels("a", mask)
+    np.testing.assert_array_equal(doc.built.images[0].mask, mask)
+    paint = bar_image(colour=(0, 120, 250))
+    assert doc.set_layer_pixels("b", paint)
+    edited = doc.layers("up")
+    pending = doc.data.layers[0].mask.file
+    assert doc.pending.owns(pending)
+    (tmp_path / "out").mkdir()
+    doc.save(str(tmp_path / "out" / "s.json"))
+    saved = json.loads((tmp_path / "out" / "s.json").read_text())
+    assert saved["layers"][0]["mask"]["file"].startswith("s.files/")
+    assert saved["layers"][1]["image"].startswith("s.files/")
+    again = Document.load(str(tmp_path / "out" / "s.json"))
+    same_layers(again.layers("up"), edited)
+    np.testing.assert_array_equal(again.built.images[1].rgba[12:28, 10:110], paint[12:28, 10:110])
+    assert not doc.pending.owns(doc.data.layers[0].mask.file)  # now reads the saved copy
+    doc.undo()  # back before the repaint: its pending file is still there
+    assert doc.data.layers[1].image.endswith("bar.png")
+
+
+def test_new_scene_from_a_picture(tmp_path):
+    from tests.conftest import write_rgba
+    write_rgba(tmp_path / "pic.png", bar_image())
+    doc = Document.from_image(str(tmp_path / "pic.png"))
+    assert doc.canvas == (120, 40) and doc.built.images[0].mask.sum() == 100 * 20
+    doc.add_pin("p", "layer1", (20, 20))
+    doc.save(str(tmp_path / "pic.json"))
+    assert json.loads((tmp_path / "pic.json").read_text())["source"] == "pic.png"
+    with pytest.raises(puppet.SceneError):
+        Document.from_image(str(tmp_path / "missing.png"))
