@@ -27,7 +27,7 @@ def _corner_weights(V: np.ndarray, F: np.ndarray, w: np.ndarray) -> sp.csr_matri
     """Symmetric W from ``w[c, t]``, the weight triangle t gives the edge opposite its
     corner c; every mesh edge is stored (also where the weights sum to 0), no loops."""
     n = V.shape[0]
-    T = F.T
+    T = F.T.astype(np.int32) if n < 2**31 else F.T  # int32: a faster coo -> csr
     i, j = T[[1, 2, 0]].ravel(), T[[2, 0, 1]].ravel()  # corner c sees the edge (c+1, c+2)
     w = w.ravel()
     if (i == j).any():  # a triangle with a repeated vertex: its loops cancel out of L
@@ -61,8 +61,9 @@ def cotangent_weights(V, F, *, clamp: bool = False) -> sp.csr_matrix:
     """
     V = check_vertices(V, dims=(2, 3), finite=False)
     F = check_faces(F, V.shape[0])
-    T = F.T
-    P = [V[:, k][T] for k in range(V.shape[1])]  # per coordinate, (3, m) corner values
+    T = F.T.astype(np.int32) if V.shape[0] < 2**31 else F.T  # int32 gathers are faster
+    cols = [V[:, k].copy() for k in range(V.shape[1])]  # contiguous coordinates
+    P = [[col[t] for t in T] for col in cols]  # per coordinate, the 3 corners' values (m,)
     d = [[p[(c + 2) % 3] - p[(c + 1) % 3] for c in range(3)] for p in P]  # edge c: opposite c
     if len(P) == 2:
         cross = np.abs(d[0][1] * d[1][2] - d[1][1] * d[0][2])
@@ -74,7 +75,10 @@ def cotangent_weights(V, F, *, clamp: bool = False) -> sp.csr_matrix:
     w = np.empty((3, len(F)))
     for c in range(3):  # the angle at corner c lies between edges c+1 and c+2
         a, b = (c + 1) % 3, (c + 2) % 3
-        np.multiply(sum(dk[a] * dk[b] for dk in d), half, out=w[c])
+        dot = d[0][a] * d[0][b]
+        for dk in d[1:]:
+            dot += dk[a] * dk[b]
+        np.multiply(dot, half, out=w[c])
     W = _corner_weights(V, F, w)
     if clamp:
         np.maximum(W.data, 0.0, out=W.data)
