@@ -55,9 +55,13 @@ class DrawLayer:
 
 def premultiply(image: np.ndarray) -> np.ndarray:
     """Premultiply straight RGBA uint8, rounding to nearest: ``round(c * a / 255)``."""
-    wide = image.astype(np.uint16)
+    x = image[..., :3].astype(np.uint16)
+    x *= image[..., 3:]
+    x += 128
+    x += x >> 8  # (x + (x >> 8)) >> 8 == round(c * a / 255) exactly for 8-bit c and a
+    x >>= 8
     out = np.empty_like(image)
-    out[..., :3] = (wide[..., :3] * wide[..., 3:] + 127) // 255
+    out[..., :3] = x
     out[..., 3] = image[..., 3]
     return out
 
@@ -107,9 +111,10 @@ def classify_triangles(image: np.ndarray, uv: np.ndarray, triangles: np.ndarray
     x0, x1 = np.clip(lo[:, 0], 0, w - 1), np.clip(hi[:, 0], 0, w - 1) + 1
     y0, y1 = np.clip(lo[:, 1], 0, h - 1), np.clip(hi[:, 1], 0, h - 1) + 1
 
+    import cv2
+
     def box_counts(mask: np.ndarray) -> np.ndarray:
-        table = np.zeros((h + 1, w + 1), np.int64)
-        table[1:, 1:] = mask.cumsum(axis=0, dtype=np.int64).cumsum(axis=1)
+        table = cv2.integral(mask.view(np.uint8), sdepth=cv2.CV_32S)  # (h + 1, w + 1) summed areas
         return table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0]
 
     empty = box_counts(alpha > 0) == 0

@@ -224,3 +224,15 @@ def test_identity_full_canvas_quad(comp, alpha_low, tol):
     layer = image_layer("quad", img, (0, 0), nx=4, ny=3, depth=2.0)
     gl = comp.render([layer], CANVAS)
     assert np.abs(gl.astype(int) - img.astype(int)).max() <= tol
+
+
+def test_premultiply_rounds_to_nearest_for_every_colour_and_alpha():
+    from puppet.render.layers import premultiply
+    c = np.arange(256, dtype=np.uint8)
+    img = np.zeros((256, 256, 4), np.uint8)
+    img[..., :3] = c[None, :, None]
+    img[..., 3] = c[:, None]
+    out = premultiply(img)
+    ref = np.floor(img[..., :3].astype(np.float64) * img[..., 3:] / 255 + 0.5)
+    np.testing.assert_array_equal(out[..., :3], ref)
+    np.testing.assert_array_equal(out[..., 3], img[..., 3])
