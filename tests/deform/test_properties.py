@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 import triangle
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from puppet.deform import (arap_precompute, arap_solve, arap_solve_rotated, folded_triangles,
@@ -79,6 +79,7 @@ def poses(draw):
     bc = V[b].copy()
     for i in range(k):
         how = draw(st.sampled_from(["near", "far", "huge", "same", "micron"]))
+        event(f"a target {how}")
         if how == "near":
             bc[i] += draw(st.tuples(*[st.floats(-1.0, 1.0)] * 2)) * np.array(span)
         elif how == "far":  # up to 5x the mesh size away
@@ -98,17 +99,25 @@ def check(U, b, bc):
 
 
 @PROFILE
-@given(poses(), st.sampled_from(["cotangent", "uniform", "cotangent-raw"]))
-def test_arap_and_relaxation(pose, weights):
+@given(poses(), st.sampled_from(["cotangent", "uniform", "cotangent-raw"]),
+       st.sampled_from([None, None, 3.0, 30.0]))
+def test_arap_and_relaxation(pose, weights, budget):
     V, F, b, bc = pose
     data = arap_precompute(V, F, b, weights=weights)
     U = arap_solve(data, bc)
     check(U, b, bc)
     info = {}
-    R = relax_foldovers(data, U, bc, info=info)
+    R = relax_foldovers(data, U, bc, info=info, budget=budget)
+    if budget is not None:  # a budget that binds: still the same shape every time
+        assert np.array_equal(R, relax_foldovers(data, U, bc, budget=budget))
     check(R, b, bc)
     assert info["units"] <= info["budget"], "relaxation over its work budget"
     assert len(folded_triangles(V, R, F)) <= len(folded_triangles(V, U, F))
+    event("plain ARAP folds" if info["folds_in"] else "no folds")
+    if info["folds_in"]:
+        event("relaxed: fold-free" if info["folds_out"] == 0 else "relaxed: folds left")
+        event("relaxation used its whole budget" if info["budget"] - info["units"] < 1 else
+              "relaxation ended within its budget")
 
 
 @PROFILE
