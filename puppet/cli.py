@@ -1,4 +1,4 @@
-"""The ``puppet`` command: render, animate, mesh, check.
+"""The ``puppet`` command: render, animate, mesh, check, init, app.
 
 Exit status: 0 success; 2 bad input (one line ``puppet: error: ...`` on stderr, no
 traceback, no output file); 1 only for a bug.
@@ -60,6 +60,26 @@ def _fps(text: str) -> float:
     return t
 
 
+def _threshold(text: str) -> float:
+    try:
+        t = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 <= t <= 256:
+        raise argparse.ArgumentTypeError(f"{text!r}: the threshold must be in 0..256")
+    return t
+
+
+def _rect(text: str) -> tuple[float, float, float, float]:
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 4 or not all(abs(x) <= 1e6 for x in v) or v[2] < 2 or v[3] < 2:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected X,Y,W,H with W and H >= 2, e.g. 10,20,300,400")
+    return v[0], v[1], v[2], v[3]
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="puppet", description="Pose and animate 2D characters made of layers.")
     p.add_argument("--version", action="version", version=f"puppet {_version()}")
@@ -94,6 +114,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("check", help="validate a scene, build its meshes and print a summary")
     c.add_argument("scene")
+
+    i = sub.add_parser("init", help="write a one-layer scene (and its mask) from a picture")
+    i.add_argument("image")
+    i.add_argument("-o", "--output", required=True, metavar="SCENE.json")
+    g = i.add_mutually_exclusive_group()
+    g.add_argument("--threshold", type=_threshold, metavar="T", help="mask: luminance < T (0..256)")
+    g.add_argument("--alpha", action="store_true", help="mask: alpha > 0")
+    g.add_argument("--grabcut", type=_rect, metavar="X,Y,W,H", help="mask: GrabCut foreground inside the rectangle")
+    i.add_argument("--pins", choices=("auto", "none"), default="none",
+                   help="auto: pins at the skeleton's end points and junctions")
 
     w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
     w.add_argument("scene", nargs="?")
@@ -172,6 +202,15 @@ def run(argv: list[str] | None = None) -> int:
         import puppet.app
 
         return puppet.app.run(args.scene, size=args.size)
+    if args.command == "init":
+        from puppet.scene.init import init_scene
+
+        out = _output_file(args.output, (".json",))
+        rule = "threshold" if args.threshold is not None else "alpha" if args.alpha else \
+            "grabcut" if args.grabcut else "default"
+        res = init_scene(args.image, out, rule=rule, threshold=args.threshold, rect=args.grabcut, pins=args.pins)
+        _print(res.summary())
+        return 0
     from puppet.output import check_file, check_folder
 
     # what can be checked without the scene is checked first (fast); again with its inputs after loading
