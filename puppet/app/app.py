@@ -11,11 +11,16 @@ import os
 
 import numpy as np
 
+from puppet.errors import SceneError
+
 from puppet.app import pick
+from puppet.app.script import Script
 from puppet.app.view import View
 from puppet.app.worker import Message, Snapshot, Worker
 
 MODES = ("pin", "pose")
+#: ``puppet app FILE`` / File > Open with one of these opens a picture as a new scene
+PICTURES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 
 
 class App:
@@ -48,6 +53,7 @@ class App:
         self._markers: list[pick.Marker] = []
         self._marker_version = -1
         self._layer_names: dict[str, int] = {}
+        self.script = Script()  # the task script's step, tool and drafts
 
     # -- per frame ---------------------------------------------------------------
     def sync(self) -> bool:
@@ -302,10 +308,20 @@ class App:
     def open(self, path: str, *, recover_from: str | None = None) -> None:
         """Open a scene (or its autosave ``recover_from``) on the scene thread."""
         path = os.path.abspath(os.path.expanduser(path))
+        picture = os.path.splitext(path)[1].lower() in PICTURES
 
         def job(w):
             import puppet
 
+            if picture:  # a flat picture: a new one-layer scene over it (the task script's Image step)
+                scene = puppet.new_scene(path)
+                if os.path.exists(scene.file):
+                    raise SceneError(f"{os.path.basename(scene.file)} exists beside the picture: open it instead, "
+                                     "or move it away")
+                scene.built
+                w.set_scene(scene, None)
+                w.show_rest = True
+                return f"new scene over {os.path.basename(path)}: set the first layer's mask (Image step)"
             scene = puppet.load_scene(path)
             saved = scene.to_dict()
             if recover_from is not None:
@@ -316,6 +332,12 @@ class App:
             w.show_rest = self.mode == "pin"
             return f"opened {os.path.basename(path)}" + (" (recovered from its autosave)" if recover_from else "")
         self.selection, self.selected_layer, self.hidden = [], None, set()
+        from puppet.app import script
+
+        self.script = Script()
+        if picture:
+            self.mode = "pin"
+            script.set_step(self, "image")
         self.worker.submit(job)
 
     def save(self, path: str | None = None) -> None:

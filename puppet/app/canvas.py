@@ -176,8 +176,9 @@ class CanvasRenderer:
 
     # -- the frame ----------------------------------------------------------------
     def draw(self, snap, view, area, screen, *, hidden=frozenset(), depth_view=False, wireframe=False,
-             fb_height: int | None = None) -> None:
-        """Draw the canvas of snapshot ``snap`` into window rect ``area`` (x, y, w, h)."""
+             fb_height: int | None = None, tint=None) -> None:
+        """Draw the canvas of snapshot ``snap`` into window rect ``area`` (x, y, w, h);
+        ``tint``: (key, rgba (H, W, 4) straight alpha, canvas offset) drawn over the layers."""
         ctx = self.ctx
         fb_h = int(fb_height or screen[1])
         ax, ay, aw, ah = area
@@ -230,6 +231,12 @@ class CanvasRenderer:
                 ctx.enable_only(moderngl.BLEND)
                 ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)  # premultiplied
                 self._frame_quad(tex, screen, rect)
+        if tint is not None:
+            ctx.enable_only(moderngl.BLEND)
+            ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
+                              moderngl.ONE_MINUS_SRC_ALPHA)
+            key, rgba, offset = tint
+            self._image(screen, view, rgba, offset, (rgba.shape[1], rgba.shape[0]), 1.0, key)
         if wireframe:
             self._draw_wire(shown, view, screen)
         ctx.enable_only(moderngl.NOTHING)

@@ -53,7 +53,12 @@ def menu_bar(app, win) -> float:
 
 
 def toolbar(app) -> None:
-    """Mode buttons and view toggles (inside the toolbar window)."""
+    """Task-script steps, mode buttons and view toggles (inside the toolbar window)."""
+    from puppet.app import script
+
+    script.bar(app)
+    imgui.text("|")
+    imgui.same_line()
     for mode, label, tip in (("pin", "Pin mode", "edit pins on the rest pose: click adds, drag moves (1 / Tab)"),
                              ("pose", "Pose mode", "drag pins to pose the puppet in the active pose (2 / Tab)")):
         active = app.mode == mode

@@ -29,6 +29,9 @@ class Panels:
         if not app.snap.loaded:
             imgui.text_wrapped("No scene. File > Open (Ctrl+O) opens one.")
             return
+        from puppet.app import script
+
+        script.panel(app, self.thumbs)
         if imgui.collapsing_header("Layers", _H):
             self.layers()
         if imgui.collapsing_header("Poses", _H):

@@ -42,6 +42,9 @@ def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
         return pan_tool
     if ev.button != 0:
         return None
+    step_tool = app.script.canvas_tool(app)  # the task script's mask, clone and link tools
+    if step_tool is not None:
+        return step_tool
     return pin_tool if app.mode == "pin" else pose_tool
 
 

@@ -18,7 +18,7 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import autosave, keymap, menus, overlay
+from puppet.app import autosave, keymap, menus, overlay, script
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
@@ -203,7 +203,7 @@ class AppWindow:
         ctx.screen.use()
         ctx.viewport = (0, 0, fb[0], fb[1])
         self.canvas.draw(app.snap, app.view, app.area, (w, h), hidden=app.hidden, depth_view=app.depth_view,
-                         wireframe=app.show_mesh, fb_height=fb[1])
+                         wireframe=app.show_mesh, fb_height=fb[1], tint=app.script.tint(app))
         self.gui.render(imgui.get_draw_data(), fb)
         win.flip()
         self.frames += 1
@@ -250,6 +250,7 @@ class AppWindow:
             app.zoom(pos, io.mouse_wheel)
         dl = imgui.get_window_draw_list()
         if app.snap.loaded:
+            script.draw_overlay(dl, app)
             if app.show_links:
                 overlay.draw_links(dl, app)
             if app.show_pins:
