@@ -28,6 +28,11 @@ THREADS = True
 
 #: Crossover of the per-iteration thread hand-off against one QDLDL solve (2 cores).
 PARALLEL_MIN_FREE = 4000
+#: Fewer iterations than this (a drag preview's few warm-started ones) stay on one thread:
+#: starting the second one costs more than it saves, most of all while a GL rasteriser's
+#: threads share the 2 cores (T-rex preview, 4 iterations: median 6.4 ms against 7.4 ms,
+#: p95 7.5 ms against 13-18 ms).
+PARALLEL_MIN_ITERATIONS = 8
 
 
 class _QdldlFactor:
@@ -174,7 +179,7 @@ def pair_solver(factor, nf: int, iterations: int):
         z.real, z.imag = x, y
         return z
 
-    if not (THREADS and nf >= PARALLEL_MIN_FREE and iterations > 1):
+    if not (THREADS and nf >= PARALLEL_MIN_FREE and iterations >= PARALLEL_MIN_ITERATIONS):
         return (lambda rhs: pack(factor.solve1(rhs.real), factor.solve1(rhs.imag))), lambda: None
     worker = Worker(factor.solve1)
 
