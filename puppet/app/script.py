@@ -131,7 +131,7 @@ class Script:
                 self._tint = None
             else:
                 rgba = np.zeros(m.shape + (4,), np.uint8)
-                rgba[m] = (40, 220, 90, 110) if self.step == "link" else (255, 40, 160, 90)
+                rgba[m] = (40, 220, 90, 110) if self.step == "link" else (255, 40, 160, 60)
                 self._tint = rgba
         return None if self._tint is None else ("\0tint", self._tint, (0.0, 0.0))
 
@@ -246,8 +246,9 @@ def _layers(app, thumbs) -> None:
 
         imgui.text("refill:")
         cur = snap.data.layers[k].inpaint
-        for m in INPAINT_METHODS:
-            imgui.same_line()
+        for j, m in enumerate(INPAINT_METHODS):
+            if j != 3:
+                imgui.same_line()
             if imgui.radio_button(f"{m}##inpaint", cur == m) and m != cur:
                 app.edit(lambda s, m=m: s.set_inpaint(target, m) and None)
             imgui.set_item_tooltip("how this layer refills what layers in front took from the picture")

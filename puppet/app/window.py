@@ -105,6 +105,7 @@ class AppWindow:
         self._settle = 3
         self._last_frame = 0.0
         self._expect_scene = path is not None
+        self._rects_file = os.environ.get("PUPPET_APP_RECTS") or None
         if path is not None:
             self.open_scene(path)
 
@@ -208,6 +209,8 @@ class AppWindow:
         win.flip()
         self.frames += 1
         self.frame_ms = (time.perf_counter() - t0) * 1000
+        if self._rects_file:
+            self._dump_rects()
         self._autosave()
         if not self._ready_sent and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
             self._ready_sent = True
@@ -215,6 +218,24 @@ class AppWindow:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
                 self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
                             "file": app.snap.file})
+
+    def _dump_rects(self) -> None:
+        """Where the widgets and the canvas are (``PUPPET_APP_RECTS=FILE``: end-to-end tests
+        under X find the buttons with it), written atomically a few times a second."""
+        now = time.monotonic()
+        if now - getattr(self, "_rects_at", 0.0) < 0.2:
+            return
+        self._rects_at = now
+        from puppet.app.widgets import RECTS
+
+        app = self.app
+        info = {"rects": RECTS, "scale": app.view.scale, "origin": list(app.view.origin),
+                "step": app.script.step, "mode": app.mode, "busy": app.busy, "version": app.snap.version,
+                "status": app.status.text if app.status else ""}
+        tmp = self._rects_file + ".tmp"
+        with open(tmp, "w") as f:
+            json.dump(info, f)
+        os.replace(tmp, self._rects_file)
 
     def _canvas_window(self):
         """The canvas area: an invisible button that takes the pointer (so a click on a
