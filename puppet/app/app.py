@@ -208,7 +208,11 @@ class App:
         hidden = self.hidden_indices()
         k = self.layer_index(self.selected_layer)
         at = None
-        if k is not None and k not in hidden:
+        if self.script.step == "pins":  # the task script: the layer you see there
+            hit = pick.layer_at(snap.layers, snap.images, xy, hidden)
+            if hit is not None:
+                k, at = hit.layer, hit.rest
+        if at is None and k is not None and k not in hidden:
             rest = pick.rest_point(snap.layers[k], xy)
             if rest is not None and snap.images[k].contains(rest):
                 at = rest

@@ -27,6 +27,8 @@ TIPS = {"image": "the first layer's mask: threshold, alpha, GrabCut, brush",
         "pins": "pins and exterior control points on the rest pose",
         "deform": "build the meshes and start posing",
         "pose": "drag pins to pose the puppet"}
+#: the inpainting preview, in thumbnail sizes
+PREVIEW = 3.0
 #: canvas tools of each step: (tool id, label, tooltip)
 TOOLS = {
     "image": [("brush-add", "Brush +", "paint pixels into the mask"),
@@ -275,9 +277,13 @@ def _inpaint_preview(app, thumbs, k) -> None:
     before = None if src is None else np.ascontiguousarray(src[y0:y1, x0:x1])
     imgui.text("refilled area (inpaint):")
     if before is not None:
-        imgui.image(*thumbs.ref(f"before-{y0}-{y1}-{x0}-{x1}", before))
+        ref, size = thumbs.ref(f"before-{y0}-{y1}-{x0}-{x1}", before)
+        imgui.image(ref, imgui.ImVec2(size[0] * PREVIEW, size[1] * PREVIEW))
+        imgui.set_item_tooltip("before: the picture")
         imgui.same_line()
-    imgui.image(*thumbs.ref(f"after-{snap.image_keys[k]}-{y0}-{y1}-{x0}-{x1}", after))
+    ref, size = thumbs.ref(f"after-{snap.image_keys[k]}-{y0}-{y1}-{x0}-{x1}", after)
+    imgui.image(ref, imgui.ImVec2(size[0] * PREVIEW, size[1] * PREVIEW))
+    imgui.set_item_tooltip("after: this layer, refilled")
     note("inpaint:after")
 
 
@@ -329,7 +335,7 @@ def _pins(app, thumbs) -> None:
         if changed:
             app.edit(lambda s, b=float(sc.beta): s.set_layer(name, exterior={"auto": True, "beta": b}) and None,
                      key="beta-live")
-    imgui.text_wrapped("click a layer to add a pin (select its layer in Layers first); new pins' kind below")
+    imgui.text_wrapped("click to add a pin on the layer you see there; new pins' kind below")
 
 
 def _deform(app, thumbs) -> None:

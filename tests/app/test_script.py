@@ -124,9 +124,8 @@ def walk(d, shots=None):
     # 4. Pins: the fist on the arm, three on the body; automatic exterior points on the arm
     click_widget(d, "step:pins")
     assert app.mode == "pin" and app.script.tool is None
-    for layer, p in (("layer2", FIST), ("layer1", (135.0, 100.0)), (None, (78.0, 226.0)), (None, (200.0, 168.0))):
-        if layer:  # a pin goes on the selected layer where that layer is under the cursor
-            click_widget(d, f"layer:{layer}")
+    click_widget(d, "layer:layer1")  # in this step a pin goes on the layer seen there, whatever is selected
+    for p in (FIST, (135.0, 100.0), (78.0, 226.0), (200.0, 168.0)):
         d.click(*d.screen_of(p))
         d.settle()
     pins = {p.name: p for p in d.scene().data.pins}

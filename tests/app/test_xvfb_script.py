@@ -144,11 +144,11 @@ def test_task_script_under_x(display, tmp_path):
         assert "leaves the intersection" in i["status"]
         shots["link"] = a.shot("3-link")
         a.click_widget("step:pins")
-        a.click_widget("layer:layer2")
-        a.click_canvas(FIST)
-        a.click_widget("layer:layer1")
-        for p in ((135.0, 100.0), (78.0, 226.0), (200.0, 168.0)):
+        for p in (FIST, (135.0, 100.0), (78.0, 226.0), (200.0, 168.0)):
             a.click_canvas(p)
+        a.click_widget("layer:layer2")
+        a.click_widget("check:exterior")  # automatic exterior points on the arm
+        assert "exterior" in a.info()["status"] or "change layer" in a.info()["status"]
         shots["pins"] = a.shot("4-pins")
         a.click_widget("step:deform")
         assert a.info()["mode"] == "pose"
