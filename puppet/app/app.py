@@ -317,6 +317,13 @@ class App:
         def job(w):
             import puppet
 
+            if picture and recover_from is not None:  # the autosave of a scene made from this picture
+                scene = puppet.load_scene(recover_from)
+                scene.file = os.path.splitext(path)[0] + ".json"
+                scene.built
+                w.set_scene(scene, None)
+                w.show_rest = True
+                return f"recovered the unsaved scene over {os.path.basename(path)} from its autosave"
             if picture:  # a flat picture: a new one-layer scene over it (the task script's Image step)
                 scene = puppet.new_scene(path)
                 if os.path.exists(scene.file):

@@ -232,7 +232,7 @@ def rect_tool(app, press):
         if x1 - x0 < 4 or y1 - y0 < 4:
             app.say("drag a rectangle around the object for GrabCut", "error")
             return
-        box = [int(x0), int(y0), int(np.ceil(x1 - x0)), int(np.ceil(y1 - y0))]
+        box = [int(round(x0)), int(round(y0)), int(round(x1 - x0)), int(round(y1 - y0))]
         app.say("GrabCut...")
         app.edit(lambda s: s.set_mask(layer, {"grabcut": box}) and None)
         return

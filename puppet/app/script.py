@@ -354,7 +354,7 @@ def draw_overlay(dl, app) -> None:
         pts = [tuple(map(float, app.view.to_screen(p))) for p in sc.draft]
         c = col(imgui.ImVec4(1.0, 0.9, 0.2, 1.0))
         if sc.draft_kind == "rect":
-            dl.add_rect(imgui.ImVec2(*pts[0]), imgui.ImVec2(*pts[-1]), c, 0.0, 0, 2.0)
+            dl.add_rect(imgui.ImVec2(*pts[0]), imgui.ImVec2(*pts[-1]), c, 0.0, 2.0)
         elif sc.draft_kind == "line":
             dl.add_line(imgui.ImVec2(*pts[0]), imgui.ImVec2(*pts[-1]), c, 2.0)
         else:

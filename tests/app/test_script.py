@@ -208,3 +208,58 @@ def test_undo_goes_back_through_the_steps(tmp_path):
         assert mask_of(d, "layer1").sum() < before  # a bite out of it
     finally:
         d.close()
+
+
+def test_grabcut_box_alpha_and_exterior_beta(tmp_path):
+    """Image: a GrabCut rectangle dragged around the runner, then Alpha on a picture with
+    transparency; Pins: the beta slider changes the number of automatic exterior points."""
+    d = Driver(flat_runner(tmp_path))
+    try:
+        app = d.app
+        click_widget(d, "tool:grabcut")
+        stroke(d, [(40, 20), (120, 120), (240, 245)])
+        L = d.scene().data.layers[0]
+        assert L.mask.kind == "grabcut" and np.allclose(L.mask.rect, [40, 20, 200, 225], atol=1)
+        m = mask_of(d, "layer1")
+        assert m[100, 135] and not m[5, 5] and not m[:18].any()  # the torso in, the corner out
+        click_widget(d, "step:pins")
+        click_widget(d, "check:exterior")
+        assert d.scene().data.layers[0].exterior.beta == pytest.approx(1.0)
+        few = sum(m.kind == "auto" for m in app.markers())
+        x0, y0, x1, y1 = RECTS["slider:beta"]
+        d.click(x0 + 0.72 * (x1 - x0), (y0 + y1) / 2)  # near the right end (logarithmic 0.2..8)
+        d.settle()
+        beta = d.scene().data.layers[0].exterior.beta
+        many = sum(m.kind == "auto" for m in app.markers())
+        assert beta > 3 and many > few >= 1
+        d.key(key.Z, key.MOD_CTRL)  # the slider drag is one undo step
+        d.settle()
+        assert d.scene().data.layers[0].exterior.beta == pytest.approx(1.0)
+    finally:
+        d.close()
+    # a picture with transparency: the first layer takes its alpha
+    d = Driver(RUNNER)
+    try:
+        click_widget(d, "Alpha")
+        assert d.scene().data.layers[0].mask.kind == "alpha"
+        assert mask_of(d, "layer1").sum() == (np.asarray(Image.open(RUNNER))[..., 3] > 0).sum()
+    finally:
+        d.close()
+
+
+def test_links_listed_and_removable(tmp_path):
+    d = Driver(flat_runner(tmp_path))
+    try:
+        click_widget(d, "step:layers")
+        click_widget(d, "+")
+        stroke(d, ARM + [ARM[0]])
+        click_widget(d, "step:link")
+        stroke(d, SHOULDER)
+        assert len(d.scene().data.links) == 1
+        click_widget(d, "x")  # the list's remove button of that segment
+        assert not d.scene().data.links
+        d.key(key.Z, key.MOD_CTRL)
+        d.settle()
+        assert len(d.scene().data.links) == 1
+    finally:
+        d.close()
