@@ -126,7 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="auto: pins at the skeleton's end points and junctions")
 
     w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
-    w.add_argument("scene", nargs="?")
+    w.add_argument("scene", nargs="?", help="a scene, or a picture (PNG, JPEG...): a new puppet made from it")
     w.add_argument("--size", type=_size, default=(1280, 800), metavar="WxH", help="window size (default 1280x800)")
     return p
 

@@ -16,7 +16,7 @@ def menu_bar(app, win) -> float:
     """The main menu bar; returns its height."""
     if imgui.begin_main_menu_bar():
         if imgui.begin_menu("File"):
-            if imgui.menu_item_simple("Open...", "Ctrl+O"):
+            if imgui.menu_item_simple("Open scene or picture...", "Ctrl+O"):
                 win.open_dialog("open")
             if imgui.menu_item_simple("Save", "Ctrl+S", enabled=app.snap.loaded):
                 app.save()

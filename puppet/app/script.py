@@ -363,6 +363,11 @@ def draw_overlay(dl, app) -> None:
                 dl.add_line(imgui.ImVec2(*p), imgui.ImVec2(*q), c, max(w, 1.0) if sc.draft_kind == "brush" else 2.0)
             if sc.draft_kind == "lasso" and len(pts) > 2:
                 dl.add_line(imgui.ImVec2(*pts[-1]), imgui.ImVec2(*pts[0]), c, 1.0)
+    if sc.draft is None and sc.step in TOOLS and sc.canvas_tool(app) is masktools.brush_tool \
+            and imgui.is_window_hovered():  # the brush's size under the pointer
+        m = imgui.get_io().mouse_pos
+        dl.add_circle(imgui.ImVec2(m.x, m.y), max(sc.brush / 2 * app.view.scale, 2.0),
+                      col(imgui.ImVec4(1.0, 1.0, 1.0, 0.8)), 0, 1.5)
     if sc.bad_link is not None and sc.step == "link":
         p0, p1, out = (tuple(map(float, app.view.to_screen(p))) for p in sc.bad_link)
         red = col(imgui.ImVec4(1.0, 0.15, 0.15, 1.0))

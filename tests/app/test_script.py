@@ -263,3 +263,48 @@ def test_links_listed_and_removable(tmp_path):
         assert len(d.scene().data.links) == 1
     finally:
         d.close()
+
+
+def test_file_open_a_picture_and_its_autosave(tmp_path):
+    """File > Open with a picture starts the task script; after a crash the unsaved scene
+    over the picture is offered back from its autosave; a saved scene beside it is not
+    overwritten by a new one."""
+    from puppet.app import autosave
+
+    picture = flat_runner(tmp_path)
+    d = Driver()
+    try:
+        d.key(key.O, key.MOD_CTRL)
+        d.key(key.A, key.MOD_CTRL)
+        d.type(picture)
+        d.key(key.ENTER)
+        d.settle()
+        assert d.app.snap.loaded and d.app.script.step == "image" and d.app.title == "puppet — runner.json *"
+        click_widget(d, "step:layers")
+        click_widget(d, "+")
+        stroke(d, ARM + [ARM[0]])
+        d.app.worker.submit(lambda w: autosave.write(w.scene) and None)  # the minute's autosave
+        d.settle()
+    finally:
+        d.app.worker.wait_idle()
+        d.w.closed = True  # a crash: no clean close (the autosave stays)
+        d.app.worker.stop()
+        d.w.win.close()
+    assert os.path.isfile(str(tmp_path / "runner.autosave.json"))
+    d = Driver(picture)
+    try:
+        assert d.app.dialog == "recover"
+        d.w.recover(True)
+        d.settle()
+        assert [L.name for L in d.scene().data.layers] == ["layer1", "layer2"]
+        assert d.app.snap.file == str(tmp_path / "runner.json") and d.app.snap.dirty
+        d.key(key.S, key.MOD_CTRL)
+        d.settle()
+        assert os.path.isfile(str(tmp_path / "runner.json"))
+    finally:
+        d.close()
+    d = Driver(picture)  # runner.json exists now: refused, with the reason
+    try:
+        assert not d.app.snap.loaded and "exists beside the picture" in d.app.status.text
+    finally:
+        d.close()
