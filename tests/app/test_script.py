@@ -158,6 +158,7 @@ def test_task_script_from_a_flat_picture(tmp_path):
     d = Driver(picture, size=(960, 640))
     try:
         pose = walk(d)
+        t0 = d.scene().data.poses[pose]["pin1"].to
         app = d.app
         path = str(tmp_path / "runner.json")
         assert app.snap.file == path and not app.snap.dirty and os.path.isfile(path)
@@ -185,6 +186,20 @@ def test_task_script_from_a_flat_picture(tmp_path):
         diff = np.abs(screen[opaque] - cli[..., :3][opaque])
         assert np.percentile(diff, 99) <= 3 and diff.mean() < 1.0
         saved.close()
+        # back to Image: a lower threshold; links, pins and the pose keep working
+        click_widget(d, "step:image")
+        x0, y0, x1, y1 = RECTS["frame:threshold"]
+        d.click(x0 + 0.85 * (x1 - x0), (y0 + y1) / 2)
+        d.settle()
+        s = d.scene()
+        assert s.data.layers[0].mask.kind == "threshold" and app.status.level == "info", app.status.text
+        assert len(s.data.links) == 1 and len(s.data.pins) == 4
+        click_widget(d, "step:pose")
+        app.show_pins = True
+        fist = d.pin_screen("pin1")
+        d.drag_path([fist, (fist[0] + 3, fist[1]), (fist[0] + 20, fist[1] + 10)])
+        d.settle()
+        assert app.status.level == "info" and d.scene().data.poses[d.scene().active_pose]["pin1"].to[0] > t0[0]
     finally:
         d.close()
 
