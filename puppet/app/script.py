@@ -54,6 +54,8 @@ class Script:
         self.threshold = 250.0
         self.beta = 1.0
         self.pending: str | None = None  # a new layer not yet given pixels
+        self.layer_name = ""  # the rename field of the Layers step
+        self.show_tint = True
         self.link_a: str | None = None
         self.link_b: str | None = None
         self.draft = None  # points of the gesture in progress
@@ -122,7 +124,7 @@ class Script:
     def tint(self, app):
         """The tinted overlay of this step: (key, rgba (H, W, 4), offset) or None. The
         selected layer's mask (Image, Layers) or the link layers' intersection (Link)."""
-        if not app.snap.loaded or self.step not in ("image", "layers", "link"):
+        if not app.snap.loaded or self.step not in ("image", "layers", "link") or not self.show_tint:
             return None
         layer = self.target_layer(app) if self.step != "link" else None
         key = (app.snap.version, self.step, layer, self.link_pair(app) if self.step == "link" else None)
@@ -183,6 +185,11 @@ def panel(app, thumbs) -> None:
     if sc.step == "pose" or not app.snap.loaded:
         return
     imgui.text(f"Step: {LABELS[sc.step]}")
+    if sc.step in ("image", "layers", "link"):
+        imgui.same_line()
+        _, sc.show_tint = imgui.checkbox("tint", sc.show_tint)
+        imgui.set_item_tooltip("tint the selected layer's mask (Link: the two layers' intersection)")
+        note("check:tint")
     imgui.text_wrapped(TIPS[sc.step])
     for j, (tool, label, tip) in enumerate(TOOLS.get(sc.step, [])):
         if j % 3:
@@ -239,6 +246,19 @@ def _layers(app, thumbs) -> None:
     imgui.text(f"layer: {target or '(none)'}" + ("  (empty)" if target is not None and target == sc.pending else ""))
     if sc.pending is not None and app.layer_index(sc.pending) is not None:
         sc.pending = None  # it has pixels now
+    imgui.set_next_item_width(150)
+    enter, sc.layer_name = imgui.input_text_with_hint("##layer-name", target or "", sc.layer_name,
+                                                     imgui.InputTextFlags_.enter_returns_true)
+    imgui.set_item_tooltip("type a new name for the layer and press Enter")
+    note("field:layer name")
+    new = sc.layer_name.strip()
+    if enter and new and target is not None and new != target:
+        if target == sc.pending:
+            sc.pending = app.selected_layer = new
+        else:
+            app.edit(lambda s: s.rename_layer(target, new) and None)
+            app.selected_layer = new
+        sc.layer_name = ""
     if sc.tool == "paint":
         _, sc.color = imgui.color_edit4("colour", list(sc.color), imgui.ColorEditFlags_.no_alpha)
         imgui.set_item_tooltip("the Paint tool's colour")

@@ -267,8 +267,21 @@ def test_links_listed_and_removable(tmp_path):
     try:
         click_widget(d, "step:layers")
         click_widget(d, "+")
+        click_widget(d, "field:layer name")  # the new, still empty layer is named before its first clone
+        d.type("arm")
+        d.key(key.ENTER)
         stroke(d, ARM + [ARM[0]])
+        click_widget(d, "layer:layer1")
+        click_widget(d, "field:layer name")
+        d.type("body")
+        d.key(key.ENTER)
+        d.settle()
+        assert [L.name for L in d.scene().data.layers] == ["body", "arm"]
         click_widget(d, "step:link")
+        tint = d.app.script.tint(d.app)[1]  # the intersection: the arm (all of it lies on the body)
+        np.testing.assert_array_equal(tint[..., 3] > 0, mask_of(d, "arm"))
+        click_widget(d, "check:tint")
+        assert d.app.script.tint(d.app) is None
         stroke(d, SHOULDER)
         assert len(d.scene().data.links) == 1
         click_widget(d, "x")  # the list's remove button of that segment
