@@ -48,8 +48,8 @@ def polygon_mask(shape, points) -> np.ndarray:
 def rect_mask(shape, a, b) -> np.ndarray:
     """Rectangle between canvas corners ``a`` and ``b``: (H, W) bool."""
     out = np.zeros(shape, bool)
-    x0, x1 = sorted((int(np.floor(a[0])), int(np.ceil(b[0]))))
-    y0, y1 = sorted((int(np.floor(a[1])), int(np.ceil(b[1]))))
+    (xa, xb), (ya, yb) = sorted((a[0], b[0])), sorted((a[1], b[1]))
+    x0, x1, y0, y1 = int(np.floor(xa)), int(np.ceil(xb)), int(np.floor(ya)), int(np.ceil(yb))
     out[max(y0, 0):max(y1, 0), max(x0, 0):max(x1, 0)] = True
     return out
 

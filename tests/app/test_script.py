@@ -214,6 +214,17 @@ def test_undo_goes_back_through_the_steps(tmp_path):
         d.key(key.Z, key.MOD_CTRL)
         d.settle()
         assert len(d.scene().data.layers) == 1  # the clone into a new layer is one step
+        # a rectangle clone: the object's pixels inside the box
+        click_widget(d, "+")
+        click_widget(d, "tool:clone-rect")
+        stroke(d, [(60, 72), (75, 85), (92, 98)])
+        fist = mask_of(d, "layer2")
+        box = np.zeros_like(fist)
+        box[72:98, 60:92] = True
+        assert fist.any() and not (fist & ~box).any()
+        assert (fist == (box & mask_of(d, "layer1"))).mean() > 0.99  # up to the box's rounded edges
+        d.key(key.Z, key.MOD_CTRL)
+        d.settle()
         # erasing every pixel of the only layer is refused, with the reason
         click_widget(d, "tool:erase")
         assert d.app.script.tool == "erase"
