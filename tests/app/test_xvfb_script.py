@@ -136,6 +136,8 @@ def test_task_script_under_x(display, tmp_path):
         a.drag(ARM + [ARM[0]], steps=3)
         a.click_widget("layer:layer1")
         a.click_widget("inpaint:telea")
+        a.shot("2-layers-refill")
+        a.click_widget("layer:layer2")  # the arm tinted
         shots["layers"] = a.shot("2-layers")
         a.click_widget("step:link")
         a.drag(SHOULDER)
