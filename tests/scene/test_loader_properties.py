@@ -26,7 +26,7 @@ from hypothesis import given
 
 from puppet.errors import SceneError
 from puppet.scene.load import load_scene_data
-from tests.conftest import SCENES
+from tests.conftest import ROOT, SCENES
 
 settings.register_profile("puppet-ci", max_examples=60, derandomize=True, deadline=None, database=None,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
@@ -36,7 +36,8 @@ MODE = os.environ.get("PUPPET_HYPOTHESIS", "ci")
 PROFILE = settings.get_profile("puppet-sweep" if MODE == "sweep" else "puppet-ci")
 BUILD_PROFILE = settings(PROFILE, max_examples=200 if MODE == "sweep" else 8)
 
-SEEDS = sorted(glob.glob(os.path.join(SCENES, "*.json")) + glob.glob("/work/shared/acceptance/*.json"))
+ACCEPTANCE = os.path.join(ROOT, "..", "shared", "acceptance")  # beside the project, when present
+SEEDS = sorted(glob.glob(os.path.join(SCENES, "*.json")) + glob.glob(os.path.join(ACCEPTANCE, "*.json")))
 PARSED = {p: json.load(open(p)) for p in SEEDS}
 OUTCOMES: Counter = Counter()
 WORK = tempfile.mkdtemp(prefix="puppet-props-")
