@@ -143,8 +143,7 @@ class Document(Edits):
         try:
             yield self
         finally:
-            start = self.history._block[-1][0]
-            self.history.close((self._doc, self._active), (self._doc, self._active) != start)
+            self.history.close((self._doc, self._active))
 
     def undo(self) -> bool:
         """Go back one step; False when there is nothing to undo."""

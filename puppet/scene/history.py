@@ -74,10 +74,11 @@ class History:
     def open(self, snapshot: Any, label: str) -> None:
         self._block.append((snapshot, label))
 
-    def close(self, snapshot: Any, changed: bool) -> Step | None:
-        """End a block; the outermost one becomes one step if the document changed."""
+    def close(self, snapshot: Any) -> Step | None:
+        """End a block; the outermost one becomes one step if ``snapshot`` differs from
+        the snapshot the block opened with."""
         before, label = self._block.pop()
-        if self._block or not changed:
+        if self._block or snapshot == before:
             return None
         step = Step(label, before, snapshot, Event("scene", label=label))
         self.push(step)
