@@ -64,7 +64,7 @@ def test_signal_mid_animate_leaves_nothing(long_scene, tmp_path, name, sig):
         if proc.poll() is None:
             proc.kill()
     if sig == signal.SIGINT:
-        assert proc.returncode == 130
+        assert proc.returncode == 130, (proc.returncode, err)  # seen failing once, under heavy load
         assert err.strip() == "puppet: interrupted"
     else:
         assert proc.returncode == -sig, (proc.returncode, err)  # ended by that signal, after cleaning up
