@@ -14,6 +14,13 @@ import sys
 
 from puppet.errors import SceneError
 
+if "numpy" not in sys.modules and "OPENBLAS_NUM_THREADS" not in os.environ:
+    # The command's BLAS work is the solvers' skinny products, which run on one thread
+    # anyway (puppet/deform/threads.py): set it before numpy loads OpenBLAS, so the
+    # solvers need not look the pools up and cap them at every solve (~40 ms at start).
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    os.environ["PUPPET_BLAS_SET_AT_START"] = "1"
+
 #: Largest --size side accepted by the parser (the machine's GL may allow less: checked before drawing).
 MAX_SIZE = 16384
 #: Largest output in pixels (64 megapixels, e.g. 8192x8192): the compositor needs ~36 bytes per pixel.

@@ -14,6 +14,7 @@ counter). The rest of the process keeps its own setting: nothing is changed glob
 from __future__ import annotations
 
 import functools
+import os
 import sys
 import threading
 from contextlib import contextmanager
@@ -36,6 +37,9 @@ def _limit():
     The pools are looked up again (about 1 ms) only when modules were imported since the
     last look, as an import may load another BLAS (SciPy's own, for instance)."""
     global _controller, _modules
+    if (BLAS_THREADS == 1 and os.environ.get("PUPPET_BLAS_SET_AT_START") == "1"
+            and os.environ.get("OPENBLAS_NUM_THREADS") == "1"):
+        return None  # the `puppet` command set one BLAS thread before numpy loaded
     try:
         if _controller is None or len(sys.modules) != _modules:
             from threadpoolctl import ThreadpoolController

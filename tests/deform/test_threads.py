@@ -53,3 +53,20 @@ def test_wrapped_entry_points_keep_their_signatures():
 
     assert "callback" in inspect.signature(arap_solve).parameters
     assert arap_solve.__name__ == "arap_solve" and "Deform the mesh" in arap_solve.__doc__
+
+
+def test_the_command_sets_one_blas_thread_before_numpy_loads():
+    import os
+    import subprocess
+    import sys
+    code = ("import puppet.cli, numpy, scipy.linalg\n"
+            "from threadpoolctl import threadpool_info\n"
+            "from puppet.deform import threads\n"
+            "print(sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'}),"
+            " threads._limit() is None)")
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "PUPPET_BLAS_SET_AT_START")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    assert out.split() == ["[1]", "True"], out
+    env["OPENBLAS_NUM_THREADS"] = "2"  # the user's own choice is kept, and the solvers still cap it
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    assert out.split() == ["[2]", "False"], out
