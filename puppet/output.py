@@ -253,7 +253,7 @@ def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()
     """
     target = check_file(path, inputs=inputs)
     tmp = _temp(path, os.path.dirname(target), _make_file)
-    try:
+    with _removed_on_failure(path, tmp):
         write(tmp)
         fd = os.open(tmp, os.O_RDONLY)
         try:
@@ -265,6 +265,14 @@ def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()
             os.replace(tmp, target)
             with _lock:
                 _live.discard(tmp)
+
+
+@contextlib.contextmanager
+def _removed_on_failure(path: str, tmp: str):
+    """Remove the temporary ``tmp`` when the block fails; an OSError becomes the
+    OutputError of ``path`` (see :func:`_failed`)."""
+    try:
+        yield
     except BaseException as e:
         _remove(tmp)
         err = _failed(path, e)
@@ -322,17 +330,11 @@ def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = ()) 
     """
     target = check_folder(path, inputs=inputs)
     tmp = _temp(path, os.path.dirname(target), _make_folder)
-    try:
+    with _removed_on_failure(path, tmp):
         n = fill(tmp)
         os.chmod(tmp, _mode(target, 0o777))
         _swap_in(path, tmp, target)
-        return n
-    except BaseException as e:
-        _remove(tmp)
-        err = _failed(path, e)
-        if err is e:
-            raise
-        raise err from None
+    return n
 
 
 def save_png(path: str, rgba, *, inputs: Inputs = ()) -> None:
