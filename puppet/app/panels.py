@@ -96,24 +96,22 @@ class Panels:
             self._auto_area[key] = default_max_area(snap.images[k].mask)
         auto = L.mesh.max_area is None
         area = self._auto_area[key] if auto else L.mesh.max_area
-        changed, area = imgui.slider_float("triangle size", area, 2.0, 4000.0, "%.0f px²",
-                                           imgui.SliderFlags_.logarithmic)
-        imgui.set_item_tooltip("mesh density: largest triangle area (smaller = denser mesh); re-meshes live")
-        note("slider:triangle size")
-        live(app, "mesh", f"mesh density of {name}")
-        if changed:
-            app.edit(lambda s, v=area: s.set_mesh_options(name, max_area=float(v)) and None, key="mesh-live")
-        changed, angle = imgui.slider_float("min angle", L.mesh.min_angle, 0.0, 34.0, "%.0f°")
-        imgui.set_item_tooltip("smallest triangle angle (higher = rounder triangles, more of them)")
-        note("slider:min angle")
-        live(app, "mesh", f"min angle of {name}")
-        if changed:
-            app.edit(lambda s, v=angle: s.set_mesh_options(name, min_angle=float(v)) and None, key="mesh-live")
-        changed, simp = imgui.slider_float("simplify", L.mesh.simplify, 0.0, 8.0, "%.1f px")
-        imgui.set_item_tooltip("outline simplification tolerance (Douglas-Peucker), pixels")
-        live(app, "mesh", f"simplify of {name}")
-        if changed:
-            app.edit(lambda s, v=simp: s.set_mesh_options(name, simplify=float(v)) and None, key="mesh-live")
+        log = imgui.SliderFlags_.logarithmic
+        sliders = (  # option, label, value, range, format, flags, tooltip
+            ("max_area", "triangle size", area, (2.0, 4000.0), "%.0f px²", log,
+             "mesh density: largest triangle area (smaller = denser mesh); re-meshes live"),
+            ("min_angle", "min angle", L.mesh.min_angle, (0.0, 34.0), "%.0f°", 0,
+             "smallest triangle angle (higher = rounder triangles, more of them)"),
+            ("simplify", "simplify", L.mesh.simplify, (0.0, 8.0), "%.1f px", 0,
+             "outline simplification tolerance (Douglas-Peucker), pixels"))
+        for option, label, value, (lo, hi), fmt, flags, tip in sliders:
+            changed, value = imgui.slider_float(label, value, lo, hi, fmt, flags)
+            imgui.set_item_tooltip(tip)
+            note(f"slider:{label}")
+            live(app, "mesh", f"{label} of {name}")
+            if changed:
+                app.edit(lambda s, o=option, v=value: s.set_mesh_options(name, **{o: float(v)}) and None,
+                         key="mesh-live")
         if button("Reset mesh", "back to the default mesh options (density chosen from the layer size)",
                   enabled=not auto or L.mesh.min_angle != 25.0 or L.mesh.simplify != 1.0):
             app.edit(lambda s: s.set_layer(name, mesh=None) and None)
