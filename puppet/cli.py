@@ -1,4 +1,4 @@
-"""The ``puppet`` command: render, animate, mesh, check, init, app.
+"""The ``puppet`` command: render, animate, mesh, check, init, app, video, batch.
 
 Exit status: 0 success; 2 bad input (one line ``puppet: error: ...`` on stderr, no
 traceback, no output file); 1 only for a bug.
@@ -135,7 +135,21 @@ def build_parser() -> argparse.ArgumentParser:
     w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
     w.add_argument("scene", nargs="?", help="a scene, or a picture (PNG, JPEG...): a new puppet made from it")
     w.add_argument("--size", type=_size, default=(1280, 800), metavar="WxH", help="window size (default 1280x800)")
+
+    # commands that live in their own package: each module adds its parser and runs it (cheap to import)
+    for module in _PLUGGED.values():
+        module.add_parser(sub, size=_size, time=_time)
     return p
+
+
+def _plugged():
+    from puppet.batch import command as batch
+    from puppet.video import command as video
+
+    return {"video": video, "batch": batch}
+
+
+_PLUGGED = _plugged()
 
 
 def _version() -> str:
@@ -209,6 +223,8 @@ def run(argv: list[str] | None = None) -> int:
         import puppet.app
 
         return puppet.app.run(args.scene, size=args.size)
+    if args.command in _PLUGGED:
+        return _PLUGGED[args.command].run(args)
     if args.command == "init":
         from puppet.scene.init import init_scene
 

@@ -1,0 +1,1 @@
+"""Many scenes, poses and garment images rendered on Dask (a LocalCluster by default)."""

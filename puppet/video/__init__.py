@@ -1,0 +1,1 @@
+"""Cartoon video deformation: a skeleton on the first frame, tracked with SIFT, each frame re-posed."""
