@@ -42,14 +42,16 @@ class Scene(Document):
         """
         return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
 
-    def draw_layers(self, layers, *, size=None, wireframe: bool = False) -> np.ndarray:
-        """Composite already posed layers (:meth:`layers` results) into an RGBA array."""
+    def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None) -> np.ndarray:
+        """Composite already posed layers (:meth:`layers` results) into an RGBA array, over
+        ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's)."""
         from puppet.render.layers import DrawLayer
 
         draw = [DrawLayer(key=r.name, image=im.rgba, offset=im.offset, rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]
-        return self.compositor.render(draw, self.canvas, size=size, background=self.background(),
+        return self.compositor.render(draw, self.canvas, size=size,
+                                      background=self.background() if background is None else background,
                                       wireframe=wireframe)
 
     def drag(self, pin: str, *, iterations: int = 4, size: tuple[int, int] | None = None):
