@@ -54,16 +54,18 @@ class DrawLayer:
 
 
 def premultiply(image: np.ndarray) -> np.ndarray:
-    """Premultiply straight RGBA uint8, rounding to nearest: ``round(c * a / 255)``."""
-    x = image[..., :3].astype(np.uint16)
-    x *= image[..., 3:]
-    x += 128
-    x += x >> 8  # (x + (x >> 8)) >> 8 == round(c * a / 255) exactly for 8-bit c and a
-    x >>= 8
-    out = np.empty_like(image)
-    out[..., :3] = x
-    out[..., 3] = image[..., 3]
-    return out
+    """Premultiply straight RGBA uint8, rounding to nearest: ``round(c * a / 255)``.
+
+    OpenCV's saturating multiply with scale 1/255 gives exactly that (``c * a / 255`` is
+    never within 1/510 of a half, far beyond float error; checked on all 65 536 pairs in
+    the tests) and runs ~6x faster than the integer formula in numpy (1.6 against 10 ms
+    at 600x500), which counts at start-up: the T-rex has eight layer images.
+    """
+    import cv2  # the meshing has loaded it already on every path that draws
+
+    image = np.ascontiguousarray(image)
+    a = np.ascontiguousarray(image[..., 3])
+    return cv2.multiply(image, cv2.merge([a, a, a, np.full_like(a, 255)]), scale=1 / 255.0)
 
 
 def depth_window(lo: float, hi: float) -> tuple[float, float]:
