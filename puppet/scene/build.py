@@ -94,6 +94,10 @@ def load_source(data: SceneData):
     """The scene's template image (RGBA), or None."""
     if data.source is None:
         return None
+    if data.video is not None:  # a video scene: its start frame
+        from puppet.scene.video import start_frame
+
+        return start_frame(data)
     return load_rgba(data.source, scene_file=data.file, json_path="source")
 
 
@@ -169,8 +173,9 @@ def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
     pins = layer_pins(data, k)
     for i, p in pins:
         if not im.contains(p.at):
+            on = f" on frame {data.video['start']}" if data.video is not None and im.from_source else ""
             raise SceneError(f"pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of layer "
-                             f"{L.name!r}", file=data.file, path=f"pins[{i}].at")
+                             f"{L.name!r}{on}", file=data.file, path=f"pins[{i}].at")
     for li, si, P in polylines:
         if not _segment_inside(im, data.links[li].segments[si]):
             raise SceneError(f"segment leaves the mask of layer {L.name!r} "

@@ -18,9 +18,10 @@ from puppet.scene.extensions import parse_app
 from puppet.scene.reader import parse_text, read_text
 from puppet.scene.schema import (Ctx, expect_bool, expect_list, expect_number, expect_object,
                                  expect_point, expect_string, join, short)
+from puppet.scene.video import parse_video
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
-            "deformer", "poses", "animation", "app")
+            "deformer", "poses", "animation", "app", "video")
 MAX_CANVAS = 16384
 #: Most points a polygon mask may have.
 MAX_POLYGON_POINTS = 100_000
@@ -65,6 +66,9 @@ def parse_scene(raw, file: str) -> m.SceneData:
             background = tuple(expect_number(c, x, f"background[{i}]", lo=0, hi=255, integer=True)
                                for i, x in enumerate(bg))
     source = file_path(raw["source"], "source") if "source" in raw else None
+    video = parse_video(c, raw, source, canvas)  # a video scene (compatible extension): probed now
+    if video is not None:
+        canvas = video["size"]
 
     layers = [_layer(c, v, f"layers[{i}]", i, file_path, source)
               for i, v in enumerate(expect_list(c, raw["layers"], "layers", min_len=1))]
@@ -116,7 +120,7 @@ def parse_scene(raw, file: str) -> m.SceneData:
         parse_app(c, raw["app"], "app", file_path)
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
                        links=links, pins=pins, bones=bones, deformer=deformer, poses=poses,
-                       animation=animation, raw=raw)
+                       animation=animation, raw=raw, video=video)
 
 
 def _layer(c, v, p, index, file_path, source) -> m.Layer:

@@ -117,3 +117,4 @@ class SceneData:
     poses: dict[str, dict[str, Target]] = field(default_factory=dict)
     animation: Animation | None = None
     raw: dict = field(default_factory=dict)  # the JSON as read, for saving
+    video: dict | None = None  # a video scene: {"start", "fps", "size", "count"} (puppet.scene.video)
