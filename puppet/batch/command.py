@@ -1,21 +1,161 @@
-"""``puppet batch``: its arguments and how it runs (imported by puppet.cli; keep it cheap to import)."""
+"""``puppet batch``: its arguments and how it runs (imported by puppet.cli; keep it cheap to import:
+Dask is imported only when a batch runs).
+
+Exit status: 0 every job done (or skipped by --resume as up to date); 2 bad command input
+(one line); 3 the batch ran to its end but some jobs failed (``report.json`` says which and
+why); 130 interrupted (Ctrl+C: OUT_DIR consistent, ``--resume`` finishes the rest).
+"""
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 
 from puppet.errors import SceneError
 
 
+def _seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a number of seconds > 0")
+    return v
+
+
+def _count(low: int):
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if not low <= v <= 1024:
+            raise argparse.ArgumentTypeError(f"{text!r}: give {low}..1024")
+        return v
+    return parse
+
+
+def _tolerance(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v >= 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: the tolerance must be a finite number >= 0")
+    return v
+
+
+_check_size = None  # the CLI's --size parser, for sizes in job lists (same limits)
+
+
 def add_parser(sub, *, size, time) -> argparse.ArgumentParser:
-    b = sub.add_parser("batch", help="render many scenes / poses / garment images on Dask")
+    global _check_size
+    _check_size = size
+    b = sub.add_parser("batch", help="render many scenes / poses / garment images on Dask",
+                       description="JOBS is a folder of scene files (every pose and the animation of each) "
+                                   "or a JSON/JSONL job list (docs/batch.md). Template mode: --template "
+                                   "garment.json --images DIR/ --pose NAME (JOBS omitted). Exit status: 0 all "
+                                   "done, 2 bad input, 3 some jobs failed (OUT_DIR/report.json), 130 interrupted.")
     b.add_argument("jobs", nargs="?", metavar="JOBS", help="a folder of scenes or a JSON/JSONL job list")
     b.add_argument("-o", "--output", required=True, metavar="OUT_DIR/")
-    b.add_argument("--workers", type=int, metavar="N", help="worker processes (default: the cores)")
+    b.add_argument("--workers", type=_count(1), metavar="N", help="worker processes (default: the cores)")
     b.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="an existing Dask scheduler")
-    b.add_argument("--retries", type=int, default=1, metavar="K")
+    b.add_argument("--retries", type=_count(0), default=2, metavar="K",
+                   help="runs again a job whose worker died, up to K times (default 2)")
     b.add_argument("--resume", action="store_true", help="skip jobs whose output is up to date")
+    b.add_argument("--size", type=size, metavar="WxH", help="output size of jobs that give none (default: the canvas)")
+    b.add_argument("--budget", type=_seconds, default=300.0, metavar="SECONDS",
+                   help="most time a job may spend loading and solving before it fails (default 300)")
+    t = b.add_argument_group("template mode")
+    t.add_argument("--template", metavar="GARMENT.json", help="a garment scene whose pins go to each image")
+    t.add_argument("--images", metavar="DIR/", help="the garment images")
+    t.add_argument("--pose", metavar="NAME", help="the template's pose to render each image in")
+    t.add_argument("--tolerance", type=_tolerance, metavar="T",
+                   help="how far an outline may differ from the template's (default: the algorithm's)")
     return b
 
 
+def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
+    from puppet.batch import jobs as J
+
+    defaults = {"size": list(args.size) if args.size else None, "budget": args.budget, "check_size": _check_size}
+    template_flags = [f for f in ("template", "images", "pose", "tolerance") if getattr(args, f) is not None]
+    if args.template is not None:
+        if args.jobs is not None:
+            raise SceneError("give JOBS or --template, not both")
+        missing = [f"--{f}" for f in ("images", "pose") if getattr(args, f) is None]
+        if missing:
+            raise SceneError(f"--template needs {' and '.join(missing)}")
+        template = os.path.abspath(args.template)
+        _check_pose(template, args.pose)
+        return J.template_jobs(template, os.path.abspath(args.images), args.pose, out_dir, defaults,
+                               tolerance=args.tolerance)
+    if template_flags:
+        raise SceneError(f"--{template_flags[0]} is for template mode (with --template)")
+    if args.jobs is None:
+        raise SceneError("give JOBS (a folder of scenes or a job list) or --template")
+    path = os.path.abspath(args.jobs)
+    if os.path.isdir(path):
+        if os.path.realpath(path) == out_dir:
+            raise SceneError("OUT_DIR must not be the JOBS folder", file=args.output)
+        return J.folder_jobs(path, out_dir, defaults)
+    if not os.path.exists(path):
+        raise SceneError("no such file or folder", file=args.jobs)
+    if not path.lower().endswith((".json", ".jsonl")):
+        raise SceneError("JOBS is a folder of scenes or a .json / .jsonl job list", file=args.jobs)
+    return J.read_job_list(path, out_dir, defaults)
+
+
+def _check_pose(template: str, pose: str) -> None:
+    from puppet.scene.document import Document
+
+    doc = Document.load(template)
+    if pose not in doc.pose_names():
+        raise SceneError(f"--pose {pose!r}: no such pose (poses: {', '.join(doc.pose_names())})", file=template)
+
+
+def _out_dir(path: str) -> str:
+    from puppet.output import check_folder
+
+    real = os.path.realpath(path)
+    if os.path.exists(real) and not os.path.isdir(real):
+        raise SceneError("exists and is not a folder", file=path)
+    if not os.path.exists(real):
+        check_folder(path, contents=False)  # its parent must exist and be writable
+        try:
+            os.mkdir(real)
+        except OSError as e:
+            raise SceneError(f"cannot create the folder: {e.strerror or e}", file=path) from None
+    elif not os.access(real, os.W_OK):
+        raise SceneError("the folder is not writable", file=path)
+    return real
+
+
 def run(args: argparse.Namespace) -> int:
-    raise SceneError("puppet batch: not built yet")
+    from puppet.batch.runner import SOME_FAILED, run_batch
+
+    if args.scheduler and args.workers:
+        raise SceneError("--workers is for the embedded cluster; an existing --scheduler has its own workers")
+    if args.output and os.path.exists(args.output) and not os.path.isdir(args.output):
+        raise SceneError("exists and is not a folder", file=args.output)
+    out_dir = os.path.realpath(args.output)
+    jobs = _jobs(args, out_dir)  # every command error is found before OUT_DIR is made or touched
+    out_dir = _out_dir(args.output)
+
+    def say(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    summary = run_batch(jobs, out_dir, workers=args.workers, scheduler=args.scheduler, retries=args.retries,
+                        resume=args.resume, progress=sys.stderr.isatty(), say=say)
+    c, secs = summary["counts"], summary["seconds"]
+    failed = c["failed"] + c["no-match"]
+    line = (f"puppet batch: {len(jobs)} jobs: {c['done']} done, {failed} failed"
+            + (f" ({c['no-match']} no outline match)" if c["no-match"] else "")
+            + f", {c['skipped']} up to date in {secs:.1f} s ({summary['jobs_per_s']:.1f} jobs/s); "
+            f"report: {summary['report']}")
+    try:
+        print(line, flush=True)
+    except BrokenPipeError:
+        pass
+    return SOME_FAILED if failed else 0

@@ -1,0 +1,94 @@
+"""The Dask cluster a batch runs on: an embedded LocalCluster (worker processes, spawned,
+one thread each) or an existing cluster's scheduler. Dask's own logging is kept off the
+terminal (errors of jobs go to the report instead)."""
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import logging
+import os
+import tempfile
+from collections.abc import Iterator
+
+from puppet.errors import SceneError
+
+#: Logging level of Dask's loggers on the client and in embedded workers (the user's
+#: DASK_LOGGING__DISTRIBUTED wins).
+DASK_LOG_LEVEL = "critical"
+
+
+def quiet_dask() -> None:
+    """Set before ``distributed`` is imported: spawned workers inherit the environment."""
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", DASK_LOG_LEVEL)
+    os.environ.setdefault("DASK_DISTRIBUTED__ADMIN__LOG_LENGTH", "0")
+    level = os.environ["DASK_LOGGING__DISTRIBUTED"].upper()
+    for name in ("distributed", "tornado", "bokeh", "asyncio"):
+        logging.getLogger(name).setLevel(getattr(logging, level, logging.CRITICAL))
+
+
+def default_workers() -> int:
+    """One worker per core this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+@contextlib.contextmanager
+def connect(*, workers: int | None = None, scheduler: str | None = None, retries: int = 2) -> Iterator[tuple]:
+    """A ``distributed.Client`` on the embedded cluster or on ``scheduler``.
+
+    Yields
+    ------
+    (client, dashboard) : the client, and the dashboard address or None (no bokeh).
+
+    Raises
+    ------
+    SceneError
+        The scheduler cannot be reached (one line).
+    """
+    quiet_dask()
+    import dask
+    from distributed import Client, LocalCluster
+
+    # a task whose worker dies is retried on another one up to `retries` times (embedded
+    # scheduler; an existing scheduler keeps its own distributed.scheduler.allowed-failures)
+    settings = {"distributed.scheduler.allowed-failures": int(retries),
+                "distributed.worker.multiprocessing-method": "spawn",
+                "distributed.worker.daemon": False}
+    with dask.config.set(settings):
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout="20s", set_as_default=False)
+            except (OSError, TimeoutError, ValueError) as e:
+                raise SceneError(f"--scheduler {scheduler}: cannot connect ({str(e).splitlines()[0]})") from None
+            try:
+                yield client, _dashboard(client)
+            finally:
+                with contextlib.suppress(Exception):
+                    client.close(timeout=10)
+            return
+        dash = ":0" if importlib.util.find_spec("bokeh") else None
+        with tempfile.TemporaryDirectory(prefix="puppet-batch-") as scratch:
+            cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
+                                   processes=True, dashboard_address=dash, local_directory=scratch,
+                                   scheduler_port=0, host="127.0.0.1", silence_logs=logging.CRITICAL)
+            client = Client(cluster, set_as_default=False)
+            try:
+                yield client, _dashboard(client) if dash else None
+            finally:
+                with contextlib.suppress(Exception):
+                    client.close(timeout=10)
+                with contextlib.suppress(Exception):
+                    cluster.close(timeout=20)
+
+
+def _dashboard(client) -> str | None:
+    with contextlib.suppress(Exception):
+        return client.dashboard_link
+    return None
+
+
+def worker_addresses(client) -> list[str]:
+    """Addresses of the workers connected now, sorted."""
+    return sorted(client.scheduler_info()["workers"])

@@ -1,0 +1,262 @@
+"""The client side of a batch: skip what --resume finds up to date, send chunks of jobs to
+the Dask workers, record each result as it arrives (manifest, report, progress bar), and
+leave OUT_DIR consistent however the run ends (done, failed jobs, Ctrl+C, SIGTERM)."""
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import shutil
+import sys
+import time
+import uuid
+from collections.abc import Callable
+
+from puppet.batch.jobs import describe, spec
+from puppet.batch.state import Manifest, inputs_digest, now, write_report
+
+#: Exit status when the batch ran to its end but some jobs failed (0: every job done).
+SOME_FAILED = 3
+#: Most jobs in one Dask task (a chunk shares its worker's loaded scene).
+MAX_CHUNK = 8
+#: Seconds between two rewrites of the manifest while jobs finish (and once at the end).
+MANIFEST_EVERY = 1.0
+
+
+def client_digest(job: dict, cache: dict) -> str | None:
+    """The hash the worker would record for ``job`` (None when its scene cannot be read)."""
+    from puppet.errors import SceneError
+    from puppet.scene.document import Document
+    from puppet.scene.inputs import input_files
+
+    path = job["scene"]
+    if path not in cache:
+        try:
+            cache[path] = input_files(Document.load(path).data)
+        except (SceneError, OSError):
+            cache[path] = None
+    inputs = cache[path]
+    if inputs is None:
+        return None
+    if job["kind"] == "template":
+        inputs = inputs + [(job["image"], "image")]
+    try:
+        return inputs_digest(spec(job), inputs)
+    except OSError:
+        return None
+
+
+def chunks(jobs: list[dict], workers: int) -> list[list[dict]]:
+    """Jobs of one scene together, in pieces of at most :data:`MAX_CHUNK` (at least ~4 tasks a worker)."""
+    size = max(1, min(MAX_CHUNK, math.ceil(len(jobs) / (4 * max(1, workers)))))
+    by_scene: dict[str, list[dict]] = {}
+    for j in jobs:
+        by_scene.setdefault(j["scene"], []).append(j)
+    return [group[i:i + size] for group in by_scene.values() for i in range(0, len(group), size)]
+
+
+def homes(pieces: list[list[dict]], workers: list[str]) -> list[str | None]:
+    """A preferred worker per chunk: consecutive chunks (so each scene) to one worker, equal job
+    counts per worker; Dask may still run a chunk elsewhere (work stealing, a worker gone)."""
+    if len(workers) < 2:
+        return [None] * len(pieces)
+    total = sum(len(p) for p in pieces)
+    out, before = [], 0
+    for p in pieces:
+        out.append(workers[min(len(workers) - 1, int(before * len(workers) / total))])
+        before += len(p)
+    return out
+
+
+def sweep_temporaries(jobs: list[dict]) -> int:
+    """Remove the temporary files and folders (``.NAME.*.tmp``) that a stopped or killed
+    worker left beside the outputs; returns how many."""
+    folders: dict[str, set[str]] = {}
+    for j in jobs:
+        out = j["output"].rstrip(os.sep)
+        base = (os.path.basename(out) or "out")[:100]
+        folders.setdefault(os.path.dirname(out), set()).add(f".{base}.")
+    n = 0
+    for folder, prefixes in folders.items():
+        try:
+            names = os.listdir(folder)
+        except OSError:
+            continue
+        for name in names:
+            if name.endswith(".tmp") and any(name.startswith(p) for p in prefixes):
+                path = os.path.join(folder, name)
+                with contextlib.suppress(OSError):
+                    shutil.rmtree(path) if os.path.isdir(path) and not os.path.islink(path) else os.remove(path)
+                    n += 1
+    return n
+
+
+class Batch:
+    """One run over ``jobs`` writing into ``out_dir``; see :func:`run_batch`."""
+
+    def __init__(self, jobs: list[dict], out_dir: str, *, resume: bool, progress: bool):
+        self.jobs, self.out_dir = jobs, out_dir
+        self.resume, self.show = resume, progress
+        self.records: dict[int, dict] = {}
+        self.manifest = Manifest(out_dir)
+        self.started, self.t0 = now(), time.perf_counter()
+        self.interrupted = False
+        self.cluster = ""
+        self._saved = 0.0
+        self.bar = None
+
+    # -- before -------------------------------------------------------------------
+    def plan(self) -> list[dict]:
+        """Jobs to run; those --resume finds up to date are recorded as skipped."""
+        todo, cache = [], {}
+        for j in self.jobs:
+            if self.resume and os.path.exists(j["output"]) and j["rel"] in self.manifest.outputs:
+                digest = client_digest(j, cache)
+                if digest is not None and self.manifest.matches(j["rel"], digest):
+                    self.records[j["id"]] = {"status": "skipped", "error": None, "inputs": digest}
+                    continue
+            self.manifest.drop(j["rel"])  # re-rendered: not up to date until it is done again
+            todo.append(j)
+        if self.manifest.dirty:
+            self.manifest.save()
+        return todo
+
+    # -- while --------------------------------------------------------------------
+    def run(self, client, todo: list[dict], *, retries: int, on_result: Callable | None = None) -> None:
+        from distributed import as_completed
+
+        from puppet.batch.cluster import worker_addresses
+        from puppet.batch.work import run_chunk
+
+        workers = worker_addresses(client)
+        pieces = chunks(todo, len(workers))
+        token = uuid.uuid4().hex[:8]
+        futures = {}
+        for i, (piece, home) in enumerate(zip(pieces, homes(pieces, workers))):
+            where = {"workers": [home], "allow_other_workers": True} if home else {}
+            fut = client.submit(run_chunk, piece, key=f"puppet-batch-{token}-{i}", retries=retries, pure=False, **where)
+            futures[fut] = piece
+        self._open_bar(len(todo))
+        try:
+            for fut in as_completed(list(futures), loop=client.loop):
+                piece = futures.pop(fut)
+                try:
+                    recs = fut.result()
+                except Exception as e:  # noqa: BLE001 - a task that could not run (workers died, bug)
+                    recs = [{"id": j["id"], "status": "failed", "error": _task_error(e), "inputs": None}
+                            for j in piece]
+                self._take(recs)
+                if on_result is not None:
+                    on_result(self, recs)
+        except BaseException:
+            self.interrupted = True
+            client.cancel(list(futures), force=True)
+            raise
+        finally:
+            if self.bar is not None:
+                self.bar.close()
+
+    def _open_bar(self, n: int) -> None:
+        if not self.show or n == 0:
+            return
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=n, unit="job", file=sys.stderr, dynamic_ncols=True, smoothing=0.05,
+                        bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}, {rate_fmt}{postfix}]")
+
+    def _take(self, recs: list[dict]) -> None:
+        by_id = {j["id"]: j for j in self.jobs} if not hasattr(self, "_by_id") else self._by_id
+        self._by_id = by_id
+        for r in recs:
+            self.records[r["id"]] = r
+            if r["status"] == "done" and r.get("inputs"):
+                self.manifest.add(by_id[r["id"]]["rel"], r["inputs"])
+        if self.manifest.dirty and time.perf_counter() - self._saved > MANIFEST_EVERY:
+            self.manifest.save()
+            self._saved = time.perf_counter()
+        if self.bar is not None:
+            c = self.counts()
+            self.bar.set_postfix_str(f"done {c['done']}, failed {c['failed'] + c['no-match']}", refresh=False)
+            self.bar.update(len(recs))
+
+    # -- after --------------------------------------------------------------------
+    def counts(self) -> dict[str, int]:
+        c = dict.fromkeys(("done", "failed", "no-match", "skipped", "not-run"), 0)
+        for j in self.jobs:
+            c[self.records.get(j["id"], {}).get("status", "not-run")] += 1
+        return c
+
+    def finish(self) -> dict:
+        """Remove leftovers of stopped workers; write the manifest and the report; the summary."""
+        sweep_temporaries(self.jobs)
+        if self.manifest.dirty:
+            self.manifest.save()
+        seconds = time.perf_counter() - self.t0
+        counts = self.counts()
+        jobs = []
+        for j in self.jobs:
+            r = self.records.get(j["id"], {"status": "not-run", "error": None})
+            jobs.append({**describe(j), "status": r["status"], "error": r.get("error"),
+                         "seconds": r.get("seconds")})
+        report = {"puppet_batch_report": 1, "started": self.started, "finished": now(),
+                  "seconds": round(seconds, 3), "cluster": self.cluster, "interrupted": self.interrupted,
+                  "counts": counts, "jobs": jobs}
+        path = write_report(self.out_dir, report)
+        ran = counts["done"] + counts["failed"] + counts["no-match"]
+        return {"counts": counts, "seconds": seconds, "report": path, "jobs_per_s": ran / seconds if seconds else 0.0}
+
+
+def _task_error(e: BaseException) -> str:
+    name = type(e).__name__
+    if name == "KilledWorker":
+        return "the workers running this job died (it was retried, then given up)"
+    if name == "CancelledError":
+        return "cancelled"
+    text = str(e).strip().splitlines()
+    return f"internal error: {name}: {text[0] if text else ''}".rstrip(": ")
+
+
+def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, scheduler: str | None = None,
+              retries: int = 2, resume: bool = False, progress: bool = False, client=None,
+              say: Callable[[str], None] = lambda s: None, on_result: Callable | None = None) -> dict:
+    """Run ``jobs`` (see :mod:`puppet.batch.jobs`) on Dask and write ``OUT_DIR/report.json``.
+
+    Parameters
+    ----------
+    client : a ``distributed.Client`` to use (tests, benchmarks); else one is made on an
+        embedded LocalCluster of ``workers`` processes, or on ``scheduler``.
+    say : prints a line for the user (the dashboard address).
+
+    Returns
+    -------
+    dict with ``counts`` (done / failed / no-match / skipped / not-run), ``seconds``,
+    ``report`` (its path) and ``jobs_per_s``. A KeyboardInterrupt or the CLI's stop
+    exception propagates after OUT_DIR is left consistent.
+    """
+    from puppet.batch.cluster import connect
+
+    batch = Batch(jobs, out_dir, resume=resume, progress=progress)
+    todo = batch.plan()
+    if client is not None:
+        session = contextlib.nullcontext((client, None))
+    elif todo:
+        session = connect(workers=workers, scheduler=scheduler, retries=retries)
+    else:
+        session = contextlib.nullcontext((None, None))
+    try:
+        with session as (c, dashboard):  # a scheduler that cannot be reached: SceneError, nothing written
+            try:
+                if c is not None:
+                    batch.cluster = scheduler or ("given client" if client is not None else
+                                                  f"local, {len(c.scheduler_info()['workers'])} workers")
+                    if dashboard:
+                        say(f"puppet batch: Dask dashboard at {dashboard}")
+                    batch.run(c, todo, retries=retries, on_result=on_result)
+            except BaseException:
+                batch.interrupted = True
+                raise
+            finally:
+                summary = batch.finish()
+    finally:
+        sweep_temporaries(jobs)  # again, once the embedded workers are gone
+    return summary

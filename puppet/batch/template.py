@@ -1,0 +1,364 @@
+"""Template (garment) mode: carry a template garment's pins and poses over to another
+picture of the same kind of garment.
+
+The template is a scene whose one layer (or the layer named by ``layer``) is a garment
+with pins and poses. For each new picture, :func:`transfer`:
+
+1. segments the picture the way the template's layer is segmented (its ``alpha`` or
+   ``threshold`` mask rule; the default rule when the template uses the default or a
+   rule tied to its own pixels: polygon, rect, grabcut, mask file);
+2. takes the outer outline of the largest component of both masks and aligns the
+   template's onto the picture's by a similarity (:func:`puppet.geom.outline_match.align_outlines`);
+   the match score is the symmetric mean distance between the aligned outlines divided
+   by ``sqrt(area)`` of the picture's outline; above ``tolerance`` the picture is
+   refused with :class:`NoMatch`;
+3. corresponds the outlines by arc length between matched curvature landmarks (sleeve
+   ends, armpits, hem corners; :func:`puppet.geom.outline_match.outline_correspondence`);
+4. moves each pin: a pin on or outside the outline (within 1.5 px, or an exterior pin)
+   goes to the corresponding outline point, offset along the normal by its scaled
+   offset; an interior pin keeps its mean value coordinates relative to the outline
+   (:func:`puppet.geom.mvc.mean_value_coordinates`). Interior pins must land on a mask
+   pixel: one that misses by at most :data:`NUDGE` px is moved onto the nearest mask
+   pixel's centre, otherwise :class:`NoMatch`;
+5. moves each pose target by the template's displacement of that pin turned and scaled
+   by the similarity (``angle`` and ``depth`` kept), so a pose means the same on the
+   new garment.
+
+Rendering the result (the dict is a scene in memory, every path absolute)::
+
+    from puppet.api import Scene
+    scene = Scene(doc, file=os.path.join(out_dir, "shirt-42.json"))  # file: for messages / save
+    rgba = scene.render(pose="lift", size=(256, 256))  # (H, W, 4) uint8
+    scene.close()                                       # releases its GL context
+    # or: scene.save(path) writes it as a scene file with relative paths
+
+Template processing (loading, segmenting, outline) is cached per process by file
+content stamp, so calling :func:`transfer` for thousands of pictures with one template
+does it once.
+"""
+from __future__ import annotations
+
+import copy
+import functools
+import os
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from puppet.errors import SceneError
+from puppet.geom.contour import mask_regions, ring_area
+from puppet.geom.mvc import mean_value_coordinates
+from puppet.geom.outline_corr import Correspondence, LandmarkRing, match_outlines
+from puppet.geom.outline_match import Similarity
+from puppet.imaging.io import load_rgba
+from puppet.scene import build
+from puppet.scene.load import EXTERIOR_NAME, load_scene_data, parse_scene, read_json
+from puppet.scene.model import Layer, SceneData
+
+__all__ = ["NoMatch", "Template", "Transfer", "transfer", "NUDGE", "BOUNDARY"]
+
+#: An interior pin that lands off the new mask by at most this many pixels is moved in.
+NUDGE = 3.0
+#: Pins closer than this to the template outline (px) are carried along the outline.
+BOUNDARY = 1.5
+
+
+class NoMatch(SceneError):
+    """The picture's outline does not match the template's within the tolerance (or a pin
+    cannot be placed inside the picture's mask)."""
+
+
+@dataclass
+class Transfer:
+    """The result of :meth:`Template.transfer`: the scene and how it was obtained."""
+
+    scene: dict
+    score: float  # symmetric mean outline distance / sqrt(area)
+    similarity: Similarity  # template canvas -> picture pixels
+    landmarks: int  # matched curvature landmarks
+    nudged: list[str]  # interior pins moved onto the mask
+
+
+def _outline(mask: np.ndarray, offset) -> np.ndarray:
+    regions = mask_regions(mask, offset, grow=0)
+    regions = [r for r in regions if len(r.outer) >= 8]
+    if not regions:
+        return np.zeros((0, 2))
+    return max(regions, key=lambda r: abs(ring_area(r.outer))).outer
+
+
+def _inside(poly: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Even-odd point-in-polygon test, (k,) bool."""
+    A, B = poly, np.roll(poly, -1, axis=0)
+    x, y = X[:, 0:1], X[:, 1:2]
+    crosses = (A[None, :, 1] > y) != (B[None, :, 1] > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xi = A[None, :, 0] + (y - A[None, :, 1]) * (B[None, :, 0] - A[None, :, 0]) / (B[None, :, 1] - A[None, :, 1])
+    return ((crosses & (x < xi)).sum(axis=1) % 2) == 1
+
+
+def _project(R: np.ndarray, X: np.ndarray):
+    """Nearest point of the closed polyline ``R`` to each of ``X``: its arc length, the
+    point, the unit tangent there and the distance."""
+    E = np.roll(R, -1, axis=0) - R
+    le2 = np.maximum((E * E).sum(axis=1), 1e-18)
+    s0 = np.r_[0.0, np.cumsum(np.sqrt(le2))[:-1]]
+    D = X[:, None, :] - R[None, :, :]
+    t = np.clip((D * E[None]).sum(axis=2) / le2, 0.0, 1.0)
+    F = R[None] + t[..., None] * E[None]
+    d = np.linalg.norm(X[:, None, :] - F, axis=2)
+    i = d.argmin(axis=1)
+    k = np.arange(len(X))
+    tan = E[i] / np.sqrt(le2[i])[:, None]
+    return s0[i] + t[k, i] * np.sqrt(le2[i]), F[k, i], tan, d[k, i]
+
+
+def transfer_points(X, corr: Correspondence, S: Similarity, *, boundary: float = BOUNDARY) -> np.ndarray:
+    """Carry points from the template outline's frame to the picture's.
+
+    Parameters
+    ----------
+    X : (k, 2) float, template coordinates.
+    corr : outline correspondence, template -> picture. S : the aligning similarity.
+
+    Returns
+    -------
+    (k, 2) float, picture coordinates.
+    """
+    X = np.asarray(X, float).reshape(-1, 2)
+    out = np.empty_like(X)
+    if not len(X):
+        return out
+    s, F, tan, d = _project(corr.P, X)
+    nrm = np.stack([tan[:, 1], -tan[:, 0]], axis=1)
+    on_edge = (d <= boundary) | ~_inside(corr.P, X)
+    if on_edge.any():
+        o = ((X - F) * nrm).sum(axis=1)[on_edge]
+        t = corr.map_arclength(s[on_edge])
+        tq = corr.q.tangent(t)
+        nq = np.stack([tq[:, 1], -tq[:, 0]], axis=1)
+        out[on_edge] = corr.q.at(t) + (o * S.scale)[:, None] * nq
+    if (~on_edge).any():
+        L = mean_value_coordinates(corr.P, X[~on_edge])
+        out[~on_edge] = L @ corr.corresponding_ring()
+    return out
+
+
+def _layer_json(raw: dict, L: Layer, image: str) -> dict:
+    """The template layer's settings over the new picture (no offset, own image)."""
+    out = {"name": L.name, "image": image}
+    mask = raw.get("mask")
+    if mask == "alpha" or (isinstance(mask, dict) and "threshold" in mask):
+        out["mask"] = copy.deepcopy(mask)
+    for key in ("mesh", "exterior"):
+        if key in raw:
+            out[key] = copy.deepcopy(raw[key])
+    return out
+
+
+class Template:
+    """A template garment: the scene, its chosen layer, mask outline and pins.
+
+    Load with :meth:`load` (or the cached :func:`transfer`); then :meth:`transfer` each
+    picture.
+    """
+
+    def __init__(self, path: str, layer: str | None = None):
+        self.path = os.path.abspath(path)
+        data = load_scene_data(self.path)
+        self.raw = read_json(self.path)
+        self.data: SceneData = data
+        self.layer = self._pick(data, layer)
+        source = build.load_source(data) if self.layer.image is None else None
+        self.image = build.layer_image(data, self.layer, source)
+        self.outline = _outline(self.image.mask, self.image.offset)
+        self.ring = LandmarkRing.of(self.outline) if len(self.outline) >= 8 else None
+        self.pins = [p for p in data.pins if p.layer == self.layer.name]
+        self.auto_ext = None
+        if self.layer.exterior is not None:
+            from puppet.scene.exterior import auto_points
+
+            self.auto_ext = auto_points(self.image.mask, self.image.offset, self.layer.exterior.beta)
+
+    def _pick(self, data: SceneData, layer: str | None) -> Layer:
+        if layer is None:
+            if len(data.layers) != 1:
+                names = ", ".join(repr(L.name) for L in data.layers)
+                raise SceneError(f"the template has {len(data.layers)} layers ({names}): name the garment layer",
+                                 file=self.path, path="layers")
+            return data.layers[0]
+        for L in data.layers:
+            if L.name == layer:
+                return L
+        raise SceneError(f"no layer named {layer!r} in the template", file=self.path, path="layers")
+
+    def transfer(self, image: str, *, tolerance: float = 0.08) -> Transfer:
+        """Match ``image`` against the template; see the module doc. Raises NoMatch,
+        SceneError (e.g. an unreadable picture: :class:`puppet.errors.ImageError`)."""
+        image = os.path.abspath(image)
+        rgba = load_rgba(image)
+        h, w = rgba.shape[:2]
+        raw_layer = self.raw["layers"][self.layer.index]
+        doc = {"puppet": 1, "canvas": [w, h], "layers": [_layer_json(raw_layer, self.layer, image)]}
+        bg = self.raw.get("background")
+        if isinstance(bg, list):
+            doc["background"] = list(bg)
+        scene_file = os.path.splitext(image)[0] + ".json"
+        data = parse_scene(doc, scene_file)
+        new = build.layer_image(data, replace(data.layers[0], image=None), rgba)
+        Q = _outline(new.mask, (0.0, 0.0))
+        if len(Q) < 8 or self.ring is None:
+            raise NoMatch(f"the picture's mask has no outline to match against template {self.path!r}", file=image)
+        match = match_outlines(self.ring, Q)
+        S, score, corr = match.similarity, match.score, match.correspondence
+        if not score <= tolerance:
+            raise NoMatch(f"outline does not match template {os.path.basename(self.path)!r} layer "
+                          f"{self.layer.name!r}: distance {score:.3f} of the garment's size > tolerance "
+                          f"{tolerance:.3f} (by {score - tolerance:.3f})", file=image)
+        pins, moved, nudged = self._pins(corr, S, new.mask, image)
+        doc["pins"] = pins
+        self._poses(doc, corr, S, moved, new.mask)
+        return Transfer(scene=doc, score=float(score), similarity=S, landmarks=len(corr.anchors), nudged=nudged)
+
+    def _pins(self, corr, S, mask: np.ndarray, image: str):
+        X = np.array([p.at for p in self.pins], float).reshape(-1, 2)
+        Y = transfer_points(X, corr, S)
+        out, moved, nudged = [], {}, []
+        raw_pins = {p["name"]: p for p in self.raw.get("pins", [])}
+        for p, y in zip(self.pins, Y):
+            if p.kind != "exterior":
+                y, far = _on_mask(mask, y)
+                if far > 0:
+                    if far > NUDGE:
+                        raise NoMatch(f"pin {p.name!r} lands {far:.1f} px outside the picture's mask "
+                                      f"(at most {NUDGE:g} px is nudged in)", file=image)
+                    nudged.append(p.name)
+            q = dict(raw_pins[p.name])
+            q["at"] = [round(float(y[0]), 3), round(float(y[1]), 3)]
+            out.append(q)
+            moved[p.name] = (p.at, y)
+        return out, moved, nudged
+
+    def _ext_names(self, corr, S, mask: np.ndarray) -> dict[str, str]:
+        """Template automatic exterior point name -> the new picture's point it became."""
+        if self.auto_ext is None or not len(self.auto_ext):
+            return {}
+        from scipy.optimize import linear_sum_assignment
+
+        from puppet.scene.exterior import auto_points
+
+        new = auto_points(mask, (0.0, 0.0), self.layer.exterior.beta)
+        if not len(new):
+            return {}
+        Y = transfer_points(self.auto_ext, corr, S)
+        D = np.linalg.norm(Y[:, None] - new[None], axis=2)
+        r, c = linear_sum_assignment(D)
+        gate = 0.1 * np.sqrt(mask.sum())
+        name = self.layer.name
+        return {f"{name}:ext{i}": f"{name}:ext{j}" for i, j in zip(r, c) if D[i, j] <= gate}
+
+    def _poses(self, doc: dict, corr, S: Similarity, moved: dict, mask: np.ndarray) -> None:
+        ext = {}
+        if self.auto_ext is not None:
+            ext_new = self._ext_names(corr, S, mask)
+            from puppet.scene.exterior import auto_points
+
+            new_pts = auto_points(mask, (0.0, 0.0), self.layer.exterior.beta)
+            for i, xy in enumerate(self.auto_ext):
+                nm = f"{self.layer.name}:ext{i}"
+                if nm in ext_new:
+                    j = int(EXTERIOR_NAME.match(ext_new[nm]).group("i"))
+                    ext[nm] = (ext_new[nm], xy, new_pts[j])
+
+        def pose(p: dict) -> dict:
+            out = {}
+            for nm, t in p.items():
+                if nm in moved:
+                    new_name, (at, y) = nm, moved[nm]
+                elif nm in ext:
+                    new_name, at, y = ext[nm]
+                else:
+                    continue  # a pin of another layer, or an exterior point with no counterpart
+                if isinstance(t, list):
+                    out[new_name] = _target(y, S, np.asarray(t, float) - at)
+                else:
+                    t = dict(t)
+                    if "to" in t:
+                        t["to"] = _target(y, S, np.asarray(t["to"], float) - at)
+                    out[new_name] = t
+            return out
+
+        if "deformer" in self.raw:
+            doc["deformer"] = copy.deepcopy(self.raw["deformer"])
+        bones = [b for b in self.raw.get("bones", []) if b[0] in moved and b[1] in moved]
+        if bones:
+            doc["bones"] = bones
+        doc["poses"] = {k: pose(v) for k, v in self.raw.get("poses", {}).items()}
+        if "animation" in self.raw:
+            anim = copy.deepcopy(self.raw["animation"])
+            for key in anim.get("keys", []):
+                if isinstance(key.get("pose"), dict):
+                    key["pose"] = pose(key["pose"])
+            doc["animation"] = anim
+
+
+def _target(y: np.ndarray, S: Similarity, d: np.ndarray) -> list[float]:
+    q = y + S.apply_vector(d)
+    return [round(float(q[0]), 3), round(float(q[1]), 3)]
+
+
+def _on_mask(mask: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
+    """``y`` if its pixel is a mask pixel (distance 0), else the centre of the nearest
+    mask pixel and how far that is."""
+    h, w = mask.shape
+    j, i = int(np.floor(y[0])), int(np.floor(y[1]))
+    if 0 <= i < h and 0 <= j < w and mask[i, j]:
+        return y, 0.0
+    r = int(np.ceil(NUDGE)) + 2
+    i0, i1, j0, j1 = max(i - r, 0), min(i + r + 1, h), max(j - r, 0), min(j + r + 1, w)
+    ii, jj = np.nonzero(mask[i0:i1, j0:j1]) if i0 < i1 and j0 < j1 else (np.zeros(0, int), np.zeros(0, int))
+    if not len(ii):
+        return y, float("inf")
+    C = np.stack([jj + j0 + 0.5, ii + i0 + 0.5], axis=1)
+    d = np.linalg.norm(C - y, axis=1)
+    k = int(d.argmin())
+    return C[k], float(d[k])
+
+
+@functools.lru_cache(maxsize=8)
+def _cached(path: str, layer: str | None, stamp: tuple) -> Template:
+    return Template(path, layer)
+
+
+def _stamp(path: str) -> tuple:
+    st = os.stat(path)
+    return (st.st_mtime_ns, st.st_size, st.st_ino)
+
+
+def transfer(template: str, image: str, *, tolerance: float = 0.08, layer: str | None = None) -> dict:
+    """A scene for the garment picture ``image`` with ``template``'s pins and poses.
+
+    Parameters
+    ----------
+    template : path of a scene file whose one layer (or ``layer``) is a garment.
+    image : path of a garment picture.
+    tolerance : largest match score (symmetric mean outline distance / sqrt(area)).
+    layer : the template's garment layer, when it has several.
+
+    Returns
+    -------
+    dict : the scene JSON (every path absolute; canvas = the picture's size), ready for
+    ``puppet.api.Scene(doc, file=...)`` (see the module doc).
+
+    Raises
+    ------
+    NoMatch : the outlines differ by more than ``tolerance``, or a pin cannot be placed.
+    SceneError : a bad template or an unreadable picture.
+    """
+    path = os.path.abspath(template)
+    try:
+        stamp = _stamp(path)
+    except OSError:
+        stamp = ()
+    tpl = _cached(path, layer, stamp) if stamp else Template(path, layer)
+    return tpl.transfer(image, tolerance=tolerance).scene

@@ -1,0 +1,223 @@
+"""What a Dask worker runs: a chunk of jobs, each rendered and written by the worker
+itself; only a small record per job goes back to the client.
+
+Each worker process keeps, for as long as it lives:
+
+* one :class:`~puppet.render.compositor.Compositor` (one EGL context), created on the
+  first frame the worker draws: never in the client process;
+* the last :data:`SCENE_CACHE` loaded scenes, by path, each with the content hash of its
+  files: a job for a scene already loaded (and unchanged) reuses its meshes, solver
+  factorisations and textures.
+
+A job's failure (bad scene, corrupt image, no outline match, solve over its budget) is
+its record's ``error``, one line; the worker goes on with the next job.
+"""
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import threading
+import time
+from collections import OrderedDict
+
+from puppet.batch.jobs import spec
+from puppet.batch.state import inputs_digest
+from puppet.errors import SceneError
+
+#: Scenes kept loaded per worker (each holds its images, meshes and factorisations).
+SCENE_CACHE = 4
+
+_compositor = None
+_scenes: OrderedDict[str, tuple[str, list, object]] = OrderedDict()  # path -> (files hash, inputs, scene)
+
+
+class BudgetExceeded(Exception):
+    """Raised inside a job's thread when its solve runs over the job's budget."""
+
+
+def compositor():
+    """The worker's compositor (its one GL context), created on first use."""
+    global _compositor
+    if _compositor is None:
+        from puppet.render.compositor import Compositor
+
+        _compositor = Compositor()
+    # Each frame starts like a fresh `puppet render`'s (K-buffer first, A-buffer on overflow),
+    # so a job's pixels never depend on what this worker drew before.
+    _compositor._prefer_abuffer = False
+    return _compositor
+
+
+def _reset_compositor() -> None:
+    global _compositor
+    comp, _compositor = _compositor, None
+    if comp is not None:
+        with contextlib.suppress(Exception):
+            comp.release()
+
+
+@contextlib.contextmanager
+def budget(seconds: float | None, what: str):
+    """Raise :class:`BudgetExceeded` in this thread if the block runs over ``seconds``.
+
+    The exception is delivered asynchronously at the next Python step of the block (a
+    long call into C finishes first); only CPU work (loading, meshing, solving) runs
+    under a budget, never GL drawing or file writing.
+    """
+    if not seconds:
+        yield
+        return
+    tid = threading.get_ident()
+    lock = threading.Lock()
+    armed = [True]
+
+    def fire():
+        with lock:
+            if armed[0]:
+                armed[0] = False
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(tid), ctypes.py_object(BudgetExceeded))
+
+    timer = threading.Timer(seconds, fire)
+    timer.daemon = True
+    t0 = time.perf_counter()
+    try:
+        try:
+            timer.start()
+            yield
+        finally:
+            with lock:
+                armed[0] = False
+            timer.cancel()
+    except BudgetExceeded:
+        raise BudgetExceeded(f"{what} ran over the job's budget of {seconds:g} s "
+                             f"(stopped after {time.perf_counter() - t0:.1f} s)") from None
+
+
+def _scene(path: str):
+    """(files hash, inputs, scene) of a scene file, from the cache when its files are unchanged."""
+    from puppet.api import Scene
+    from puppet.batch.state import inputs_digest as digest_of
+    from puppet.scene.inputs import input_files
+
+    hit = _scenes.get(path)
+    if hit is not None:
+        with contextlib.suppress(OSError):
+            if digest_of({}, hit[1]) == hit[0]:
+                _scenes.move_to_end(path)
+                return hit
+        del _scenes[path]
+    scene = Scene.load(path)
+    scene.compositor = compositor()
+    inputs = input_files(scene.data)
+    entry = (digest_of({}, inputs), inputs, scene)
+    _scenes[path] = entry
+    while len(_scenes) > SCENE_CACHE:
+        _scenes.popitem(last=False)
+    return entry
+
+
+def _template_scene(job: dict):
+    """(hashed inputs, every input, scene) of a template job: the template's pins transferred to the image."""
+    from puppet.api import Scene
+    from puppet.batch import template
+
+    _, tinputs, _ = _scene(job["scene"])  # the template, parsed (and checked unchanged) once per worker
+    doc = template.transfer(job["scene"], job["image"], tolerance=job["tolerance"])
+    scene = Scene(doc, job["image"])
+    scene.compositor = compositor()
+    from puppet.scene.inputs import input_files
+
+    # hashed for --resume: what the client can know without transferring (template files + image)
+    hashed = list(tinputs) + [(job["image"], "image")]
+    return hashed, hashed + input_files(scene.data, scene_file=False), scene
+
+
+class _Budgeted:
+    """A scene whose ``render`` solves under the job's budget (for animate_to's frames)."""
+
+    def __init__(self, scene, seconds):
+        self._scene, self._seconds = scene, seconds
+
+    def __getattr__(self, name):
+        return getattr(self._scene, name)
+
+    def render(self, pose=None, time=None, *, size=None, wireframe=False):
+        with budget(self._seconds, "the frame's solve"):
+            layers = self._scene.layers(pose, time)
+        return self._scene.draw_layers(layers, size=size, wireframe=wireframe)
+
+
+def _make_parent(output: str) -> None:
+    parent = os.path.dirname(output.rstrip(os.sep))
+    try:
+        os.makedirs(parent, exist_ok=True)
+    except OSError as e:
+        raise SceneError(f"cannot create the folder: {e.strerror or e}", file=parent) from None
+
+
+def _render(job: dict, scene, inputs) -> None:
+    from puppet.output import save_png
+
+    size = tuple(job["size"]) if job.get("size") else None
+    _make_parent(job["output"])
+    if job["kind"] == "animate":
+        from puppet.anim.export import animate_to
+
+        a = job["animate"]
+        animate_to(_Budgeted(scene, job.get("budget")), job["output"], fps=a.get("fps"), start=a.get("from"),
+                   end=a.get("to"), size=size, wireframe=job.get("wireframe", False))
+        return
+    with budget(job.get("budget"), "the solve"):
+        layers = scene.layers(job.get("pose") if job["kind"] != "time" else None, job.get("time"))
+    rgba = scene.draw_layers(layers, size=size, wireframe=job.get("wireframe", False))
+    save_png(job["output"], rgba, inputs=inputs)
+
+
+def one_line(e: BaseException) -> str:
+    text = str(e).strip().splitlines()
+    return text[0] if text else type(e).__name__
+
+
+def run_job(job: dict) -> dict:
+    """Render one job and write its output (atomically); returns its record::
+
+        {"id": 0, "status": "done" | "failed" | "no-match", "error": None | "one line",
+         "inputs": HASH | None, "seconds": 0.12, "worker": PID}
+    """
+    t0 = time.perf_counter()
+    rec = {"id": job["id"], "status": "done", "error": None, "inputs": None, "seconds": 0.0, "worker": os.getpid()}
+    try:
+        with budget(job.get("budget"), "loading the scene"):
+            if job["kind"] == "template":
+                hashed, inputs, scene = _template_scene(job)
+            else:
+                _, inputs, scene = _scene(job["scene"])
+                hashed = inputs
+        rec["inputs"] = inputs_digest(spec(job), hashed)
+        _render(job, scene, inputs)
+    except Exception as e:  # noqa: BLE001 - every failure is the job's, reported; the batch goes on
+        rec.update(status="failed", error=one_line(e))
+        if type(e).__name__ == "NoMatch":
+            rec["status"] = "no-match"
+        elif isinstance(e, BudgetExceeded):
+            _scenes.pop(job["scene"], None)  # stopped half way: build it again next time
+        elif isinstance(e, OSError):
+            rec["error"] = f"{getattr(e, 'filename', None) or ''}: {e.strerror or e}".lstrip(": ")
+        elif not isinstance(e, SceneError):
+            rec["error"] = f"internal error: {type(e).__name__}: {one_line(e)}"
+            _scenes.pop(job["scene"], None)
+            _reset_compositor()
+    rec["seconds"] = round(time.perf_counter() - t0, 4)
+    return rec
+
+
+def run_chunk(jobs: list[dict]) -> list[dict]:
+    """Run jobs one after the other (a chunk shares the worker's loaded scene); their records."""
+    return [run_job(j) for j in jobs]
+
+
+def warm() -> int:
+    """Create the worker's GL context now (benchmarks: startup outside the timing); its pid."""
+    compositor()
+    return os.getpid()
