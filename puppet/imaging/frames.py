@@ -129,7 +129,7 @@ class FrameSource:
     def _load(self, i: int) -> np.ndarray:
         from puppet.imaging.io import load_rgba
 
-        rgba = load_rgba(self.files[i], **self._where)
+        rgba = load_rgba(self.files[i], scene_file=self._where["file"], json_path=self._where["path"])
         if i and (rgba.shape[1], rgba.shape[0]) != self.size:
             raise self.fail(f"is {rgba.shape[1]}x{rgba.shape[0]}, the first frame "
                             f"{self.size[0]}x{self.size[1]}", what=repr(self.files[i]))
