@@ -23,12 +23,15 @@ from puppet.output import write_text
 from puppet.scene import evaluate as ev, timeline
 from puppet.scene.cache import file_stamp, fingerprint
 from puppet.scene.edits import Edits
+from puppet.scene.keyedits import KeyEdits
 from puppet.scene.files import PendingFiles
 from puppet.scene.history import Event, Events, History, Step
+from puppet.scene.inbetween import layers_at
 from puppet.scene.inputs import input_files
 from puppet.scene.load import Ctx, _pose, parse_scene, read_json
 from puppet.scene.model import SceneData, Target
 from puppet.scene.rig import Built, LayerResult, Rig
+from puppet.scene.tracks import Tracks, build_tracks, state_at
 
 PoseLike = str | dict | None
 
@@ -57,7 +60,7 @@ def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
     return doc
 
 
-class Document(Edits):
+class Document(Edits, KeyEdits):
     """An editable scene. Load with :meth:`load`; pose with :meth:`layers` / :meth:`mesh`."""
 
     def __init__(self, doc: dict, file: str):
@@ -69,6 +72,7 @@ class Document(Edits):
         self._active = "rest"
         self._data: SceneData | None = None
         self._built: Built | None = None
+        self._tracks = None
         #: pixels painted in the app, kept as PNGs until the scene is saved
         self.pending = PendingFiles()
         self._set(doc, "rest", build=False)
@@ -240,20 +244,28 @@ class Document(Edits):
             raise SceneError("give a pose or a time, not both", file=self.file)
         built = self.built
         if time is not None:
-            anim = self.data.animation
-            if anim is None:
-                raise SceneError("the scene has no animation, so --time cannot be used", file=self.file)
-            if not np.isfinite(time) or time < 0:
-                raise SceneError(f"time must be a number >= 0, got {time}", file=self.file)
-            a, b, t = timeline.segment_at(anim, float(time))
-            ext_rest = np.concatenate([ge.rest for ge in built.exterior]) if built.exterior else np.zeros((0, 2))
-            return ev.blend(self._named(a), self._named(b), t, ext_rest)
+            time = self._check_time(time)
+            return state_at(self.tracks(), time)
         if isinstance(pose, dict):
             return ev.pose_state(self.data, built.exterior, self.parse_pose(pose))
         if pose is not None and not isinstance(pose, str):
             raise SceneError(f"a pose is a name or a dict of pin targets, not {type(pose).__name__}",
                              file=self.file)
         return self._named(self._active if pose is None else pose)
+
+    def _check_time(self, time) -> float:
+        if self.data.animation is None:
+            raise SceneError("the scene has no animation, so --time cannot be used", file=self.file)
+        if not np.isfinite(time) or time < 0:
+            raise SceneError(f"time must be a number >= 0, got {time}", file=self.file)
+        return float(time)
+
+    def tracks(self) -> Tracks:
+        """The animation's keys as per-pin tracks (built once per version of the scene)."""
+        built = self.built
+        if self._tracks is None or self._tracks[0] is not built:
+            self._tracks = (built, build_tracks(self.data, built.exterior))
+        return self._tracks[1]
 
     def _named(self, pose: str) -> ev.PinState:
         if pose != "rest" and pose not in self.data.poses:
@@ -263,7 +275,11 @@ class Document(Edits):
         return ev.pose_state(self.data, self.built.exterior, self.data.poses[pose])
 
     def layers(self, pose: PoseLike = None, time: float | None = None) -> list[LayerResult]:
-        """Deformed meshes and depths of every layer in a pose or at a time."""
+        """Deformed meshes and depths of every layer in a pose or at a time (the
+        animation's in-between: see :mod:`puppet.scene.inbetween`)."""
+        if time is not None and pose is None:
+            time = self._check_time(time)
+            return layers_at(self.rig, self.built, self.tracks(), time)
         return self.rig.evaluate(self.built, self.state(pose, time))
 
     def mesh(self, pose: PoseLike = None, time: float | None = None) -> dict:

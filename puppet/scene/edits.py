@@ -1,4 +1,5 @@
-"""Every edit of a scene as a method: pins, layers, links, poses, targets, animation keys.
+"""Every edit of a scene as a method: pins, layers, links, poses, targets (animation keys
+are in :mod:`puppet.scene.keyedits`).
 
 Each method changes a copy of the scene JSON through ``Document._edit``, which validates
 it exactly as a loaded file is validated (so an edit can never make a scene that would
@@ -74,8 +75,8 @@ class Edits:
         def m(doc):
             self._pin(doc, name)
             doc["pins"] = [p for p in doc["pins"] if p["name"] != name]
-            for pose in doc.get("poses", {}).values():
-                pose.pop(name, None)
+            for owner, k in _pin_tables(doc):
+                owner[k].pop(name, None)
             if "bones" in doc:
                 doc["bones"] = [b for b in doc["bones"] if name not in b]
         return self._edit(Event("pin", name, "precompute", f"remove pin {name}"), m)
@@ -92,8 +93,8 @@ class Edits:
             if old != new and any(p["name"] == new for p in doc.get("pins", [])):
                 raise self._fail(f"a pin named {new!r} exists already")
             self._pin(doc, old)["name"] = new
-            for pname, pose in doc.get("poses", {}).items():
-                doc["poses"][pname] = {(new if k == old else k): v for k, v in pose.items()}
+            for owner, t in _pin_tables(doc):
+                owner[t] = {(new if k == old else k): v for k, v in owner[t].items()}
             if "bones" in doc:
                 doc["bones"] = [[new if x == old else x for x in b] for b in doc["bones"]]
         return self._edit(Event("pin", new, "none", f"rename pin {old}"), m)
@@ -136,8 +137,8 @@ class Edits:
                 doc["links"] = [k for k in doc["links"] if name not in k["layers"]]
             if "bones" in doc:
                 doc["bones"] = [b for b in doc["bones"] if not gone & set(b)]
-            for pname, pose in doc.get("poses", {}).items():
-                doc["poses"][pname] = {k: v for k, v in pose.items() if k not in gone and _ext_layer(k) != name}
+            for owner, t in _pin_tables(doc):
+                owner[t] = {k: v for k, v in owner[t].items() if k not in gone and _ext_layer(k) != name}
         return self._edit(Event("layer", name, "mesh", f"remove layer {name}"), m)
 
     def reorder_layer(self, name: str, index: int) -> bool:
@@ -159,9 +160,8 @@ class Edits:
                     p["layer"] = new
             for k in doc.get("links", []):
                 k["layers"] = [new if x == old else x for x in k["layers"]]
-            for pname, pose in doc.get("poses", {}).items():
-                doc["poses"][pname] = {(new + k[len(old):] if _ext_layer(k) == old else k): v
-                                       for k, v in pose.items()}
+            for owner, t in _pin_tables(doc):
+                owner[t] = {(new + k[len(old):] if _ext_layer(k) == old else k): v for k, v in owner[t].items()}
         return self._edit(Event("layer", new, "none", f"rename layer {old}"), m)
 
     def set_layer(self, name: str, **fields) -> bool:
@@ -263,7 +263,7 @@ class Edits:
                 raise self._fail(f"a pose named {new!r} exists already")
             doc["poses"] = {(new if k == old else k): v for k, v in poses.items()}
             for key in doc.get("animation", {}).get("keys", []):
-                if key["pose"] == old:
+                if key.get("pose") == old:
                     key["pose"] = new
             return new if self._active == old else None
         return self._edit(Event("pose", new, "none", f"rename pose {old}"), m)
@@ -276,7 +276,7 @@ class Edits:
             del doc["poses"][name]
             anim = doc.get("animation")
             if anim is not None:
-                anim["keys"] = [k for k in anim["keys"] if k["pose"] != name]
+                anim["keys"] = [k for k in anim["keys"] if k.get("pose") != name]
                 if not anim["keys"]:
                     del doc["animation"]
             return "rest" if self._active == name else None
@@ -341,7 +341,7 @@ class Edits:
                 del doc["app"]
         return self._edit(Event("app", "underlay", "none", "set underlay"), m)
 
-    # deformer and animation -------------------------------------------------------------
+    # deformer (animation keys: puppet.scene.keyedits) ---------------------------------------
     def set_deformer(self, **options) -> bool:
         """Deformer options: ``method``, ``weights``, ``init``, ``iterations``, ``alpha``, ``relax_foldovers``."""
         def m(doc):
@@ -349,37 +349,12 @@ class Edits:
             d.update(options)
         return self._edit(Event("deformer", "", "precompute", "change deformer"), m)
 
-    def set_key(self, time: float, pose: str, *, ease: str = "linear") -> bool:
-        """An animation key showing ``pose`` at ``time`` seconds (replacing a key at that time)."""
-        def m(doc):
-            anim = doc.setdefault("animation", {"fps": 24, "keys": []})
-            keys = [k for k in anim["keys"] if k["time"] != float(time)]
-            key = {"time": float(time), "pose": pose}
-            if ease != "linear":
-                key["ease"] = ease
-            keys.append(key)
-            anim["keys"] = sorted(keys, key=lambda k: k["time"])
-        return self._edit(Event("animation", pose, "none", f"key {pose} at {time:g} s"), m)
 
-    def remove_key(self, time: float) -> bool:
-        """Remove the animation key at ``time`` (the animation goes with its last key)."""
-        def m(doc):
-            anim = doc.get("animation")
-            keys = [k for k in anim["keys"] if k["time"] != float(time)] if anim else []
-            if anim is None or len(keys) == len(anim["keys"]):
-                raise self._fail(f"no animation key at {time:g} s")
-            if keys:
-                anim["keys"] = keys
-            else:
-                del doc["animation"]
-        return self._edit(Event("animation", "", "none", f"remove key at {time:g} s"), m)
-
-    def set_fps(self, fps: float) -> bool:
-        def m(doc):
-            if "animation" not in doc:
-                raise self._fail("the scene has no animation yet (add a key first)")
-            doc["animation"]["fps"] = fps
-        return self._edit(Event("animation", "", "none", "change fps"), m)
+def _pin_tables(doc: dict) -> list[tuple[dict, str]]:
+    """Every table of pin targets in the scene JSON as (owner, key): each pose, and the
+    ``pins`` of each animation key."""
+    out = [(doc["poses"], name) for name in doc.get("poses", {})]
+    return out + [(k, "pins") for k in doc.get("animation", {}).get("keys", []) if "pins" in k]
 
 
 def _ext_layer(name: str) -> str | None:

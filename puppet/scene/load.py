@@ -15,6 +15,7 @@ from puppet.imaging import masks as mk
 from puppet.imaging.io import MAX_SIDE
 from puppet.scene import model as m
 from puppet.scene.extensions import parse_app
+from puppet.scene.keyfile import parse_animation
 from puppet.scene.reader import parse_text, read_text
 from puppet.scene.schema import (Ctx, expect_bool, expect_list, expect_number, expect_object,
                                  expect_point, expect_string, join, short)
@@ -115,7 +116,8 @@ def parse_scene(raw, file: str) -> m.SceneData:
 
     animation = None
     if "animation" in raw:
-        animation = _animation(c, raw["animation"], "animation", poses)
+        animation = parse_animation(c, raw["animation"], "animation", poses,
+                                    lambda v, q: _pose(c, v, q, pin_names, layers, names))
     if "app" in raw:  # app-only settings (a compatible extension; render ignores them)
         parse_app(c, raw["app"], "app", file_path)
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
@@ -260,22 +262,3 @@ def _pose(c, v, p, pin_names, layers, names) -> dict[str, m.Target]:
         depth = expect_number(c, t["depth"], join(q, "depth"), lo=-1e4, hi=1e4) if "depth" in t else None
         out[pin] = m.Target(to=to, angle=angle, depth=depth)
     return out
-
-
-def _animation(c, v, p, poses) -> m.Animation:
-    expect_object(c, v, p, required=("keys",), optional=("fps", "keys"))
-    fps = expect_number(c, v.get("fps", 24), join(p, "fps"), lo=0, lo_open=True, hi=240)
-    kp = join(p, "keys")
-    keys = []
-    for i, k in enumerate(expect_list(c, v["keys"], kp, min_len=1)):
-        q = join(kp, i)
-        expect_object(c, k, q, required=("time", "pose"), optional=("time", "pose", "ease"))
-        t = expect_number(c, k["time"], join(q, "time"), lo=0, hi=1e6)
-        pose = expect_string(c, k["pose"], join(q, "pose"))
-        if pose != "rest" and pose not in poses:
-            raise c.fail(join(q, "pose"), f"no pose named {short(pose)}")
-        ease = expect_string(c, k.get("ease", "linear"), join(q, "ease"), choices=m.EASES)
-        if keys and t < keys[-1].time:
-            raise c.fail(join(q, "time"), f"keys must be sorted by time ({t:g} comes after {keys[-1].time:g})")
-        keys.append(m.Key(time=t, pose=pose, ease=ease))
-    return m.Animation(fps=fps, keys=keys)

@@ -10,7 +10,9 @@ INPAINT_METHODS = ("none", "pyramid", "telea", "ns", "fsr")
 METHODS = ("arap", "igarashi", "mls", "mls-skeleton")
 WEIGHTS = ("cotangent", "cotangent-raw", "uniform")
 INITS = ("mls", "rest")
-EASES = ("linear", "smooth", "step")
+EASES = ("linear", "smooth", "step", "bezier")
+INBETWEENS = ("rigid", "linear")
+DEPTH_MODES = ("step", "interpolate")
 
 
 @dataclass
@@ -90,15 +92,27 @@ class Target:
 
 @dataclass
 class Key:
+    """One animation key: a named pose (every pin) or its own pin targets (``pins``,
+    only the pins it names). ``ease`` shapes the segment that ends at this key;
+    ``curve`` is the ``bezier`` ease's ``(cx1, cy1, cx2, cy2)``."""
+
     time: float
-    pose: str
+    pose: str | None = None
     ease: str = "linear"
+    pins: dict[str, Target] | None = None
+    curve: tuple[float, float, float, float] | None = None
 
 
 @dataclass
 class Animation:
+    """``inbetween``: ``"rigid"`` (shape-preserving mesh interpolation) or ``"linear"``
+    (pin targets on straight lines, each frame solved); ``depth``: pin depth ``"step"``s
+    at the keys or ``"interpolate"``s."""
+
     fps: float
     keys: list[Key]
+    inbetween: str = "rigid"
+    depth: str = "step"
 
 
 @dataclass

@@ -1,0 +1,201 @@
+"""Animation keys of a scene as methods: add, move, copy, remove keys, change their ease,
+the frame rate, the in-between and depth modes; and reading the keys back.
+
+Each edit goes through ``Document._edit`` (validated like a loaded file, one undo step,
+one ``"animation"`` event, only on a real change). Keys are written in the file form of
+the scene format: ``{"time": s, "pose": NAME}`` or ``{"time": s, "pins": {PIN: [x, y] |
+{"to": [x, y], "angle": deg, "depth": d}}}``, with ``"ease"`` when not ``linear`` and
+``"curve"`` for ``bezier``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from puppet.scene.history import Event
+from puppet.scene.model import DEPTH_MODES, EASES, INBETWEENS
+
+#: Two key times closer than this (seconds) are the same time.
+SAME_TIME = 1e-9
+
+
+def _pins_json(pins: dict) -> dict:
+    """A pins table in file form, numbers as floats (``[x, y]`` or ``{"to", "angle", "depth"}``)."""
+    out = {}
+    for name, t in pins.items():
+        if isinstance(t, dict):
+            v = {k: ([float(t[k][0]), float(t[k][1])] if k == "to" else float(t[k]))
+                 for k in ("to", "angle", "depth") if k in t and t[k] is not None}
+            for k in t:
+                if k not in ("to", "angle", "depth"):
+                    v[k] = t[k]  # unknown fields are reported by the validation, with their path
+            out[name] = v
+        else:
+            out[name] = [float(t[0]), float(t[1])]
+    return out
+
+
+def _ease_fields(key: dict, ease: str, curve) -> None:
+    key.pop("ease", None)
+    key.pop("curve", None)
+    if ease != "linear":
+        key["ease"] = ease
+    if curve is not None:
+        key["curve"] = [float(c) for c in curve]
+
+
+class KeyEdits:
+    """Animation-key methods of :class:`puppet.scene.document.Document` (a mixin)."""
+
+    # helpers ------------------------------------------------------------------------
+    def _keys_of(self, doc: dict) -> list[dict]:
+        anim = doc.get("animation")
+        if anim is None:
+            raise self._fail("the scene has no animation yet (add a key first)")
+        return anim["keys"]
+
+    def _key_at(self, doc: dict, time: float) -> dict:
+        for k in self._keys_of(doc):
+            if abs(k["time"] - float(time)) <= SAME_TIME:
+                return k
+        raise self._fail(f"no animation key at {float(time):g} s")
+
+    @staticmethod
+    def _put_key(doc: dict, key: dict) -> None:
+        """Insert ``key``, replacing any key at its time, keeping the keys sorted."""
+        anim = doc.setdefault("animation", {"fps": 24, "keys": []})
+        keys = [k for k in anim["keys"] if abs(k["time"] - key["time"]) > SAME_TIME]
+        keys.append(key)
+        anim["keys"] = sorted(keys, key=lambda k: k["time"])
+
+    def _check_ease(self, ease: str, curve) -> None:
+        if ease not in EASES:
+            raise self._fail(f"{ease!r} is not an ease (eases: {', '.join(EASES)})")
+        if (ease == "bezier") != (curve is not None):
+            raise self._fail("a curve [cx1, cy1, cx2, cy2] goes with the 'bezier' ease, and only with it")
+
+    # edits --------------------------------------------------------------------------
+    def set_key(self, time: float, pose: str | None = None, *, pins: dict | None = None, ease: str = "linear",
+                curve=None) -> bool:
+        """A key at ``time`` seconds showing pose ``pose`` (a name, ``"rest"`` included) or
+        the pin targets ``pins`` (file form; only the pins named), replacing a key at that
+        time. ``ease`` shapes the segment ending at this key; ``curve`` = (cx1, cy1, cx2,
+        cy2) for ``"bezier"``."""
+        if (pose is None) == (pins is None):
+            raise self._fail("a key shows a pose name or pin targets (give one of pose= and pins=)")
+        self._check_ease(ease, curve)
+        key: dict = {"time": float(time)}
+        if pose is not None:
+            key["pose"] = pose
+        else:
+            key["pins"] = _pins_json(pins)
+        _ease_fields(key, ease, curve)
+
+        def m(doc):
+            self._put_key(doc, key)
+        return self._edit(Event("animation", pose or "", "none", f"key at {float(time):g} s"), m)
+
+    def remove_key(self, time: float) -> bool:
+        """Remove the key at ``time`` (the animation goes with its last key)."""
+        def m(doc):
+            gone = self._key_at(doc, time)
+            keys = [k for k in doc["animation"]["keys"] if k is not gone]
+            if keys:
+                doc["animation"]["keys"] = keys
+            else:
+                del doc["animation"]
+        return self._edit(Event("animation", "", "none", f"remove key at {float(time):g} s"), m)
+
+    def move_key(self, time: float, new_time: float) -> bool:
+        """Move the key at ``time`` to ``new_time`` (replacing a key there)."""
+        def m(doc):
+            key = self._key_at(doc, time)
+            doc["animation"]["keys"].remove(key)
+            self._put_key(doc, dict(key, time=float(new_time)))
+        return self._edit(Event("animation", "", "none", f"move key {float(time):g} s -> {float(new_time):g} s"), m)
+
+    def copy_key(self, time: float, new_time: float) -> bool:
+        """Copy the key at ``time`` to ``new_time`` (replacing a key there)."""
+        def m(doc):
+            self._put_key(doc, dict(self._key_at(doc, time), time=float(new_time)))
+        return self._edit(Event("animation", "", "none", f"copy key {float(time):g} s -> {float(new_time):g} s"), m)
+
+    def set_key_ease(self, time: float, ease: str, curve=None) -> bool:
+        """The ease of the segment ending at the key at ``time`` (``curve`` for ``"bezier"``)."""
+        self._check_ease(ease, curve)
+
+        def m(doc):
+            _ease_fields(self._key_at(doc, time), ease, curve)
+        return self._edit(Event("animation", "", "none", f"ease of key at {float(time):g} s"), m)
+
+    def _set_anim(self, field: str, value, label: str) -> bool:
+        def m(doc):
+            self._keys_of(doc)
+            doc["animation"][field] = value
+        return self._edit(Event("animation", "", "none", label), m)
+
+    def set_fps(self, fps: float) -> bool:
+        """Frames per second of the animation (0 < fps <= 240)."""
+        return self._set_anim("fps", fps, "change fps")
+
+    def set_inbetween(self, kind: str) -> bool:
+        """``"rigid"`` (shape-preserving in-betweens) or ``"linear"`` (pins on straight lines)."""
+        if kind not in INBETWEENS:
+            raise self._fail(f"{kind!r} is not an in-between (one of: {', '.join(INBETWEENS)})")
+        return self._set_anim("inbetween", kind, f"in-betweens {kind}")
+
+    def set_depth_mode(self, mode: str) -> bool:
+        """Pin depth ``"step"``s at keys or ``"interpolate"``s between them."""
+        if mode not in DEPTH_MODES:
+            raise self._fail(f"{mode!r} is not a depth mode (one of: {', '.join(DEPTH_MODES)})")
+        return self._set_anim("depth", mode, f"depth {mode}")
+
+    # reading ------------------------------------------------------------------------
+    def keys(self) -> list[dict]:
+        """The animation's keys in file form, sorted by time (a copy; [] without animation)."""
+        anim = self.to_dict().get("animation")
+        return anim["keys"] if anim else []
+
+    def key_times(self, pin: str | None = None) -> list[float]:
+        """Times of the keys that mention ``pin`` (a pose key mentions every pin; a pins
+        key those it names); of every key when None."""
+        if self.data.animation is None:
+            return []
+        from puppet.scene.tracks import mentions
+
+        try:
+            hit = mentions(self.tracks(), pin, self.data, self.built.exterior)
+        except KeyError:
+            raise self._fail(f"no pin or exterior point named {pin!r}") from None
+        return [float(t) for t, h in zip(self.tracks().times, hit) if h]
+
+    def duration(self) -> float:
+        """Time of the last key in seconds (0 without animation)."""
+        anim = self.data.animation
+        return float(anim.keys[-1].time) if anim else 0.0
+
+    def pose_at(self, time: float) -> dict:
+        """The pose shown at ``time`` as a file-form pins table (what "Key" stores): every
+        interior pin where the frame shows it (``[x, y]``, or ``{"to", "angle", "depth"}``
+        when it is turned or its depth differs from the pin's own), and each exterior point
+        a key gives a target."""
+        state = self.state(time=time)
+        where = {}
+        if self.data.animation.inbetween == "rigid":  # the pins where the in-between puts them
+            for r in self.layers(time=time):
+                where.update({p: r.deformed[v] for p, v in r.pins.items()})
+        out: dict = {}
+        for i, p in enumerate(self.data.pins):
+            if p.kind != "interior":
+                continue
+            to = [float(x) for x in where.get(p.name, state.to[i])]
+            angle, depth = float(state.angle[i]), float(state.depth[i])
+            if angle == 0.0 and depth == p.depth:
+                out[p.name] = to
+            else:
+                out[p.name] = {"to": to, "angle": angle, "depth": depth}
+        from puppet.scene.evaluate import exterior_names
+
+        for j, name in enumerate(exterior_names(self.built.exterior)):
+            if not np.isnan(state.ext_to[j, 0]):
+                out[name] = [float(x) for x in state.ext_to[j]]
+        return out
