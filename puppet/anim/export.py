@@ -1,24 +1,29 @@
-"""Export an animation: a folder of PNG frames, a GIF or an H.264 MP4.
+"""Export an animation: a folder of PNG frames, a GIF, an H.264 MP4, a VP9 WebM with
+alpha, an APNG, or a sprite sheet PNG with its JSON atlas.
 
 Every frame is solved from scratch (trajectory invariance) and streamed to its output
-as soon as it is drawn: memory does not grow with the number of frames. All writing
-goes through :mod:`puppet.output` (checked before the first frame is drawn, temporary
-name or folder, renamed or swapped in at the end, inputs never overwritten).
+as soon as it is drawn, through the three-stage pipeline of :mod:`puppet.anim.pipeline`
+(solve ahead on a thread, composite with GL here, encode on a thread): memory does not
+grow with the number of frames. All writing goes through :mod:`puppet.output` (checked
+before the first frame is drawn, temporary name or folder, renamed or swapped in at the
+end, inputs never overwritten, nothing left behind on an error or a signal).
 """
 from __future__ import annotations
 
 import math
 import os
-import sys
 from collections.abc import Iterator
 
 import numpy as np
 
+from puppet.anim import pipeline, sinks
 from puppet.errors import SceneError
 from puppet.output import atomic_write, check_file, check_folder, write_folder
 from puppet.scene.inputs import input_files
 
-KINDS = {".gif": "gif", ".mp4": "mp4"}
+KINDS = {".gif": "gif", ".mp4": "mp4", ".webm": "webm", ".apng": "apng", ".png": "sheet"}
+#: Formats that keep an alpha channel (GIF: one bit).
+ALPHA = {"dir", "gif", "webm", "apng", "sheet"}
 #: Most frames one ``animate`` may write (duration x fps); longer exports are refused up front.
 MAX_FRAMES = 100_000
 #: Frame rates accepted, frames per second.
@@ -28,15 +33,47 @@ GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
 #: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
 GIF_SAMPLE_CACHE = 64 << 20
 
+# kept importable from here (older callers)
+flatten = sinks.flatten
+
 
 def output_kind(path: str) -> str:
-    """``dir``, ``gif`` or ``mp4`` from the output path (a trailing slash or an existing folder is a folder)."""
+    """``dir``, ``gif``, ``mp4``, ``webm``, ``apng`` or ``sheet`` (``.png``) from the output
+    path (a trailing slash or an existing folder is a folder)."""
     if path.endswith(("/", os.sep)) or os.path.isdir(path):
         return "dir"
     ext = os.path.splitext(path)[1].lower()
     if ext not in KINDS:
-        raise SceneError(f"-o {path!r}: give a folder (ending in /), a .gif or an .mp4 file")
+        raise SceneError(f"-o {path!r}: give a folder (ending in /) or a .gif, .mp4, .webm, .apng "
+                         "or .png (sprite sheet) file")
     return KINDS[ext]
+
+
+def atlas_path(path: str) -> str:
+    """The JSON atlas beside a sprite sheet: ``OUT.png`` -> ``OUT.json``."""
+    return os.path.splitext(path)[0] + ".json"
+
+
+def parse_background(text: str) -> str | tuple[int, int, int, int]:
+    """``transparent``, or a colour: ``#rgb``, ``#rrggbb``, ``#rrggbbaa``, a CSS colour
+    name (``white``, ``darkslategray``, ...) or ``rgb(r, g, b)`` -> RGBA 0..255 tuple.
+
+    Raises
+    ------
+    SceneError
+        Anything else (one line naming the flag).
+    """
+    t = text.strip().lower()
+    if t in ("transparent", "none"):
+        return "transparent"
+    from PIL import ImageColor
+
+    try:
+        r, g, b, a = ImageColor.getcolor(t, "RGBA")
+    except ValueError:
+        raise SceneError(f"{text!r} is not a colour: give transparent, #rrggbb, #rrggbbaa or a colour "
+                         "name such as white") from None
+    return int(r), int(g), int(b), int(a)
 
 
 def frame_count(start: float, end: float, fps: float) -> int:
@@ -53,111 +90,65 @@ def frame_count(start: float, end: float, fps: float) -> int:
     return int(math.floor(span + 1e-9)) + 1
 
 
-def _frames(scene, start: float, fps: float, indices, size, wireframe) -> Iterator[np.ndarray]:
-    """Draw frame ``i`` at ``start + i / fps`` for each i in ``indices``, lazily: (H, W, 4) uint8 each."""
-    for i in indices:
-        yield scene.render(time=start + i / fps, size=size, wireframe=wireframe)
+def _background(scene, kind: str, output: str, background) -> tuple[object, bool]:
+    """(what the compositor draws over, whether the frames may hold transparency).
+
+    ``background``: None (the scene's), ``"transparent"`` or an RGBA tuple. MP4 has no
+    alpha: a see-through colour asked for is refused; a see-through scene background
+    is flattened over white.
+    """
+    if background is None:
+        bg = scene.background()
+        alpha = np.asarray(bg).reshape(-1, 4)[:, 3].min() < 255
+    else:
+        bg = (0, 0, 0, 0) if background == "transparent" else tuple(background)
+        alpha = bg[3] < 255
+        if alpha and kind not in ALPHA:
+            what = "transparent" if background == "transparent" else "a see-through colour"
+            raise SceneError(f"--background: {what} is not possible in an MP4 (H.264 has no alpha); "
+                             "use .webm, .apng, .gif, .png or a folder, or give an opaque colour")
+    return bg, bool(alpha)
 
 
-def _progress(frames: Iterator[np.ndarray], n: int, show: bool) -> Iterator[np.ndarray]:
-    """Pass frames through, drawing a progress bar on stderr when ``show``."""
-    def say(text: str) -> bool:
-        try:
-            sys.stderr.write(text)
-            sys.stderr.flush()
-            return True
-        except (OSError, ValueError):  # the terminal went away: stop showing progress, go on
-            return False
+def _gif_palette(frame_at, n: int, alpha: bool) -> tuple[object, dict[int, np.ndarray]]:
+    """A palette from up to :data:`GIF_SAMPLE_FRAMES` frames spread over the animation,
+    and those frames (empty when they are too big to keep)."""
+    from puppet.anim.gif import palette_from_sample
 
-    k = 0
-    for k, f in enumerate(frames, 1):
-        yield f
-        if show:
-            done = int(30 * k / n)
-            show = say(f"\r[{'#' * done}{'.' * (30 - done)}] {k}/{n} frames")
-    if show and k:
-        say("\n")
-
-
-def flatten(rgba: np.ndarray) -> np.ndarray:
-    """Composite straight-alpha RGBA over white, for formats without alpha: (h, w, 4) -> (h, w, 3) uint8."""
-    a = rgba[..., 3:4].astype(np.float32) / 255.0
-    rgb = rgba[..., :3].astype(np.float32) * a + 255.0 * (1.0 - a)
-    return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
-
-
-def gif_sample(frames: dict[int, np.ndarray]) -> np.ndarray:
-    """Pixels of the sampled frames (strided to at most :data:`GIF_SAMPLE_PIXELS`), flattened: (k, w', 3)."""
-    h, w = next(iter(frames.values())).shape[:2]
-    s = max(1, math.ceil(math.sqrt(h * w * len(frames) / GIF_SAMPLE_PIXELS)))
-    return np.concatenate([flatten(f[::s, ::s]) for f in frames.values()], axis=0)
-
-
-def write_gif(path: str, frames, fps: float, palette, *, inputs=()) -> int:
-    """Stream RGBA frames to a looping GIF with one ``palette`` (see :mod:`puppet.anim.gif`)."""
-    from puppet.anim.gif import GifStream, quantize
-
-    def write(tmp: str) -> None:
-        with open(tmp, "wb") as f:
-            gif = None
-            for rgba in frames:
-                if gif is None:
-                    gif = GifStream(f, (rgba.shape[1], rgba.shape[0]), palette, fps)
-                gif.add(quantize(flatten(rgba), palette))
-            gif.close()
-            written[0] = gif.frames_added
-    written = [0]
-    atomic_write(path, write, inputs=inputs)
-    return written[0]
-
-
-def write_mp4(path: str, frames, fps: float, *, inputs=()) -> int:
-    """Stream RGBA frames to H.264 (yuv420p, CRF 18) MP4 through PyAV; odd sizes are padded to even."""
-    import av
-    from fractions import Fraction
-
-    written = [0]
-
-    def write(tmp: str) -> None:
-        with av.open(tmp, mode="w", format="mp4") as box:
-            st = None
-            for rgba in frames:
-                h, w = rgba.shape[:2]
-                H, W = h + h % 2, w + w % 2
-                if st is None:
-                    st = box.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
-                    st.width, st.height, st.pix_fmt = W, H, "yuv420p"
-                    st.options = {"crf": "18", "preset": "medium"}
-                rgb = flatten(rgba)
-                if (H, W) != (h, w):
-                    rgb = np.pad(rgb, ((0, H - h), (0, W - w), (0, 0)), mode="edge")
-                for pkt in st.encode(av.VideoFrame.from_ndarray(rgb, format="rgb24")):
-                    box.mux(pkt)
-                written[0] += 1
-            for pkt in st.encode():
-                box.mux(pkt)
-    atomic_write(path, write, inputs=inputs)
-    return written[0]
-
-
-def write_dir(path: str, frames, *, inputs=()) -> int:
-    """Write ``frame_00000.png``, ... into a new folder swapped in at ``path`` (all or nothing)."""
-    from PIL import Image
-
-    def fill(tmp: str) -> int:
-        n = 0
-        for n, f in enumerate(frames, 1):
-            Image.fromarray(np.ascontiguousarray(f)).save(os.path.join(tmp, f"frame_{n - 1:05d}.png"), format="PNG")
-        return n
-    return write_folder(path, fill, inputs=inputs)
+    picks = sorted({int(round(x)) for x in np.linspace(0, n - 1, min(n, GIF_SAMPLE_FRAMES))})
+    sample = {i: frame_at(i) for i in picks}
+    h, w = next(iter(sample.values())).shape[:2]
+    s = max(1, math.ceil(math.sqrt(h * w * len(sample) / GIF_SAMPLE_PIXELS)))
+    if alpha:  # colours of the pixels that show only; index 255 is the see-through one
+        px = np.concatenate([f[::s, ::s].reshape(-1, 4) for f in sample.values()])
+        px = px[px[:, 3] >= 128, :3]
+        palette = palette_from_sample((px if len(px) else np.zeros((1, 3), np.uint8))[None], colors=255)
+    else:
+        palette = palette_from_sample(np.concatenate([sinks.flatten(f[::s, ::s]) for f in sample.values()]))
+    if sum(f.nbytes for f in sample.values()) > GIF_SAMPLE_CACHE:
+        sample.clear()  # too big to keep: those frames are drawn again
+    return palette, sample
 
 
 def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None, wireframe=False,
-               progress=False) -> int:
+               progress=False, background=None, threads: bool = True,
+               timings: pipeline.Timings | None = None) -> int:
     """Render the scene's animation to ``output``; returns the number of frames.
 
-    The output is checked (writable, no input of the scene overwritten) and the frame
-    count bounded (:data:`MAX_FRAMES`) before anything is drawn.
+    Parameters
+    ----------
+    scene : puppet.api.Scene
+    output : a folder (ending in ``/``), or ``.gif``, ``.mp4``, ``.webm``, ``.apng``, ``.png``
+        (sprite sheet; its atlas goes to ``.json`` beside it).
+    fps, start, end : frame rate and time range (default: the animation's).
+    size : (W, H) of the frames (default: the canvas).
+    background : None (the scene's), ``"transparent"`` or an RGBA tuple (see :func:`parse_background`).
+    progress : draw a progress bar on stderr.
+    threads : overlap solve, composite and encode (False: one after the other; same output).
+    timings : filled with seconds per stage (see :class:`puppet.anim.pipeline.Timings`).
+
+    The output is checked (writable, no input of the scene overwritten), the frame count
+    bounded (:data:`MAX_FRAMES`) and a sprite sheet's size checked before anything is drawn.
     """
     anim = scene.data.animation
     if anim is None:
@@ -165,6 +156,8 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     kind = output_kind(output)
     inputs = input_files(scene.data)
     (check_folder if kind == "dir" else check_file)(output, inputs=inputs)
+    if kind == "sheet":
+        check_file(atlas_path(output), inputs=inputs)
     rate = float(fps or anim.fps)
     if not MIN_FPS <= rate <= MAX_FPS:
         raise SceneError(f"{rate:g} fps is outside {MIN_FPS:g}..{MAX_FPS:g}; give --fps",
@@ -172,21 +165,72 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     t0 = anim.keys[0].time if start is None else float(start)
     t1 = anim.keys[-1].time if end is None else float(end)
     n = frame_count(t0, t1, rate)
-    if kind != "gif":
-        frames = _progress(_frames(scene, t0, rate, range(n), size, wireframe), n, progress)
-        if kind == "dir":
-            return write_dir(output, frames, inputs=inputs)
-        return write_mp4(output, frames, rate, inputs=inputs)
-    from puppet.anim.gif import palette_from_sample
+    w, h = size or scene.canvas
+    lay = None
+    if kind == "sheet":
+        from puppet.anim.sheet import MAX_SIDE, layout
 
-    picks = sorted({int(round(x)) for x in np.linspace(0, n - 1, min(n, GIF_SAMPLE_FRAMES))})
-    sample = dict(zip(picks, _frames(scene, t0, rate, picks, size, wireframe)))
-    palette = palette_from_sample(gif_sample(sample))
-    if sum(f.nbytes for f in sample.values()) > GIF_SAMPLE_CACHE:
-        sample.clear()  # too big to keep: those frames are drawn again
+        lay = layout(n, w, h)
+        if lay is None:
+            raise SceneError(f"-o {output!r}: a sprite sheet of {n} frames of {w}x{h} does not fit in "
+                             f"{MAX_SIDE}x{MAX_SIDE} pixels; lower --fps, shorten it with --from/--to or "
+                             "give a smaller --size")
+    bg, alpha = _background(scene, kind, output, background)
+    timings = pipeline.Timings() if timings is None else timings
+    scene.built  # noqa: B018  (built here, on this thread: the solver thread only reads it)
+
+    def solve(i: int):
+        return scene.layers(time=t0 + i / rate)
+
+    def composite(layers) -> np.ndarray:
+        return scene.draw_layers(layers, size=size, wireframe=wireframe, background=bg)
+
+    cached: dict[int, np.ndarray] = {}
+    palette = None
+    if kind == "gif":
+        palette, cached = _gif_palette(lambda i: composite(solve(i)), n, alpha)
 
     def frames() -> Iterator[np.ndarray]:
-        drawn = _frames(scene, t0, rate, (i for i in range(n) if i not in sample), size, wireframe)
-        for i in range(n):
-            yield sample.pop(i) if i in sample else next(drawn)
-    return write_gif(output, _progress(frames(), n, progress), rate, palette, inputs=inputs)
+        drawn = pipeline.frames(solve, composite, [i for i in range(n) if i not in cached],
+                                threads=threads, timings=timings)
+        try:
+            for i in range(n):
+                yield cached.pop(i) if i in cached else next(drawn)
+        finally:
+            drawn.close()
+
+    bar = pipeline.Progress(n, progress)
+
+    def stream(sink) -> int:
+        try:
+            count = pipeline.run(frames(), sink.add, threads=threads, progress=bar, timings=timings)
+        except BaseException:
+            sink.abort()
+            raise
+        sink.close()
+        return count
+
+    written = [0]
+    try:
+        if kind == "dir":
+            return write_folder(output, lambda tmp: stream(sinks.DirSink(tmp)), inputs=inputs)
+
+        def write(tmp: str) -> None:
+            if kind in ("mp4", "webm", "apng"):
+                make = {"mp4": sinks.mp4_sink, "webm": sinks.webm_sink, "apng": sinks.apng_sink}[kind]
+                written[0] = stream(make(tmp, (w, h), rate))
+                return
+            with open(tmp, "wb") as f:
+                if kind == "gif":
+                    written[0] = stream(sinks.GifSink(f, (w, h), rate, palette, alpha))
+                else:
+                    written[0] = stream(sinks.SheetSink(f, lay))
+                    from puppet.anim.sheet import atlas_text
+                    from puppet.output import write_text
+
+                    write_text(atlas_path(output), atlas_text(lay, os.path.basename(output), rate),
+                               inputs=inputs)
+        atomic_write(output, write, inputs=inputs)
+        return written[0]
+    finally:
+        bar.close()

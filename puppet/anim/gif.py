@@ -13,6 +13,11 @@ and only the previous frame kept:
   *i* ends at ``round(100 (i + 1) / fps)``: the total length is exact; a delay is at least
   2/100 s (browsers slow shorter ones down to 1/10 s), so above 50 fps a GIF plays slower.
 
+With ``transparent`` (a palette index), frames may hold see-through pixels: each frame is
+then stored as the box around its visible pixels and disposed ("restore to background")
+before the next, since a frame drawn over the previous one could never make a pixel
+clear again.
+
 The image data is LZW-coded by Pillow (``GifImagePlugin.getdata``).
 """
 from __future__ import annotations
@@ -28,12 +33,13 @@ MIN_DELAY = 2
 MAX_DELAY = 65535
 
 
-def palette_from_sample(sample: np.ndarray):
-    """A 256-colour adaptive palette (median cut) for RGB pixels.
+def palette_from_sample(sample: np.ndarray, colors: int = 256):
+    """An adaptive palette (median cut) of at most ``colors`` colours for RGB pixels.
 
     Parameters
     ----------
     sample : (h, w, 3) uint8 array of pixels standing for the whole animation.
+    colors : 2..256; 255 leaves the last index free for transparency.
 
     Returns
     -------
@@ -41,7 +47,7 @@ def palette_from_sample(sample: np.ndarray):
     """
     from PIL import Image
 
-    return Image.fromarray(np.ascontiguousarray(sample)).quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+    return Image.fromarray(np.ascontiguousarray(sample)).quantize(colors=colors, method=Image.Quantize.MEDIANCUT)
 
 
 def quantize(rgb: np.ndarray, palette) -> np.ndarray:
@@ -61,16 +67,18 @@ class GifStream:
     size : (width, height) of every frame, each 1..65535.
     palette : PIL ``P`` image (see :func:`palette_from_sample`); frames index its colours.
     fps : frames per second.
+    transparent : palette index drawn as see-through (None: every pixel is opaque).
     """
 
-    def __init__(self, fp: BinaryIO, size: tuple[int, int], palette, fps: float):
+    def __init__(self, fp: BinaryIO, size: tuple[int, int], palette, fps: float, transparent: int | None = None):
         w, h = size
         if not (1 <= w <= 65535 and 1 <= h <= 65535):
             raise ValueError(f"GIF frames are 1..65535 pixels per side, got {w}x{h}")
-        self.fp, self.size, self.fps = fp, (w, h), float(fps)
+        self.fp, self.size, self.fps, self.transparent = fp, (w, h), float(fps), transparent
         colours = bytes(palette.getpalette("RGB") or b"")[:768]
         colours += bytes(768 - len(colours))
-        fp.write(b"GIF89a" + struct.pack("<HHBBB", w, h, 0xF7, 0, 0) + colours)  # 256-colour global table
+        bg = 0 if transparent is None else int(transparent)  # what "restore to background" shows
+        fp.write(b"GIF89a" + struct.pack("<HHBBB", w, h, 0xF7, bg, 0) + colours)  # 256-colour global table
         fp.write(b"!\xff\x0bNETSCAPE2.0\x03\x01" + struct.pack("<H", 0) + b"\x00")  # loop for ever
         self._prev: np.ndarray | None = None  # indices on screen after the held frame
         self._held: list[bytes] | None = None  # encoded rectangle not written yet
@@ -96,10 +104,13 @@ class GifStream:
             if not diff.any() and self._delay + step <= MAX_DELAY:
                 self._delay += step
                 return
+        if self.transparent is not None:  # the previous frame is cleared: store what shows
+            diff = index != self.transparent
+        if self._prev is not None or self.transparent is not None:
             rows, cols = np.flatnonzero(diff.any(axis=1)), np.flatnonzero(diff.any(axis=0))
             if len(rows):
                 y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
-            else:  # equal, but the held delay is full: repeat one pixel
+            else:  # equal, but the held delay is full (or nothing shows): one pixel
                 y0, y1, x0, x1 = 0, 1, 0, 1
         else:
             y0, y1, x0, x1 = 0, h, 0, w
@@ -118,7 +129,10 @@ class GifStream:
         if self._held is None:
             return
         delay = min(max(self._delay, MIN_DELAY), MAX_DELAY)
-        self.fp.write(b"!\xf9\x04\x04" + struct.pack("<H", delay) + b"\x00\x00")  # disposal 1: keep
+        if self.transparent is None:
+            self.fp.write(b"!\xf9\x04\x04" + struct.pack("<H", delay) + b"\x00\x00")  # disposal 1: keep
+        else:  # disposal 2 (restore to background), transparent index given
+            self.fp.write(b"!\xf9\x04\x09" + struct.pack("<HB", delay, self.transparent) + b"\x00")
         for chunk in self._held:
             self.fp.write(chunk)
         self._held = None

@@ -1,15 +1,20 @@
 """Animation export end to end (real GL, real encoders): the streamed GIF shows the same
-frames as the PNG folder, whether its palette sample is kept or drawn again."""
+frames as the PNG folder, frames are streamed, the pipelined export writes exactly what
+the sequential one writes, and a failure in any stage leaves nothing behind."""
 from __future__ import annotations
 
+import errno
 import os
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from puppet.anim import export
+import puppet
+from puppet.anim import export, pipeline, sinks
 from puppet.cli import main
+from puppet.errors import SceneError
+from tests.cli.outputs_helpers import make_bar
 
 pytestmark = pytest.mark.gl
 
@@ -23,13 +28,17 @@ def _gif_frames(path):
     return out
 
 
+def pngs(folder):
+    return [np.array(Image.open(os.path.join(folder, n))) for n in sorted(os.listdir(folder))]
+
+
 def test_gif_matches_the_png_frames(bar, tmp_path, monkeypatch):
     assert main(["animate", bar, "-o", str(tmp_path / "f") + "/"]) == 0
-    pngs = [np.array(Image.open(tmp_path / "f" / n)) for n in sorted(os.listdir(tmp_path / "f"))]
+    frames = pngs(tmp_path / "f")
     assert main(["animate", bar, "-o", str(tmp_path / "a.gif")]) == 0
     gif = _gif_frames(tmp_path / "a.gif")
-    assert len(gif) == len(pngs) == 11 and sum(ms for _, ms in gif) == 1100
-    for (rgb, _), rgba in zip(gif, pngs):
+    assert len(gif) == len(frames) == 11 and sum(ms for _, ms in gif) == 1100
+    for (rgb, _), rgba in zip(gif, frames):
         want = export.flatten(rgba).astype(int)
         assert np.abs(rgb - want).mean() < 1.5 and np.abs(rgb - want).max() <= 64
     monkeypatch.setattr(export, "GIF_SAMPLE_CACHE", 0)  # the sample frames are drawn again
@@ -37,21 +46,106 @@ def test_gif_matches_the_png_frames(bar, tmp_path, monkeypatch):
     assert (tmp_path / "a.gif").read_bytes() == (tmp_path / "b.gif").read_bytes()
 
 
-def test_frames_are_drawn_lazily(bar, monkeypatch, tmp_path):
-    """Frame i is drawn only after frames 0..i-1 went to disk (a frame folder shows it)."""
-    import puppet
+@pytest.mark.parametrize("threads", [False, True])
+def test_frames_are_streamed(tmp_path, threads, monkeypatch):
+    """Frame i is solved only once frames up to i - (a few) are on disk: memory stays flat."""
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=4.0))  # 41 frames
+    on_disk = []
+    real = type(scene).layers
 
-    scene = puppet.load_scene(bar)
-    drawn, on_disk = [], []
-    real = type(scene).render
-
-    def render(self, *a, **k):
-        drawn.append(k.get("time"))
+    def layers(self, *a, **k):
         tmp = [n for n in os.listdir(tmp_path) if n.endswith(".tmp")]
         on_disk.append(len(os.listdir(tmp_path / tmp[0])) if tmp else -1)
         return real(self, *a, **k)
 
-    monkeypatch.setattr(type(scene), "render", render)
-    assert export.animate_to(scene, str(tmp_path / "frames") + "/") == 11
-    assert drawn == pytest.approx([i / 10 for i in range(11)])
-    assert on_disk == list(range(11))
+    monkeypatch.setattr(type(scene), "layers", layers)
+    assert export.animate_to(scene, str(tmp_path / "frames") + "/", threads=threads) == 41
+    ahead = [i - k for i, k in enumerate(on_disk)]
+    if threads:  # queues of DEPTH between the stages, one frame in each stage
+        assert max(ahead) <= 2 * pipeline.DEPTH + 3, ahead
+    else:
+        assert ahead == [0] * 41
+
+
+@pytest.mark.parametrize("name", ["f/", "a.gif", "a.png", "a.apng"])
+def test_pipelined_output_equals_sequential(tmp_path, name):
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=2.0))
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir(), b.mkdir()
+    ta, tb = pipeline.Timings(), pipeline.Timings()
+    assert export.animate_to(scene, os.path.join(a, name), threads=True, timings=ta) == 21
+    assert export.animate_to(scene, os.path.join(b, name), threads=False, timings=tb) == 21
+    assert set(ta) >= {"solve", "composite", "encode"} and set(tb) == {"solve", "composite", "encode"}
+    if name.endswith("/"):
+        fa, fb = pngs(a / "f"), pngs(b / "f")
+        assert len(fa) == 21 and all(np.array_equal(x, y) for x, y in zip(fa, fb))
+        assert any(not np.array_equal(fa[0], x) for x in fa[1:])  # the frames do move
+    else:
+        assert (a / name).read_bytes() == (b / name).read_bytes()
+
+
+def test_pipelined_mp4_frames_equal_sequential(tmp_path):
+    import av
+
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=1.0))
+    out = []
+    for threads in (True, False):
+        path = str(tmp_path / f"{threads}.mp4")
+        export.animate_to(scene, path, threads=threads)
+        with av.open(path) as box:
+            out.append([f.to_ndarray(format="rgb24") for f in box.decode(video=0)])
+    assert len(out[0]) == len(out[1]) == 11
+    assert all(np.array_equal(x, y) for x, y in zip(*out))
+
+
+def _leftovers(folder):
+    return [n for n in os.listdir(folder) if n != "s"]
+
+
+@pytest.mark.parametrize("threads", [False, True])
+@pytest.mark.parametrize("name", ["f/", "a.mp4", "a.webm", "a.png"])
+def test_a_failing_solve_leaves_nothing(tmp_path, monkeypatch, name, threads):
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=3.0))
+    real, calls = type(scene).layers, []
+
+    def layers(self, *a, **k):
+        calls.append(1)
+        if len(calls) == 12:
+            raise SceneError("frame 11 cannot be solved", file="x.json")
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(type(scene), "layers", layers)
+    with pytest.raises(SceneError, match="frame 11 cannot be solved"):
+        export.animate_to(scene, os.path.join(tmp_path, name), threads=threads)
+    assert _leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("threads", [False, True])
+def test_a_failing_encoder_is_an_output_error(tmp_path, monkeypatch, threads):
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=3.0))
+    real, calls = sinks.DirSink.add, []
+
+    def add(self, rgba):
+        calls.append(1)
+        if len(calls) == 7:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(self, rgba)
+
+    monkeypatch.setattr(sinks.DirSink, "add", add)
+    with pytest.raises(SceneError, match="No space left on device"):
+        export.animate_to(scene, str(tmp_path / "f") + "/", threads=threads)
+    assert _leftovers(tmp_path) == []
+
+
+def test_progress_bar_on_request_only(tmp_path, capsys):
+    scene = puppet.load_scene(make_bar(tmp_path / "s"))
+    export.animate_to(scene, str(tmp_path / "a.gif"), progress=True)
+    err = capsys.readouterr().err
+    assert "11/11" in err and "frame/s" in err and "100%" in err
+    export.animate_to(scene, str(tmp_path / "b.gif"), progress=False)
+    assert capsys.readouterr().err == ""
+
+
+def test_cli_shows_no_bar_off_a_terminal(bar, tmp_path, capfd):
+    assert main(["animate", bar, "-o", str(tmp_path / "a.gif")]) == 0
+    assert capfd.readouterr().err == ""

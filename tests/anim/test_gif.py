@@ -97,3 +97,44 @@ def test_wrong_frame_size_is_refused():
     g = GifStream(io.BytesIO(), (8, 8), pal, 10)
     with pytest.raises(ValueError, match="frame is 4x8"):
         g.add(np.zeros((8, 4), np.uint8))
+
+
+@pytest.mark.parametrize("fps", [24, 25, 30, 12, 23.976])
+def test_delays_track_the_running_sum(fps):
+    """Delays are whole 1/100 s whose running sum is round(100 n / fps): 24 fps gives
+    4, 4, 4, 5, 4, 4, ... and any second of frames averages 1/fps within 1 ms."""
+    n = 3 * int(fps) + 1
+    data, _ = _write(_frames(n, h=30, w=40), fps=fps)
+    ms = [ms for _, ms in _decode(data)]
+    assert len(ms) == n
+    end = np.cumsum(ms) / 10
+    assert np.array_equal(end, np.round(100 * np.arange(1, n + 1) / fps))
+    k = int(round(fps))
+    for s in range(n - k + 1):
+        assert abs(sum(ms[s:s + k]) / k - 1000 / fps) <= 1.0 + 1000 * abs(k - fps) / fps / k
+    if fps == 24:
+        assert ms[:6] == [40, 40, 40, 50, 40, 40]  # ends 4, 8, 12 (12.5 to even), 17, 21, 25
+
+
+def test_transparent_frames_clear_what_moved_away():
+    """With a transparent index, each frame is disposed before the next: a pixel that was
+    drawn and is see-through in the next frame reads back clear."""
+    frames = _frames(4)
+    pal = palette_from_sample(np.concatenate(frames, axis=0), colors=255)
+    buf = io.BytesIO()
+    g = GifStream(buf, (32, 24), pal, 10, transparent=255)
+    masks = []
+    for i, f in enumerate(frames):
+        idx = quantize(f, pal).copy()
+        m = np.zeros((24, 32), bool)
+        m[3 * i:3 * i + 8, 4 * i:4 * i + 10] = True  # a box that moves; the rest is see-through
+        idx[~m] = 255
+        masks.append(m)
+        g.add(idx)
+    g.close()
+    with Image.open(io.BytesIO(buf.getvalue())) as im:
+        for k, (m, f) in enumerate(zip(masks, frames)):
+            im.seek(k)
+            a = np.array(im.convert("RGBA"))
+            assert np.array_equal(a[..., 3] == 255, m) and not (a[..., 3] % 255).any()
+            assert np.array_equal(a[..., :3][m], f[m])

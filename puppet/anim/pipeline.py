@@ -1,0 +1,229 @@
+"""The export pipeline: solve, composite and encode overlapped on three threads.
+
+A frame goes through three stages:
+
+1. **solve** (CPU: numpy/scipy ARAP, :meth:`Document.layers`): a *solver thread* solves
+   frame n+1 ...
+2. **composite** (OpenGL: :meth:`Scene.draw_layers`) on the *calling thread* (the only
+   one that touches GL) draws frame n ...
+3. **encode** (the sink: PNG deflate, LZW, x264, libvpx ...): an *encoder thread* writes
+   frame n-1.
+
+The stages hand frames over through queues of :data:`DEPTH` items, so at most a few
+frames exist at once (memory is flat in the frame count), and frames are written in
+order. Each frame is solved from its own time (trajectory invariance), so the output is
+identical to the sequential path (``threads=False``), which runs the same stage
+functions one after the other. An error in any stage stops the others and is raised in
+the calling thread; so is a signal (the threads are joined first, so no stage writes
+into a temporary output that is being removed).
+"""
+from __future__ import annotations
+
+import queue
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterable, Iterator
+
+import numpy as np
+
+#: Frames waiting between two stages (per queue).
+DEPTH = 2
+_END = object()
+
+
+class Timings(dict):
+    """Seconds spent per stage: ``solve``, ``composite``, ``encode`` (work) and ``wait``
+    (the calling thread waiting for a solve or for room at the encoder)."""
+
+    def add(self, stage: str, seconds: float) -> None:
+        self[stage] = self.get(stage, 0.0) + seconds
+
+
+class _Stop(Exception):
+    pass
+
+
+class _Worker(threading.Thread):
+    """A daemon thread running ``body(put)``; ``put`` blocks on a bounded queue unless stopped."""
+
+    def __init__(self, name: str, body: Callable):
+        super().__init__(name=name, daemon=True)
+        self.body, self.error = body, None
+        self.stop = threading.Event()
+
+    def run(self) -> None:
+        try:
+            self.body()
+        except _Stop:
+            pass
+        except BaseException as e:  # handed to the calling thread
+            self.error = e
+
+    def put(self, q: queue.Queue, item) -> None:
+        while not self.stop.is_set():
+            try:
+                q.put(item, timeout=0.05)
+                return
+            except queue.Full:
+                pass
+        raise _Stop
+
+    def get(self, q: queue.Queue):
+        while not self.stop.is_set():
+            try:
+                return q.get(timeout=0.05)
+            except queue.Empty:
+                pass
+        raise _Stop
+
+    def halt(self) -> None:
+        self.stop.set()
+        self.join()
+
+
+class Progress:
+    """A tqdm bar (frames, rate, ETA) on stderr when ``show``; silent otherwise. A terminal
+    that goes away (SIGHUP) only stops the bar."""
+
+    def __init__(self, total: int, show: bool):
+        self.bar = None
+        if show:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="frame", file=sys.stderr, dynamic_ncols=True, leave=True,
+                            smoothing=0.1)
+
+    def update(self) -> None:
+        if self.bar is not None:
+            try:
+                self.bar.update(1)
+            except (OSError, ValueError):
+                self.bar = None
+
+    def close(self) -> None:
+        if self.bar is not None:
+            try:
+                self.bar.close()
+            except (OSError, ValueError):
+                pass
+            self.bar = None
+
+
+def _solver(solve: Callable[[int], object], indices: Iterable[int], out: queue.Queue, timings: Timings):
+    """A thread that puts ``(i, solve(i))`` for each index, then the end mark."""
+    def body():
+        for i in indices:
+            t = time.perf_counter()
+            item = solve(i)
+            timings.add("solve", time.perf_counter() - t)
+            worker.put(out, (i, item))
+        worker.put(out, (None, _END))
+    worker = _Worker("puppet-solve", body)
+    return worker
+
+
+def _encoder(add: Callable[[np.ndarray], None], inbox: queue.Queue, timings: Timings):
+    """A thread that feeds frames from ``inbox`` to ``add`` until the end mark."""
+    def body():
+        while True:
+            frame = worker.get(inbox)
+            if frame is _END:
+                return
+            t = time.perf_counter()
+            add(frame)
+            timings.add("encode", time.perf_counter() - t)
+    worker = _Worker("puppet-encode", body)
+    return worker
+
+
+def frames(solve: Callable[[int], object], composite: Callable[[object], np.ndarray], indices: list[int], *,
+           threads: bool = True, timings: Timings | None = None) -> Iterator[np.ndarray]:
+    """Frames ``composite(solve(i))`` for ``i`` in ``indices``, in order, solving ahead on
+    a thread when ``threads`` (compositing stays on the caller's thread)."""
+    timings = Timings() if timings is None else timings
+    if not threads:
+        for i in indices:
+            t = time.perf_counter()
+            item = solve(i)
+            t1 = time.perf_counter()
+            rgba = composite(item)
+            timings.add("solve", t1 - t)
+            timings.add("composite", time.perf_counter() - t1)
+            yield rgba
+        return
+    q: queue.Queue = queue.Queue(DEPTH)
+    worker = _solver(solve, indices, q, timings)
+    worker.start()
+    try:
+        while True:
+            t = time.perf_counter()
+            while True:
+                try:
+                    _, item = q.get(timeout=0.1)
+                    break
+                except queue.Empty:
+                    if not worker.is_alive() and q.empty():
+                        raise worker.error or RuntimeError("the solver thread stopped") from None
+            t1 = time.perf_counter()
+            timings.add("wait", t1 - t)
+            if item is _END:
+                break
+            rgba = composite(item)
+            timings.add("composite", time.perf_counter() - t1)
+            yield rgba
+    finally:
+        worker.halt()
+    if worker.error is not None:
+        raise worker.error
+
+
+def run(source: Iterator[np.ndarray], add: Callable[[np.ndarray], None], *, threads: bool = True,
+        progress: Progress | None = None, timings: Timings | None = None) -> int:
+    """Feed every frame of ``source`` to ``add`` (on an encoder thread when ``threads``);
+    returns the number of frames. Errors of either side are raised here, after the
+    encoder thread has stopped."""
+    timings = Timings() if timings is None else timings
+    n = 0
+    if not threads:
+        for rgba in source:
+            t = time.perf_counter()
+            add(rgba)
+            timings.add("encode", time.perf_counter() - t)
+            n += 1
+            if progress:
+                progress.update()
+        return n
+    inbox: queue.Queue = queue.Queue(DEPTH)
+    worker = _encoder(add, inbox, timings)
+    worker.start()
+    try:
+        for rgba in source:
+            t = time.perf_counter()
+            while True:
+                if worker.error is not None or not worker.is_alive():
+                    raise worker.error or RuntimeError("the encoder thread stopped")
+                try:
+                    inbox.put(rgba, timeout=0.1)
+                    break
+                except queue.Full:
+                    pass
+            timings.add("wait", time.perf_counter() - t)
+            n += 1
+            if progress:
+                progress.update()
+        while worker.is_alive():  # the end mark, then the last frames are written
+            try:
+                inbox.put(_END, timeout=0.1)
+                break
+            except queue.Full:
+                pass
+        worker.join()
+    finally:
+        worker.halt()
+        close = getattr(source, "close", None)
+        if close is not None:  # a generator: stops its solver thread too
+            close()
+    if worker.error is not None:
+        raise worker.error
+    return n
