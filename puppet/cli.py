@@ -67,6 +67,15 @@ def _fps(text: str) -> float:
     return t
 
 
+def _background(text: str):
+    from puppet.anim.export import parse_background
+
+    try:
+        return parse_background(text)
+    except SceneError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def _threshold(text: str) -> float:
     try:
         t = float(text)
@@ -107,12 +116,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     a = sub.add_parser("animate", help="render every frame of the scene's animation")
     a.add_argument("scene")
-    a.add_argument("-o", "--output", required=True, metavar="OUT.gif|OUT.mp4|OUT_DIR/")
+    a.add_argument("-o", "--output", required=True, metavar="OUT.gif|OUT.mp4|OUT.webm|OUT.apng|OUT.png|OUT_DIR/",
+                   help="GIF, MP4 (H.264), WebM (VP9 with alpha), APNG, sprite sheet PNG (+ OUT.json atlas) "
+                        "or a folder of frame_00000.png ...")
     a.add_argument("--fps", type=_fps, help="frames per second (default: the scene's)")
     a.add_argument("--from", dest="start", type=_time, metavar="T0", help="first time, seconds")
     a.add_argument("--to", dest="end", type=_time, metavar="T1", help="last time, seconds")
     a.add_argument("--size", type=_size, metavar="WxH")
     a.add_argument("--wireframe", action="store_true")
+    a.add_argument("--background", type=_background, metavar="COLOR|transparent",
+                   help="#rrggbb, #rrggbbaa, a colour name or transparent (not for MP4); default: the scene's")
 
     m = sub.add_parser("mesh", help="write the deformed meshes as JSON")
     m.add_argument("scene")
@@ -271,7 +284,7 @@ def run(argv: list[str] | None = None) -> int:
         _check_size(scene, args.size)
         with _gl_allocation(scene, args.size):
             animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
-                       wireframe=args.wireframe, progress=sys.stderr.isatty())
+                       wireframe=args.wireframe, progress=sys.stderr.isatty(), background=args.background)
     return 0
 
 
