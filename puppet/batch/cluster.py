@@ -7,7 +7,9 @@ import contextlib
 import importlib.util
 import logging
 import os
+import signal
 import tempfile
+import threading
 from collections.abc import Iterator
 
 from puppet.errors import SceneError
@@ -70,9 +72,11 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
             return
         dash = ":0" if importlib.util.find_spec("bokeh") else None
         with tempfile.TemporaryDirectory(prefix="puppet-batch-") as scratch:
-            cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                                   processes=True, dashboard_address=dash, local_directory=scratch,
-                                   scheduler_port=0, host="127.0.0.1", silence_logs=logging.CRITICAL)
+            with _sigint_blocked():  # the cluster's thread, and the workers it spawns, never see Ctrl+C
+                cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
+                                       processes=True, dashboard_address=dash, local_directory=scratch,
+                                       scheduler_port=0, host="127.0.0.1", silence_logs=logging.CRITICAL,
+                                       preload=["puppet.batch.preload"])
             client = Client(cluster, set_as_default=False)
             try:
                 yield client, _dashboard(client) if dash else None
@@ -81,6 +85,19 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
                     client.close(timeout=10)
                 with contextlib.suppress(Exception):
                     cluster.close(timeout=20)
+
+
+@contextlib.contextmanager
+def _sigint_blocked():
+    """Block SIGINT in this thread while the cluster starts: threads and processes started
+    meanwhile inherit the mask (only the main thread handles Ctrl+C, after the block)."""
+    main = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if main else None
+    try:
+        yield
+    finally:
+        if main:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _dashboard(client) -> str | None:

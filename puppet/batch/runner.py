@@ -50,9 +50,13 @@ def chunks(jobs: list[dict], workers: int) -> list[list[dict]]:
     """Jobs of one scene together, in pieces of at most :data:`MAX_CHUNK` (at least ~4 tasks a worker)."""
     size = max(1, min(MAX_CHUNK, math.ceil(len(jobs) / (4 * max(1, workers)))))
     by_scene: dict[str, list[dict]] = {}
+    alone = []
     for j in jobs:
-        by_scene.setdefault(j["scene"], []).append(j)
-    return [group[i:i + size] for group in by_scene.values() for i in range(0, len(group), size)]
+        if j["kind"] == "animate":
+            alone.append([j])  # long: its own task (results arrive, and retry, per animation)
+        else:
+            by_scene.setdefault(j["scene"], []).append(j)
+    return [group[i:i + size] for group in by_scene.values() for i in range(0, len(group), size)] + alone
 
 
 def homes(pieces: list[list[dict]], workers: list[str]) -> list[str | None]:
@@ -189,8 +193,7 @@ class Batch:
     def finish(self) -> dict:
         """Remove leftovers of stopped workers; write the manifest and the report; the summary."""
         sweep_temporaries(self.jobs)
-        if self.manifest.dirty:
-            self.manifest.save()
+        self.manifest.save()
         seconds = time.perf_counter() - self.t0
         counts = self.counts()
         jobs = []
@@ -259,4 +262,8 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
                 summary = batch.finish()
     finally:
         sweep_temporaries(jobs)  # again, once the embedded workers are gone
+        if batch.interrupted and "summary" in locals():
+            c = summary["counts"]
+            say(f"puppet batch: stopped: {c['done']} done, {c['failed'] + c['no-match']} failed, "
+                f"{c['not-run']} not run; run it again with --resume to finish the rest")
     return summary

@@ -28,7 +28,7 @@ from puppet.errors import SceneError
 #: Scenes kept loaded per worker (each holds its images, meshes and factorisations).
 SCENE_CACHE = 4
 
-_compositor = None
+_compositors: dict[int, object] = {}  # thread id -> compositor (a GL context is current in one thread)
 _scenes: OrderedDict[str, tuple[str, list, object]] = OrderedDict()  # path -> (files hash, inputs, scene)
 
 
@@ -37,21 +37,26 @@ class BudgetExceeded(Exception):
 
 
 def compositor():
-    """The worker's compositor (its one GL context), created on first use."""
-    global _compositor
-    if _compositor is None:
+    """The worker's compositor (its one GL context), created on first use.
+
+    One per thread, since an EGL context is current in one thread only; a Dask worker with
+    one thread runs every task in the same executor thread, so that is one per worker.
+    """
+    tid = threading.get_ident()
+    comp = _compositors.get(tid)
+    if comp is None:
         from puppet.render.compositor import Compositor
 
-        _compositor = Compositor()
+        comp = _compositors[tid] = Compositor()
     # Each frame starts like a fresh `puppet render`'s (K-buffer first, A-buffer on overflow),
     # so a job's pixels never depend on what this worker drew before.
-    _compositor._prefer_abuffer = False
-    return _compositor
+    comp._prefer_abuffer = False
+    return comp
 
 
 def _reset_compositor() -> None:
-    global _compositor
-    comp, _compositor = _compositor, None
+    """Drop this thread's compositor after a GL failure (the next job makes a new one)."""
+    comp = _compositors.pop(threading.get_ident(), None)
     if comp is not None:
         with contextlib.suppress(Exception):
             comp.release()
@@ -108,7 +113,6 @@ def _scene(path: str):
                 return hit
         del _scenes[path]
     scene = Scene.load(path)
-    scene.compositor = compositor()
     inputs = input_files(scene.data)
     entry = (digest_of({}, inputs), inputs, scene)
     _scenes[path] = entry
@@ -125,7 +129,6 @@ def _template_scene(job: dict):
     _, tinputs, _ = _scene(job["scene"])  # the template, parsed (and checked unchanged) once per worker
     doc = template.transfer(job["scene"], job["image"], tolerance=job["tolerance"])
     scene = Scene(doc, job["image"])
-    scene.compositor = compositor()
     from puppet.scene.inputs import input_files
 
     # hashed for --resume: what the client can know without transferring (template files + image)
@@ -195,6 +198,7 @@ def run_job(job: dict) -> dict:
                 _, inputs, scene = _scene(job["scene"])
                 hashed = inputs
         rec["inputs"] = inputs_digest(spec(job), hashed)
+        scene.compositor = compositor()  # this thread's GL context (never the client's)
         _render(job, scene, inputs)
     except Exception as e:  # noqa: BLE001 - every failure is the job's, reported; the batch goes on
         rec.update(status="failed", error=one_line(e))

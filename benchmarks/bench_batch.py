@@ -1,0 +1,154 @@
+"""``puppet batch`` throughput: 200 small jobs with 1 and 2 Dask workers, beside the same
+jobs run in one process.
+
+Run: ``python benchmarks/bench_batch.py [--jobs 200] [--size 160] [--rounds 1]`` from the
+repository root. The jobs are small renders of the bundled scenes: every pose of the
+scenes without animation and frames at distinct times of the animated ones (so no job is
+a cached solve of another), at SIZExSIZE.
+
+Rows:
+
+* **in-process**: ``puppet.batch.work.run_job`` for every job in order, in this process,
+  warm (modules imported, GL context made), scene cache empty at the start: the same
+  loading, solving, drawing and writing a worker does, without Dask;
+* **batch, N workers**: ``run_batch`` on an embedded LocalCluster that is already up, its
+  workers warm (GL context made, scene caches empty): the steady throughput;
+* **CLI, N workers**: ``puppet batch LIST -o OUT --workers N`` from the shell, cluster
+  start-up and shutdown included.
+
+Overhead = batch time with 1 worker / in-process time - 1 (target <= 10 %); scaling =
+jobs/s with 2 workers / with 1 (target >= 1.7 on 2 free cores). ``uptime`` load is printed:
+the machine is shared, and a loaded machine cannot show the scaling.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the puppet command sets it
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCENES = os.path.join(ROOT, "assets", "scenes")
+STILL = ["dress.json", "horse.json", "runner.json", "strips.json", "trex-cutout.json"]
+ANIMATED = ["trex-layers.json", "dress-garment.json", "tshirt-garment.json"]
+
+
+def job_list(n: int, size: int) -> list[dict]:
+    """``n`` jobs: every pose of the still scenes, then distinct times over the animations."""
+    import puppet
+    from puppet.scene import timeline
+
+    jobs = []
+    for name in STILL:
+        for pose in puppet.load_scene(os.path.join(SCENES, name)).pose_names():
+            jobs.append({"scene": os.path.join(SCENES, name), "pose": pose, "size": [size, size],
+                         "output": f"{name[:-5]}/{pose}.png"})
+    durations = {name: timeline.duration(puppet.load_scene(os.path.join(SCENES, name)).data.animation)
+                 for name in ANIMATED}
+    left = n - len(jobs)
+    for k in range(left):
+        name = ANIMATED[k % len(ANIMATED)]
+        i = k // len(ANIMATED)
+        per = -(-left // len(ANIMATED))
+        t = round(durations[name] * (i + 0.5) / per, 4)
+        jobs.append({"scene": os.path.join(SCENES, name), "time": t, "size": [size, size],
+                     "output": f"{name[:-5]}/t{i:04d}.png"})
+    return jobs[:n]
+
+
+def load() -> str:
+    return open("/proc/loadavg").read().split()[0] if os.path.exists("/proc/loadavg") else "?"
+
+
+def in_process(jobs: list[dict]) -> float:
+    from puppet.batch import work
+
+    work.warm()
+    work._scenes.clear()
+    t0 = time.perf_counter()
+    for j in jobs:
+        rec = work.run_job(j)
+        assert rec["status"] == "done", rec
+    return time.perf_counter() - t0
+
+
+def batch(jobs: list[dict], out: str, workers: int) -> float:
+    from puppet.batch import work
+    from puppet.batch.cluster import connect
+    from puppet.batch.runner import run_batch
+
+    with connect(workers=workers) as (client, _):
+        client.wait_for_workers(workers)
+        for addr in client.scheduler_info()["workers"]:  # GL context made in the task thread
+            client.submit(work.warm, workers=[addr], pure=False).result()
+        t0 = time.perf_counter()
+        s = run_batch(jobs, out, client=client)
+        t = time.perf_counter() - t0
+    if s["counts"]["done"] != len(jobs):
+        rep = json.load(open(s["report"]))
+        raise SystemExit(f"{s['counts']}: {[j['error'] for j in rep['jobs'] if j['error']][:3]}")
+    return t
+
+
+def cli(listfile: str, out: str, workers: int) -> float:
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "puppet", "batch", listfile, "-o", out, "--workers", str(workers)],
+                   check=True, stdout=subprocess.DEVNULL, cwd=ROOT)
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--jobs", type=int, default=200)
+    ap.add_argument("--size", type=int, default=160)
+    ap.add_argument("--rounds", type=int, default=1, help="repeat every row, keep the best")
+    ap.add_argument("--no-cli", action="store_true", help="skip the rows timed from the shell")
+    a = ap.parse_args()
+    sys.path.insert(0, ROOT)
+    from puppet.batch.jobs import job_from_entry, number
+
+    with tempfile.TemporaryDirectory(prefix="bench-batch-") as tmp:
+        entries = job_list(a.jobs, a.size)
+        listfile = os.path.join(tmp, "jobs.json")
+        with open(listfile, "w") as f:
+            json.dump(entries, f)
+
+        def jobs_in(out):
+            os.makedirs(out, exist_ok=True)
+            return number([job_from_entry(e, tmp, os.path.realpath(out), {}, listfile, f"[{i}]")
+                           for i, e in enumerate(entries)], listfile)
+
+        rows = []
+        print(f"{len(entries)} jobs at {a.size}x{a.size}; load before: {load()}", flush=True)
+        for r in range(a.rounds):
+            rows.append(("in-process", 1, in_process(jobs_in(os.path.join(tmp, f"in{r}"))), load()))
+            for w in (1, 2):
+                rows.append(("batch", w, batch(jobs_in(os.path.join(tmp, f"b{w}{r}")), os.path.join(tmp, f"b{w}{r}"),
+                                               w), load()))
+            if not a.no_cli:
+                for w in (1, 2):
+                    rows.append(("CLI", w, cli(listfile, os.path.join(tmp, f"c{w}{r}"), w), load()))
+    best: dict[tuple, float] = {}
+    for mode, w, t, _ in rows:
+        best[(mode, w)] = min(t, best.get((mode, w), t))
+    n = len(entries)
+    print(f"\n{'mode':<12}{'workers':>8}{'seconds':>10}{'jobs/s':>9}{'load':>7}")
+    for mode, w, t, ld in rows:
+        print(f"{mode:<12}{w:>8}{t:>10.2f}{n / t:>9.1f}{ld:>7}")
+    base, b1, b2 = best[("in-process", 1)], best[("batch", 1)], best[("batch", 2)]
+    print(f"\noverhead per job (batch 1 worker vs in-process): {100 * (b1 / base - 1):+.1f} % "
+          f"({1000 * (b1 - base) / n:+.2f} ms/job; target <= 10 %)")
+    print(f"scaling (batch 2 workers vs 1): {b1 / b2:.2f}x (target >= 1.7x on 2 free cores)")
+    if ("CLI", 1) in best:
+        print(f"CLI end to end: 1 worker {n / best[('CLI', 1)]:.1f} jobs/s, 2 workers "
+              f"{n / best[('CLI', 2)]:.1f} jobs/s ({best[('CLI', 1)] / best[('CLI', 2)]:.2f}x)")
+    print(f"uptime: {subprocess.run(['uptime'], capture_output=True, text=True).stdout.strip()}")
+
+
+if __name__ == "__main__":
+    main()
