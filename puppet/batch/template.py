@@ -15,8 +15,8 @@ with pins and poses. For each new picture, :func:`transfer`:
 3. corresponds the outlines by arc length between matched curvature landmarks (sleeve
    ends, armpits, hem corners; :func:`puppet.geom.outline_match.outline_correspondence`);
 4. moves each pin: a pin on or outside the outline (within 1.5 px, or an exterior pin)
-   goes to the corresponding outline point, offset along the normal by its scaled
-   offset; an interior pin keeps its mean value coordinates relative to the outline
+   goes to the corresponding outline point, offset by its scaled offset in the local
+   (tangent, normal) frame; an interior pin keeps its mean value coordinates relative to the outline
    (:func:`puppet.geom.mvc.mean_value_coordinates`). Interior pins must land on a mask
    pixel: one that misses by at most :data:`NUDGE` px is moved onto the nearest mask
    pixel's centre, otherwise :class:`NoMatch`;
@@ -52,15 +52,17 @@ from puppet.geom.outline_corr import Correspondence, LandmarkRing, match_outline
 from puppet.geom.outline_match import Similarity
 from puppet.imaging.io import load_rgba
 from puppet.scene import build
-from puppet.scene.load import EXTERIOR_NAME, load_scene_data, parse_scene, read_json
+from puppet.scene.load import load_scene_data, parse_scene
 from puppet.scene.model import Layer, SceneData
 
-__all__ = ["NoMatch", "Template", "Transfer", "transfer", "NUDGE", "BOUNDARY"]
+__all__ = ["NoMatch", "Template", "Transfer", "transfer", "transfer_points", "NUDGE", "BOUNDARY", "TOLERANCE"]
 
 #: An interior pin that lands off the new mask by at most this many pixels is moved in.
 NUDGE = 3.0
 #: Pins closer than this to the template outline (px) are carried along the outline.
 BOUNDARY = 1.5
+#: Default largest match score (:attr:`Transfer.score`).
+TOLERANCE = 0.08
 
 
 class NoMatch(SceneError):
@@ -133,11 +135,12 @@ def transfer_points(X, corr: Correspondence, S: Similarity, *, boundary: float =
     nrm = np.stack([tan[:, 1], -tan[:, 0]], axis=1)
     on_edge = (d <= boundary) | ~_inside(corr.P, X)
     if on_edge.any():
-        o = ((X - F) * nrm).sum(axis=1)[on_edge]
+        R = (X - F)[on_edge]  # offset from the outline, in the local (tangent, normal) frame
+        ot, on = (R * tan[on_edge]).sum(axis=1), (R * nrm[on_edge]).sum(axis=1)
         t = corr.map_arclength(s[on_edge])
         tq = corr.q.tangent(t)
         nq = np.stack([tq[:, 1], -tq[:, 0]], axis=1)
-        out[on_edge] = corr.q.at(t) + (o * S.scale)[:, None] * nq
+        out[on_edge] = corr.q.at(t) + S.scale * (ot[:, None] * tq + on[:, None] * nq)
     if (~on_edge).any():
         L = mean_value_coordinates(corr.P, X[~on_edge])
         out[~on_edge] = L @ corr.corresponding_ring()
@@ -157,16 +160,16 @@ def _layer_json(raw: dict, L: Layer, image: str) -> dict:
 
 
 class Template:
-    """A template garment: the scene, its chosen layer, mask outline and pins.
+    """A template garment: the scene, its chosen layer, its mask outline and pins.
 
-    Load with :meth:`load` (or the cached :func:`transfer`); then :meth:`transfer` each
-    picture.
+    ``Template(path, layer)`` reads and segments the template once (raises SceneError);
+    then :meth:`transfer` each picture. :func:`transfer` keeps a few per process.
     """
 
     def __init__(self, path: str, layer: str | None = None):
         self.path = os.path.abspath(path)
         data = load_scene_data(self.path)
-        self.raw = read_json(self.path)
+        self.raw = data.raw  # the JSON as written (relative paths; only path-free keys are copied)
         self.data: SceneData = data
         self.layer = self._pick(data, layer)
         source = build.load_source(data) if self.layer.image is None else None
@@ -192,7 +195,7 @@ class Template:
                 return L
         raise SceneError(f"no layer named {layer!r} in the template", file=self.path, path="layers")
 
-    def transfer(self, image: str, *, tolerance: float = 0.08) -> Transfer:
+    def transfer(self, image: str, *, tolerance: float = TOLERANCE) -> Transfer:
         """Match ``image`` against the template; see the module doc. Raises NoMatch,
         SceneError (e.g. an unreadable picture: :class:`puppet.errors.ImageError`)."""
         image = os.path.abspath(image)
@@ -215,12 +218,12 @@ class Template:
             raise NoMatch(f"outline does not match template {os.path.basename(self.path)!r} layer "
                           f"{self.layer.name!r}: distance {score:.3f} of the garment's size > tolerance "
                           f"{tolerance:.3f} (by {score - tolerance:.3f})", file=image)
-        pins, moved, nudged = self._pins(corr, S, new.mask, image)
+        pins, moved, nudged = self._pins(corr, S, new.mask, image, score)
         doc["pins"] = pins
         self._poses(doc, corr, S, moved, new.mask)
         return Transfer(scene=doc, score=float(score), similarity=S, landmarks=len(corr.anchors), nudged=nudged)
 
-    def _pins(self, corr, S, mask: np.ndarray, image: str):
+    def _pins(self, corr, S, mask: np.ndarray, image: str, score: float):
         X = np.array([p.at for p in self.pins], float).reshape(-1, 2)
         Y = transfer_points(X, corr, S)
         out, moved, nudged = [], {}, []
@@ -230,8 +233,9 @@ class Template:
                 y, far = _on_mask(mask, y)
                 if far > 0:
                     if far > NUDGE:
-                        raise NoMatch(f"pin {p.name!r} lands {far:.1f} px outside the picture's mask "
-                                      f"(at most {NUDGE:g} px is nudged in)", file=image)
+                        how = f"{far:.1f} px" if np.isfinite(far) else f"more than {NUDGE + 2:g} px"
+                        raise NoMatch(f"pin {p.name!r} lands {how} outside the picture's mask (at most "
+                                      f"{NUDGE:g} px is nudged in; outline match {score:.3f})", file=image)
                     nudged.append(p.name)
             q = dict(raw_pins[p.name])
             q["at"] = [round(float(y[0]), 3), round(float(y[1]), 3)]
@@ -239,8 +243,10 @@ class Template:
             moved[p.name] = (p.at, y)
         return out, moved, nudged
 
-    def _ext_names(self, corr, S, mask: np.ndarray) -> dict[str, str]:
-        """Template automatic exterior point name -> the new picture's point it became."""
+    def _ext_map(self, corr, S, mask: np.ndarray) -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
+        """Template automatic exterior point name -> (the new picture's point it became,
+        its template position, its new position). Matched one-to-one by the transferred
+        positions; a point with no counterpart within a tenth of the garment's size is left out."""
         if self.auto_ext is None or not len(self.auto_ext):
             return {}
         from scipy.optimize import linear_sum_assignment
@@ -255,20 +261,11 @@ class Template:
         r, c = linear_sum_assignment(D)
         gate = 0.1 * np.sqrt(mask.sum())
         name = self.layer.name
-        return {f"{name}:ext{i}": f"{name}:ext{j}" for i, j in zip(r, c) if D[i, j] <= gate}
+        return {f"{name}:ext{i}": (f"{name}:ext{j}", self.auto_ext[i], new[j])
+                for i, j in zip(r, c) if D[i, j] <= gate}
 
     def _poses(self, doc: dict, corr, S: Similarity, moved: dict, mask: np.ndarray) -> None:
-        ext = {}
-        if self.auto_ext is not None:
-            ext_new = self._ext_names(corr, S, mask)
-            from puppet.scene.exterior import auto_points
-
-            new_pts = auto_points(mask, (0.0, 0.0), self.layer.exterior.beta)
-            for i, xy in enumerate(self.auto_ext):
-                nm = f"{self.layer.name}:ext{i}"
-                if nm in ext_new:
-                    j = int(EXTERIOR_NAME.match(ext_new[nm]).group("i"))
-                    ext[nm] = (ext_new[nm], xy, new_pts[j])
+        ext = self._ext_map(corr, S, mask) if self.auto_ext is not None else {}
 
         def pose(p: dict) -> dict:
             out = {}
@@ -297,8 +294,8 @@ class Template:
         if "animation" in self.raw:
             anim = copy.deepcopy(self.raw["animation"])
             for key in anim.get("keys", []):
-                if isinstance(key.get("pose"), dict):
-                    key["pose"] = pose(key["pose"])
+                if isinstance(key.get("pins"), dict):  # a key of inline pin targets
+                    key["pins"] = pose(key["pins"])
             doc["animation"] = anim
 
 
@@ -335,14 +332,15 @@ def _stamp(path: str) -> tuple:
     return (st.st_mtime_ns, st.st_size, st.st_ino)
 
 
-def transfer(template: str, image: str, *, tolerance: float = 0.08, layer: str | None = None) -> dict:
+def transfer(template: str, image: str, *, tolerance: float | None = TOLERANCE, layer: str | None = None) -> dict:
     """A scene for the garment picture ``image`` with ``template``'s pins and poses.
 
     Parameters
     ----------
     template : path of a scene file whose one layer (or ``layer``) is a garment.
     image : path of a garment picture.
-    tolerance : largest match score (symmetric mean outline distance / sqrt(area)).
+    tolerance : largest match score (symmetric mean outline distance / sqrt(area));
+        None means :data:`TOLERANCE`.
     layer : the template's garment layer, when it has several.
 
     Returns
@@ -361,4 +359,4 @@ def transfer(template: str, image: str, *, tolerance: float = 0.08, layer: str |
     except OSError:
         stamp = ()
     tpl = _cached(path, layer, stamp) if stamp else Template(path, layer)
-    return tpl.transfer(image, tolerance=tolerance).scene
+    return tpl.transfer(image, tolerance=TOLERANCE if tolerance is None else tolerance).scene

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.geom.curvature import curvature_maxima, resample_closed
+from puppet.geom.curvature import contour_curvature, curvature_maxima, resample_closed
 from puppet.geom.outline_match import Similarity, alignment_candidates, oriented, ring_centroid, similarity_fit
 
 __all__ = ["match_landmarks", "LandmarkRing", "Correspondence", "outline_correspondence",
@@ -80,8 +80,8 @@ def match_landmarks(A, B, gate: float) -> list[tuple[int, int]]:
 @dataclass
 class LandmarkRing:
     """A ring resampled uniformly by arc length (positive shoelace area, ``n`` samples
-    from ``R[0]``), its length, area and the sample indices of its curvature maxima in
-    ring order."""
+    from ``R[0]``), its length and area, and the arc lengths of its curvature maxima in
+    ring order (refined between samples by a parabola through ``|kappa|``)."""
 
     R: np.ndarray
     L: float
@@ -92,7 +92,16 @@ class LandmarkRing:
     def of(cls, P, *, samples: int = 1024, beta: float = 4.0) -> "LandmarkRing":
         R = resample_closed(oriented(P), samples)
         L = float(np.linalg.norm(np.roll(R, -1, axis=0) - R, axis=1).sum())
-        return cls(R, L, ring_centroid(R)[1], np.sort(curvature_maxima(R, beta=beta)))
+        idx = np.sort(curvature_maxima(R, beta=beta))
+        k = np.abs(contour_curvature(R, L / (2.0 * np.pi) / beta))
+        n = len(R)
+        for _ in range(3):  # climb to the sampled peak (the index is the nearest vertex)
+            idx = np.where(k[(idx + 1) % n] > k[idx], (idx + 1) % n, np.where(k[idx - 1] > k[idx], (idx - 1) % n, idx))
+        km, k0, kp = k[idx - 1], k[idx], k[(idx + 1) % n]
+        den = km - 2 * k0 + kp
+        off = np.where(den < 0, 0.5 * (km - kp) / np.where(den < 0, den, -1.0), 0.0)
+        s = np.mod((idx + np.clip(off, -0.5, 0.5)) * (L / n), L)
+        return cls(R, L, ring_centroid(R)[1], np.sort(s))
 
     @property
     def h(self) -> float:
@@ -173,10 +182,10 @@ def outline_correspondence(P, Q, S: Similarity, *, samples: int = 1024, beta: fl
     """
     p = P if isinstance(P, LandmarkRing) else LandmarkRing.of(P, samples=samples, beta=beta)
     q = Q if isinstance(Q, LandmarkRing) else LandmarkRing.of(Q, samples=samples, beta=beta)
-    ip, iq = p.landmarks, q.landmarks
-    pairs = match_landmarks(S.apply(p.R[ip]), q.R[iq], gate * np.sqrt(q.area))
+    sp, sq = p.landmarks, q.landmarks
+    pairs = match_landmarks(S.apply(p.at(sp)), q.at(sq), gate * np.sqrt(q.area))
     if pairs:
-        anchors = np.array([[ip[i] * p.h, iq[j] * q.h] for i, j in pairs])
+        anchors = np.array([[sp[i], sq[j]] for i, j in pairs])
     else:
         k = int(np.argmin(np.linalg.norm(q.R - S.apply(p.R[:1]), axis=1)))
         anchors = np.array([[0.0, k * q.h]])
