@@ -54,6 +54,9 @@ class App:
         self._marker_version = -1
         self._layer_names: dict[str, int] = {}
         self.script = Script()  # the task script's step, tool and drafts
+        from puppet.app.timeline import Timeline
+
+        self.timeline = Timeline(self)  # playhead, keys, record mode, onion skin
 
     # -- per frame ---------------------------------------------------------------
     def sync(self) -> bool:
@@ -346,6 +349,7 @@ class App:
         from puppet.app import script
 
         self.script = Script()
+        self.timeline.reset()
         if picture:
             self.mode = "pin"
             script.set_step(self, "image")

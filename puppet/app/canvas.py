@@ -176,9 +176,10 @@ class CanvasRenderer:
 
     # -- the frame ----------------------------------------------------------------
     def draw(self, snap, view, area, screen, *, hidden=frozenset(), depth_view=False, wireframe=False,
-             fb_height: int | None = None, tint=None) -> None:
+             fb_height: int | None = None, tint=None, under=None) -> None:
         """Draw the canvas of snapshot ``snap`` into window rect ``area`` (x, y, w, h);
-        ``tint``: (key, rgba (H, W, 4) straight alpha, canvas offset) drawn over the layers."""
+        ``tint``: (key, rgba (H, W, 4) straight alpha, canvas offset) drawn over the layers;
+        ``under(screen, view, rect)``: drawn behind the layers (the onion skin's ghosts)."""
         ctx = self.ctx
         fb_h = int(fb_height or screen[1])
         ax, ay, aw, ah = area
@@ -198,7 +199,7 @@ class CanvasRenderer:
         shown = [(r, im) for r, im in zip(snap.layers, snap.images) if r.name not in hidden]
         bg = snap.background
         u = snap.underlay if snap.underlay_image is not None else None
-        if not isinstance(bg, np.ndarray) and bg[3] == 255 and u is None and not depth_view:
+        if not isinstance(bg, np.ndarray) and bg[3] == 255 and u is None and not depth_view and under is None:
             # the common case: one opaque composite over the scene's colour, as `puppet render`
             tex = self._composite(shown, view, rect, snap, background=tuple(bg))
             ctx.enable_only(moderngl.NOTHING)
@@ -223,6 +224,8 @@ class CanvasRenderer:
                 s = float(u.get("scale", 1.0))
                 self._image(screen, view, snap.underlay_image, u.get("offset", (0, 0)), (w * s, h * s),
                             float(u.get("opacity", 0.5)), "\0underlay")
+            if under is not None:
+                under(screen, view, rect)
             if depth_view:
                 self._draw_depth(shown, view, screen, rect)
                 ctx.scissor = (int(ax), int(fb_h - ay - ah), int(aw), int(ah))

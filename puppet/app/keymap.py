@@ -23,9 +23,16 @@ KEYS = [
     ("F / Home", "fit the canvas in the window"),
     ("Ctrl+1", "100 % zoom"),
     ("Ctrl+A / Esc", "select every pin / clear the selection"),
+    ("K", "key: store the pose at the playhead (timeline)"),
+    ("P / , / .", "play or pause / previous frame / next frame"),
+    ("Shift + , / Shift + .", "previous key / next key"),
+    ("click a key mark, Delete", "delete the selected keys (after a click in the timeline)"),
+    ("Ctrl+C / Ctrl+V (timeline)", "copy the selected keys / paste them at the playhead"),
+    ("Ctrl + drag a key mark", "copy the key to where it is dropped"),
     ("Ctrl+Z / Ctrl+Shift+Z, Ctrl+Y", "undo / redo"),
     ("Ctrl+S / Ctrl+Shift+S", "save / save as"),
     ("Ctrl+O", "open a scene"),
+    ("Ctrl+E", "export the animation (File > Export)"),
     ("Ctrl+Q", "quit"),
     ("? / F1", "this list"),
 ]
@@ -50,6 +57,10 @@ def handle_keys(app, win) -> None:
                 app.save()
         elif _pressed(K.o):
             win.open_dialog("open")
+        elif _pressed(K.e):
+            from puppet.app import export_dialog
+
+            export_dialog.open_dialog(app)
         elif _pressed(K.q):
             app.request_quit()
         elif typing:
@@ -60,6 +71,10 @@ def handle_keys(app, win) -> None:
             app.redo()
         elif _pressed(K.a):
             app.selection = [m.name for m in app.markers()]
+        elif _pressed(K.c) and app.timeline.focus:
+            app.timeline.copy()
+        elif _pressed(K.v) and app.timeline.focus:
+            app.timeline.paste()
         elif _pressed(K._1):
             c = (app.area[0] + app.area[2] / 2, app.area[1] + app.area[3] / 2)
             app.view.zoom_at(c, 1.0 / app.view.scale)
@@ -88,6 +103,16 @@ def handle_keys(app, win) -> None:
         app.depth_view = not app.depth_view
     elif _pressed(K.l):
         app.show_links = not app.show_links
+    elif (_pressed(K.delete) or _pressed(K.backspace)) and app.timeline.focus and app.timeline.selected:
+        app.timeline.delete_keys()
+    elif _pressed(K.k):
+        app.timeline.add_key()
+    elif _pressed(K.p):
+        app.timeline.toggle_play()
+    elif _pressed(K.comma, True):
+        app.timeline.step_key(-1) if shift else app.timeline.step_frame(-1)
+    elif _pressed(K.period, True):
+        app.timeline.step_key(1) if shift else app.timeline.step_frame(1)
     elif _pressed(K.delete) or _pressed(K.backspace):
         if app.selection:
             app.remove_pins(list(app.selection))

@@ -22,6 +22,10 @@ def menu_bar(app, win) -> float:
                 app.save()
             if imgui.menu_item_simple("Save As...", "Ctrl+Shift+S", enabled=app.snap.loaded):
                 win.open_dialog("save_as")
+            if imgui.menu_item_simple("Export animation...", "Ctrl+E", enabled=app.snap.loaded):
+                from puppet.app import export_dialog
+
+                export_dialog.open_dialog(app)
             imgui.separator()
             if imgui.menu_item_simple("Quit", "Ctrl+Q"):
                 app.request_quit()
@@ -117,13 +121,19 @@ def dialogs(app, win) -> None:
     if kind is None:
         return
     titles = {"open": "Open scene", "save_as": "Save scene as", "unsaved": "Unsaved changes",
-              "recover": "Recover unsaved work"}
+              "recover": "Recover unsaved work", "export": "Export animation"}
     title = titles[kind]
     if not imgui.is_popup_open(title):
         imgui.open_popup(title)
     imgui.set_next_window_size(imgui.ImVec2(460, 0))
     opened, _ = imgui.begin_popup_modal(title, None, imgui.WindowFlags_.always_auto_resize)
     if not opened:
+        return
+    if kind == "export":
+        from puppet.app import export_dialog
+
+        export_dialog.draw(app)
+        imgui.end_popup()
         return
     if kind != "recover" and imgui.is_key_pressed(imgui.Key.escape):
         app.dialog, app.after_dialog = None, None

@@ -131,6 +131,8 @@ class Panels:
             imgui.set_item_tooltip("show and edit this pose" if name != "rest" else
                                    "the rest pose; dragging a pin here makes a new pose")
             note(f"pose:{name}")
+            if clicked:
+                app.timeline.leave()  # the canvas shows the pose, not the animation
             if clicked and name != snap.active:
                 app.edit(lambda s, n=name: s.set_active_pose(n) and None)
                 app.set_mode("pose")

@@ -45,6 +45,13 @@ def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
     step_tool = app.script.canvas_tool(app)  # the task script's mask, clone and link tools
     if step_tool is not None:
         return step_tool
+    app.timeline.focus = False
+    if app.mode == "pose":
+        from puppet.app import animtools
+
+        anim_tool = animtools.choose(app, ev)  # keying at the playhead, record mode
+        if anim_tool is not None:
+            return anim_tool
     return pin_tool if app.mode == "pin" else pose_tool
 
 

@@ -23,7 +23,9 @@ from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
 from puppet.app.keys import ImGuiInput
+from puppet.app.onion import GhostRenderer
 from puppet.app.panels import Panels
+from puppet.app.timeline_panel import HEIGHT as TIMELINE_HEIGHT, TimelinePanel
 from puppet.app.tools import CanvasEvent, choose_tool
 from puppet.app.widgets import Thumbs
 
@@ -90,6 +92,8 @@ class AppWindow:
         self.canvas = CanvasRenderer(self.ctx)
         self.thumbs = Thumbs(self.ctx, self.gui)
         self.panels = Panels(self.app, self.thumbs)
+        self.timeline_panel = TimelinePanel(self.app)
+        self.ghosts = GhostRenderer(self.ctx, self.canvas.compositor)
         self.ready = ready
         self.autosave_interval = autosave_interval
         self._ready_sent = False
@@ -161,6 +165,7 @@ class AppWindow:
         if dispatch:
             win.dispatch_events()
         self._follow_up()
+        app.timeline.tick()
         app.sync()
         if app.title != self._caption:
             self._caption = app.title
@@ -181,14 +186,21 @@ class AppWindow:
         imgui.begin("##toolbar", None, FIXED)
         menus.toolbar(app)
         imgui.end()
+        tl_h = TIMELINE_HEIGHT if app.snap.loaded else 0
         body = h - top - tool_h - status_h
         imgui.set_next_window_pos(imgui.ImVec2(w - PANEL_WIDTH, top + tool_h))
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, body))
         imgui.begin("##panels", None, FIXED)
         self.panels.draw()
         imgui.end()
-        app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body))
+        app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
         cursor = self._canvas_window()
+        if tl_h:
+            imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h - tl_h))
+            imgui.set_next_window_size(imgui.ImVec2(w - PANEL_WIDTH, tl_h))
+            imgui.begin("##timeline", None, FIXED | imgui.WindowFlags_.no_scrollbar)
+            self.timeline_panel.draw()
+            imgui.end()
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
         imgui.set_next_window_size(imgui.ImVec2(w, status_h))
         imgui.begin("##status", None, FIXED)
@@ -204,7 +216,8 @@ class AppWindow:
         ctx.screen.use()
         ctx.viewport = (0, 0, fb[0], fb[1])
         self.canvas.draw(app.snap, app.view, app.area, (w, h), hidden=app.hidden, depth_view=app.depth_view,
-                         wireframe=app.show_mesh, fb_height=fb[1], tint=app.script.tint(app))
+                         wireframe=app.show_mesh, fb_height=fb[1], tint=app.script.tint(app),
+                         under=self._ghosts_under if app.snap.ghosts and app.timeline.onion_on else None)
         self.gui.render(imgui.get_draw_data(), fb)
         win.flip()
         self.frames += 1
@@ -218,6 +231,12 @@ class AppWindow:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
                 self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
                             "file": app.snap.file})
+
+    def _ghosts_under(self, screen, view, rect) -> None:
+        t = self.app.timeline
+        self.ghosts.draw(self.app.snap, view, rect, screen, hidden=self.app.hidden,
+                         opacity=float(t.onion["opacity"]),
+                         colours={"before": t.onion["before"], "after": t.onion["after"]})
 
     def _dump_rects(self) -> None:
         """Where the widgets and the canvas are (``PUPPET_APP_RECTS=FILE``: end-to-end tests
@@ -335,6 +354,8 @@ class AppWindow:
         app = self.app
         new = app.worker.latest is not app.snap
         waiting = self._gesture is not None and not app.worker.idle()
+        if app.timeline.playing or app.timeline.recording is not None:
+            touched = True  # the playhead moves
         if touched or new:
             self._settle = 3
         gap = now - self._last_frame
@@ -369,6 +390,7 @@ class AppWindow:
         self.win.switch_to()
         imgui.set_current_context(self.imgui_ctx)
         self.thumbs.release()
+        self.ghosts.release()
         self.canvas.release()
         self.gui.release()
         imgui.destroy_context(self.imgui_ctx)

@@ -48,6 +48,9 @@ class Snapshot:
     dirty: bool = False
     preview: bool = False
     done: int = 0  # id of the last job that had run when this was published
+    time: float | None = None  # the animation time shown (None: a pose)
+    animation: dict | None = None  # the scene's "animation" as in the file (keys, fps)
+    ghosts: tuple = ()  # onion skin: (side "before" | "after", weight 0..1, layers)
 
     @property
     def loaded(self) -> bool:
@@ -68,6 +71,8 @@ class Worker:
         self.scene = None
         self.saved_doc: dict | None = None
         self.show_rest = False
+        self.show_time: float | None = None  # show the animation at this time (the timeline)
+        self.onion: dict | None = None  # onion skin settings (see puppet.app.onion)
         self.drag = None  # a puppet.drag.Drag while a pin is dragged in a pose
         self.blocks: dict[str, Any] = {}  # open undo blocks by key (multi-frame gestures)
         self.latest = Snapshot(0)
@@ -191,9 +196,15 @@ class Worker:
         s = self.scene
         shown = "rest" if self.show_rest else s.active_pose
         built = s.built
-        if layers is None:
-            layers = s.layers("rest" if self.show_rest else None)
         doc = s.to_dict()
+        from puppet.app import onion
+
+        t, ghosts = onion.frame_of(self, doc.get("animation"))  # the timeline's time, onion skin
+        if layers is None:
+            layers = s.layers("rest" if self.show_rest else None) if t is None else onion.layers_at(self, t)
+        if t is not None:
+            shown = f"{t:.2f} s"
+
         h = s.history
         underlay = s.underlay
         try:
@@ -208,7 +219,8 @@ class Worker:
             background=s.background(), underlay=underlay, underlay_image=under_img,
             undo_label=h.undo_stack[-1].label if h.can_undo() else None,
             redo_label=h.redo_stack[-1].label if h.can_redo() else None,
-            dirty=self.saved_doc is None or doc != self.saved_doc, done=self.done)
+            dirty=self.saved_doc is None or doc != self.saved_doc, done=self.done,
+            time=t, animation=doc.get("animation"), ghosts=ghosts)
 
     # -- helpers for jobs (scene thread only) ----------------------------------------------
     def set_scene(self, scene, saved_doc: dict | None) -> None:

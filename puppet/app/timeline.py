@@ -1,0 +1,350 @@
+"""The timeline's state and actions (no GL, no ImGui): the playhead, play / pause / loop,
+keys (add at the playhead, move, copy, paste, delete, ease), and the canvas tools of the
+animation: a pin dragged while the canvas shows a time keys that pin there, and record
+mode (After Effects' Puppet Sketch) turns a drag into keys.
+
+Every edit is a job on the scene thread through the Document's key methods
+(``set_key``, ``remove_key``, ``move_key``, ``copy_key``, ``set_key_ease``, ``set_fps``);
+a gesture (a move of several keys, a recording) is one undo step.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+
+from puppet.app import onion
+from puppet.app.record import SPEEDS, Recording
+from puppet.errors import SceneError
+
+EASES = ("linear", "smooth", "step", "bezier")
+#: a new bezier ease starts as CSS's "ease"
+DEFAULT_CURVE = (0.25, 0.1, 0.25, 1.0)
+EPS = 1e-6
+
+
+def same(a: float, b: float) -> bool:
+    return abs(float(a) - float(b)) < EPS
+
+
+class Timeline:
+    """What the timeline panel shows and does for ``app`` (an :class:`~puppet.app.app.App`)."""
+
+    def __init__(self, app):
+        self.app = app
+        self.time = 0.0  # the playhead, seconds
+        self.showing = False  # the canvas shows the animation at the playhead (else the active pose)
+        self.playing = False
+        self.loop = True
+        self.length = 2.0  # seconds the ruler shows at least (app only)
+        self.selected: list[float] = []  # times of the selected keys
+        self.clipboard: list[dict] = []  # copied keys, times relative to the first
+        self.record = False  # record mode armed: a pin drag records its motion
+        self.speed = 1.0  # record speed: timeline seconds per second of dragging
+        self.tolerance = 2.0  # record smoothing, canvas pixels
+        self.onion = dict(onion.DEFAULTS)
+        self.onion_on = False
+        self.focus = False  # the last click was in the timeline (Delete, Ctrl+C/V act on keys)
+        self.recording: Recording | None = None  # the record gesture under way
+        self.last_recording: Recording | None = None
+        self._rec_pos: dict = {}
+        self._rec_last = 0.0
+        self._play = (0.0, 0.0)  # (real time, timeline time) when play started
+        self._sent: tuple | None = None
+
+    def reset(self) -> None:
+        """A new scene: playhead at 0, showing its active pose, nothing selected."""
+        self.time, self.showing, self.playing, self.selected = 0.0, False, False, []
+        self.recording = None
+        self._sent = None
+        self._push()
+
+    # -- reading the snapshot ------------------------------------------------------------
+    @property
+    def anim(self) -> dict | None:
+        return self.app.snap.animation if self.app.snap.loaded else None
+
+    @property
+    def fps(self) -> float:
+        a = self.anim
+        return float(a.get("fps", 24)) if a else 24.0
+
+    def keys(self) -> list[dict]:
+        a = self.anim
+        return list(a.get("keys", [])) if a else []
+
+    def duration(self) -> float:
+        ks = self.keys()
+        return max((float(k["time"]) for k in ks), default=0.0)
+
+    def key_at(self, t: float) -> dict | None:
+        return next((k for k in self.keys() if same(k["time"], t)), None)
+
+    def span(self) -> float:
+        """Seconds the ruler shows: the length setting, past the last key and the playhead."""
+        return max(self.length, self.duration() * 1.1, self.time + 0.5, 0.5)
+
+    def snap_time(self, t: float) -> float:
+        """``t`` on the nearest frame (1/fps), never negative."""
+        f = self.fps
+        return max(0.0, round(round(float(t) * f) / f, 6))
+
+    # -- the playhead ---------------------------------------------------------------------
+    def scrub(self, t: float, show: bool = True) -> None:
+        """Put the playhead at ``t`` (snapped to a frame); the canvas shows that frame."""
+        self.time = self.snap_time(t)
+        if show:
+            self.showing = True
+        self._push()
+
+    def leave(self) -> None:
+        """The canvas shows the active pose again (a pose was chosen, Pin mode)."""
+        self.playing = False
+        self.showing = False
+        self._push()
+
+    def toggle_play(self) -> None:
+        if self.playing:
+            self.playing = False
+            return
+        if not self.keys():
+            self.app.say("no keys to play: pose the puppet and press K (Key) first", "error")
+            return
+        if self.time >= self.duration() - EPS:
+            self.time = min(float(self.keys()[0]["time"]), self.duration())
+        self.playing, self.showing = True, True
+        self._play = (_time.monotonic(), self.time)
+        self._push()
+
+    def step_frame(self, n: int) -> None:
+        self.playing = False
+        self.scrub(self.time + n / self.fps)
+
+    def step_key(self, n: int) -> None:
+        times = onion.key_times(self.anim)
+        t = self.time
+        nxt = [k for k in times if k > t + EPS] if n > 0 else [k for k in reversed(times) if k < t - EPS]
+        if nxt:
+            self.playing = False
+            self.scrub(nxt[0])
+
+    def tick(self, now: float | None = None) -> bool:
+        """Advance playback and recording (once a frame); True while something moves."""
+        now = _time.monotonic() if now is None else now
+        if self.recording is not None:
+            if now - self._rec_last >= 1 / 60 and self._rec_pos:
+                self._rec_last = now
+                self.recording.add(now, self._rec_pos)
+            self.time = self.recording.time(now)
+            return True
+        if not self.playing:
+            self._push()
+            return False
+        start, end = (float(self.keys()[0]["time"]), self.duration()) if self.keys() else (0.0, 0.0)
+        real0, t0 = self._play
+        t = t0 + (now - real0)
+        if t > end + EPS:
+            if self.loop and end > start:
+                t = start + (t - start) % (end - start)
+                self._play = (now - (t - start), start)
+            else:
+                t, self.playing = end, False
+        self.time = self.snap_time(t)
+        self._push()
+        return self.playing
+
+    def _push(self) -> None:
+        """Tell the scene thread what to show (time, onion skin) when that changed."""
+        show = self.time if self.showing and self.app.mode == "pose" else None
+        settings = dict(self.onion, fps=self.fps) if self.onion_on else None
+        want = (show, None if settings is None else tuple(sorted(settings.items())))
+        if want == self._sent:
+            return
+        self._sent = want
+
+        def job(w):
+            w.show_time, w.onion = show, settings
+        self.app.worker.submit(job, key="timeline-time")
+
+    # -- keys -------------------------------------------------------------------------------
+    def add_key(self) -> None:
+        """Key (K): store what the canvas shows at the playhead: the active pose (as a pose
+        key) when it shows a pose, else every pin's target at that time (a pins key)."""
+        t, showing = self.time, self.showing and self.anim is not None
+
+        def fn(s):
+            if showing:
+                s.set_key(t, pins=s.pose_at(t))
+            else:
+                s.set_key(t, s.active_pose)
+            return f"key at {t:g} s" + ("" if showing else f" ({s.active_pose})")
+        self.app.edit(fn)
+        self.selected = [t]
+        self.showing = True
+        self._push()
+
+    def key_pins(self, t: float, positions: dict, label: str) -> int:
+        """Key ``positions`` ({pin: (x, y)}) at ``t``, merged into a key already there."""
+        def fn(s):
+            with s.block(label):
+                merge_pins(s, t, {n: list(map(float, xy)) for n, xy in positions.items()})
+        return self.app.edit(fn)
+
+    def delete_keys(self, times=None) -> None:
+        times = list(self.selected if times is None else times)
+        if not times:
+            self.app.say("select keys first (click a mark in the timeline)", "error")
+            return
+
+        def fn(s):
+            with s.block("delete keys" if len(times) > 1 else f"delete key at {times[0]:g} s"):
+                for t in times:
+                    s.remove_key(t)
+        self.app.edit(fn)
+        self.selected = []
+
+    def move_keys(self, times, dt: float, copy: bool = False) -> None:
+        """Move (or copy) the keys at ``times`` by ``dt`` seconds: one undo step; nothing
+        changes when one cannot (a time below 0, or a key already at the new time)."""
+        times = sorted(times, reverse=dt > 0)
+        new = {t: self.snap_time(t + dt) for t in times}
+        if all(same(t, new[t]) for t in times):
+            return
+        what = ("copy" if copy else "move") + (" keys" if len(times) > 1 else f" key at {times[0]:g} s")
+
+        def fn(s):
+            before = s.to_dict()
+            try:
+                with s.block(what):
+                    for t in times:
+                        (s.copy_key if copy else s.move_key)(t, new[t])
+            except Exception:
+                if s.to_dict() != before:
+                    s.undo()
+                raise
+        self.app.edit(fn)
+        self.selected = [new[t] for t in times]
+
+    def set_ease(self, ease: str, curve=None, times=None) -> None:
+        times = list(self.selected if times is None else times)
+        if ease == "bezier" and curve is None:
+            curve = DEFAULT_CURVE
+        curve = None if ease != "bezier" else [float(c) for c in curve]
+
+        def fn(s):
+            with s.block("ease " + ease):
+                for t in times:
+                    s.set_key_ease(t, ease, curve)
+        self.app.edit(fn, key="key-ease")
+
+    def copy(self) -> None:
+        ks = [k for k in self.keys() if any(same(k["time"], t) for t in self.selected)]
+        if not ks:
+            self.app.say("select keys to copy first", "error")
+            return
+        t0 = min(float(k["time"]) for k in ks)
+        self.clipboard = [dict(k, time=float(k["time"]) - t0) for k in ks]
+        self.app.say(f"copied {len(ks)} key{'s' if len(ks) > 1 else ''}")
+
+    def paste(self) -> None:
+        """Paste the copied keys at the playhead (a key already there is replaced)."""
+        if not self.clipboard:
+            self.app.say("nothing to paste: select keys and press Ctrl+C", "error")
+            return
+        at, keys = self.time, list(self.clipboard)
+
+        def fn(s):
+            with s.block(f"paste keys at {at:g} s"):
+                for k in keys:
+                    set_key_dict(s, round(at + k["time"], 6), k)
+        self.app.edit(fn)
+        self.selected = [round(at + k["time"], 6) for k in keys]
+
+    def set_fps(self, fps: float) -> None:
+        self.app.edit(lambda s: s.set_fps(float(fps)) and None, key="fps")
+
+
+def set_key_dict(s, t: float, k: dict) -> None:
+    """Set a key from its file form (``pose`` or ``pins``, ``ease``, ``curve``) at ``t``."""
+    kw = {"ease": k.get("ease", "linear"), "curve": k.get("curve")}
+    if "pose" in k:
+        s.set_key(t, k["pose"], **kw)
+    else:
+        s.set_key(t, pins=k["pins"], **kw)
+
+
+def merge_pins(s, t: float, pins: dict) -> None:
+    """Key ``pins`` (file form) at ``t``, keeping what a key already there holds (the other
+    pins of a pins key; a pose key becomes the pose's targets there plus these pins); a
+    target keeps its angle and depth at that time, only its position changes."""
+    old = next((k for k in s.keys() if same(k["time"], t)), None)
+    at = s.pose_at(t) if s.keys() else {}
+    base = dict(old["pins"]) if old is not None and "pins" in old else (dict(at) if old is not None else {})
+    for n, xy in pins.items():
+        cur = base.get(n, at.get(n))
+        base[n] = dict(cur, to=list(xy)) if isinstance(cur, dict) else list(xy)
+    kw = {"ease": old.get("ease", "linear"), "curve": old.get("curve")} if old is not None else {}
+    s.set_key(t, pins=base, **kw)
+
+
+def unkey_pins(s, names, t0: float, t1: float) -> None:
+    """Take pins ``names`` out of the keys between ``t0`` and ``t1`` (a recording replaces
+    what was there): a pose key there becomes the other pins' targets at its time (it
+    plays the same for them), and a key left with no pins goes."""
+    for k in list(s.keys()):
+        t = float(k["time"])
+        if t < t0 - EPS or t > t1 + EPS:
+            continue
+        pins = s.pose_at(t) if "pose" in k else k["pins"]
+        if not set(names) & set(pins):
+            continue
+        rest = {n: v for n, v in pins.items() if n not in names}
+        if rest:
+            s.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
+        else:
+            s.remove_key(t)
+
+
+def base_pose(s, t: float | None) -> dict:
+    """Pin targets (file form) the canvas starts from: the animation at ``t``, or the
+    active pose."""
+    if t is not None and s.keys():
+        return dict(s.pose_at(t))
+    if s.active_pose == "rest":
+        return {}
+    return dict(s.to_dict().get("poses", {}).get(s.active_pose, {}))
+
+
+def _with(pose: dict, positions: dict) -> dict:
+    out = dict(pose)
+    for n, xy in positions.items():
+        cur = out.get(n)
+        out[n] = dict(cur, to=list(map(float, xy))) if isinstance(cur, dict) else list(map(float, xy))
+    return out
+
+
+def preview_job(t: float | None, positions: dict):
+    """A job showing the pose at ``t`` with pins moved to ``positions`` (a preview)."""
+    def job(w):
+        s = w.scene
+        if s is None:
+            return
+        w.publish(s.layers(_with(base_pose(s, t), positions)), preview=True)
+    return job
+
+
+def speed_label(v: float) -> str:
+    return f"{v:g}x"
+
+
+def check_speed(v: float) -> float:
+    if v not in SPEEDS:
+        raise SceneError(f"record speed {v:g} is not one of {', '.join(map(speed_label, SPEEDS))}")
+    return v
+
+
+def ruler_step(px_per_s: float) -> float:
+    """Seconds between labelled ticks so that labels are at least ~60 px apart."""
+    for step in (1 / 24, 0.1, 0.25, 0.5, 1, 2, 5, 10, 30, 60, 300):
+        if step * px_per_s >= 60:
+            return step
+    return 10 ** math.ceil(math.log10(60 / max(px_per_s, 1e-9)))
