@@ -1,0 +1,118 @@
+"""Export speed: N frames of the T-rex animation at 1280x720 to MP4 and to a PNG folder,
+pipelined (solve | composite | encode on three threads) and, with ``--sequential``, one
+stage after the other; then peak memory of ``puppet animate`` at two frame counts.
+
+Run from the repository root::
+
+    python benchmarks/bench_animate.py [--frames 1000] [--size 1280x720] [--formats mp4 dir]
+        [--sequential] [--memory 1000 10000] [--memory-size 160x120] [--memory-format mp4]
+
+The scene is ``assets/scenes/trex-layers.json`` with its poses cycled forward and back at
+the key spacing until the animation holds exactly N frames at 24 fps (see
+``bench_animate_memory.long_animation``). Part 1 runs :func:`puppet.anim.export.animate_to`
+in this process (one BLAS thread, as the ``puppet`` command sets it) after a warm-up
+frame, and prints wall time, frames per second and where the time went: milliseconds per
+frame of each stage's work (``solve``: in-betweens and ARAP on the solver thread;
+``composite``: GL draw and read-back on the main thread; ``encode``: PNG deflate / x264
+on the encoder thread) and of the main thread waiting (``wait``: for a solved frame or
+for room at the encoder). In the pipelined run the stages overlap, so their sum exceeds
+the wall time; each stage slows down when it shares the 2 cores. Part 2 runs ``python -m
+puppet animate`` in fresh processes and reads the peak RSS from ``wait4``.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the `puppet` command does (before numpy)
+os.environ.setdefault("PUPPET_BLAS_SET_AT_START", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+from benchmarks.bench_animate_memory import absolute_paths, long_animation, run  # noqa: E402
+
+STAGES = ("solve", "composite", "encode", "wait")
+
+
+def scene_file(base: dict, frames: int, fps: float, folder: str) -> str:
+    path = os.path.join(folder, f"trex_{frames}.json")
+    with open(path, "w") as f:
+        json.dump(long_animation(json.loads(json.dumps(base)), frames, fps), f)
+    return path
+
+
+def speed(path: str, out: str, size: tuple[int, int], threads: bool) -> tuple[int, float, float, dict]:
+    """(frames, wall seconds, CPU seconds, per-stage seconds) of one in-process export."""
+    import puppet
+    from puppet.anim.export import animate_to
+    from puppet.anim.pipeline import Timings
+
+    scene = puppet.load_scene(path)
+    scene.render(time=0.0, size=size)  # GL context, textures, solver precomputation
+    tm = Timings()
+    t0, c0 = time.perf_counter(), time.process_time()
+    n = animate_to(scene, out, size=size, threads=threads, timings=tm)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    scene.close()
+    return n, wall, cpu, dict(tm)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default=os.path.join(ROOT, "assets", "scenes", "trex-layers.json"))
+    ap.add_argument("--frames", type=int, default=1000)
+    ap.add_argument("--fps", type=float, default=24.0)
+    ap.add_argument("--size", default="1280x720")
+    ap.add_argument("--formats", nargs="+", default=["mp4", "dir"], choices=["mp4", "dir", "webm", "apng", "gif"])
+    ap.add_argument("--sequential", action="store_true", help="also time the sequential path")
+    ap.add_argument("--memory", type=int, nargs="*", default=[1000, 10000], help="frame counts (none: skip)")
+    ap.add_argument("--memory-size", default="160x120")
+    ap.add_argument("--memory-format", default="mp4")
+    args = ap.parse_args()
+    size = tuple(int(x) for x in args.size.lower().split("x"))
+    with open(args.scene) as f:
+        base = absolute_paths(json.load(f), os.path.dirname(os.path.abspath(args.scene)))
+    work = tempfile.mkdtemp(prefix="bench_animate_")
+    try:
+        print(f"load average {os.getloadavg()[0]:.2f}; {os.cpu_count()} cores; "
+              f"LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS', '(unset)')}")
+        path = scene_file(base, args.frames, args.fps, work)
+        print(f"\n{args.frames} frames of {os.path.relpath(args.scene, ROOT)} at {args.size}")
+        print(f"{'format':>6} {'path':>10} {'seconds':>8} {'frames/s':>8} {'CPU s':>6} | ms/frame:"
+              + " ".join(f"{s:>9}" for s in STAGES))
+        for fmt in args.formats:
+            for threads in ([True, False] if args.sequential else [True]):
+                out = os.path.join(work, "frames/" if fmt == "dir" else f"out.{fmt}")
+                n, wall, cpu, tm = speed(path, out, size, threads)
+                stages = " ".join(f"{1e3 * tm.get(s, 0.0) / n:>9.1f}" for s in STAGES)
+                print(f"{fmt:>6} {'pipelined' if threads else 'sequential':>10} {wall:>8.1f} {n / wall:>8.1f} "
+                      f"{cpu:>6.1f} | {stages}", flush=True)
+                shutil.rmtree(out, ignore_errors=True) if fmt == "dir" else os.remove(out)
+        if args.memory:
+            print(f"\npeak memory of `puppet animate` ({args.memory_format}, {args.memory_size}), "
+                  f"load average {os.getloadavg()[0]:.2f}")
+            print(f"{'frames':>7} {'seconds':>8} {'frames/s':>8} {'peak RSS MB':>12} {'ratio':>6}")
+            first = None
+            for n in args.memory:
+                p = scene_file(base, n, args.fps, work)
+                out = os.path.join(work, f"mem.{args.memory_format}")
+                secs, rss, rc = run(p, out, args.memory_size)
+                first = first or rss
+                print(f"{n:>7} {secs:>8.1f} {n / secs:>8.1f} {rss:>12.0f} {rss / first:>6.2f}"
+                      + ("" if rc == 0 else "  FAILED"), flush=True)
+                if os.path.exists(out):
+                    os.remove(out)
+        print(f"\nload average at the end {os.getloadavg()[0]:.2f}")
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
