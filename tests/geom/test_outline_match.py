@@ -8,7 +8,7 @@ import pytest
 from puppet.geom.curvature import resample_closed
 from puppet.geom.mvc import mean_value_coordinates
 from puppet.geom.outline_corr import (LandmarkRing, correspondence_distance, match_landmarks, match_outlines,
-                                      outline_correspondence)
+                                      outline_correspondence, smooth_ring)
 from puppet.geom.outline_match import (Similarity, align_outlines, oriented, ring_centroid, similarity_fit,
                                        symmetric_mean_distance)
 
@@ -84,8 +84,8 @@ def test_match_landmarks_by_hand():
 
 def test_correspondence_of_a_similar_copy_is_the_similarity():
     S = sim(1.7, 40.0, (100, -30))
-    p = LandmarkRing.of(SHIRT)
-    q = LandmarkRing.of(S.apply(SHIRT)[::-1])
+    p = LandmarkRing.of(SHIRT, smooth=0)  # exact polygons: no pixel staircase to smooth
+    q = LandmarkRing.of(S.apply(SHIRT)[::-1], smooth=0)
     corr = outline_correspondence(p, q, S)
     assert len(corr.anchors) == len(p.landmarks) >= 6  # every corner matched
     # landmarks sit on samples: within one sample spacing of the exact correspondence
@@ -104,6 +104,24 @@ def test_match_outlines_scores_shape_difference():
     other = match_outlines(SHIRT, circle)
     assert same.score < 0.005
     assert other.score > 0.08 and other.distance < other.score  # nearest points understate it
+
+
+def test_smooth_ring_removes_the_staircase_length():
+    # a 45-degree staircase square (diamond of radius 40 drawn with unit steps) is ~sqrt(2)
+    # too long; smoothed over a pixel its length is within 1% of the diamond's
+    steps = []
+    for (x0, y0), (dx, dy) in zip([(40, 0), (0, 40), (-40, 0), (0, -40)], [(-1, 1), (-1, -1), (1, -1), (1, 1)]):
+        for k in range(40):
+            steps += [(x0 + k * dx, y0 + k * dy), (x0 + (k + 1) * dx, y0 + k * dy)]
+    P = np.array(steps, float)
+
+    def length(R):
+        return np.linalg.norm(np.roll(R, -1, axis=0) - R, axis=1).sum()
+
+    true = 4 * 40 * np.sqrt(2)
+    assert length(P) == pytest.approx(true * np.sqrt(2), rel=1e-9)
+    assert length(smooth_ring(P, 1.0)) == pytest.approx(true, rel=0.01)
+    assert np.allclose(length(smooth_ring(P, 0.0)), length(P), rtol=1e-3)
 
 
 def test_mean_value_coordinates_hand_checked_and_invariants():
