@@ -75,7 +75,8 @@ class Transfer:
     """The result of :meth:`Template.transfer`: the scene and how it was obtained."""
 
     scene: dict
-    score: float  # symmetric mean outline distance / sqrt(area)
+    score: float  # symmetric mean outline distance under the correspondence / sqrt(area)
+    distance: float  # the same with nearest points instead (smaller; for information)
     similarity: Similarity  # template canvas -> picture pixels
     landmarks: int  # matched curvature landmarks
     nudged: list[str]  # interior pins moved onto the mask
@@ -221,7 +222,7 @@ class Template:
         pins, moved, nudged = self._pins(corr, S, new.mask, image, score)
         doc["pins"] = pins
         self._poses(doc, corr, S, moved, new.mask)
-        return Transfer(scene=doc, score=float(score), similarity=S, landmarks=len(corr.anchors), nudged=nudged)
+        return Transfer(scene=doc, score=float(score), distance=match.distance, similarity=S, landmarks=len(corr.anchors), nudged=nudged)
 
     def _pins(self, corr, S, mask: np.ndarray, image: str, score: float):
         X = np.array([p.at for p in self.pins], float).reshape(-1, 2)
