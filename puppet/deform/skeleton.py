@@ -42,8 +42,8 @@ from puppet.deform.threads import blas_capped
 from puppet.geom.geodesic import geodesic_distances
 from puppet.geom.mesh import check_mesh
 
-__all__ = ["SkeletonData", "skeleton_precompute", "skeleton_solve", "skeleton_weights",
-           "mls_skeleton"]
+__all__ = ["SkeletonData", "skeleton_precompute", "skeleton_from_distances", "skeleton_solve",
+           "skeleton_weights", "mls_skeleton"]
 
 COVER = 0.8  # every vertex lies within COVER * lam * R of at least two pins
 
@@ -190,7 +190,27 @@ def skeleton_precompute(V, F, b, bones, *, k: float = 1.2) -> SkeletonData:
         See the class; ``skeleton_solve`` only uses ``V``, ``b``, ``W`` and ``exact``.
     """
     V, F, b, bones = _check(V, F, b, bones, k)
-    D = _distances(V, F, b)
+    return skeleton_from_distances(V, b, bones, _distances(V, F, b), k=k)
+
+
+def skeleton_from_distances(V, b, bones, D, *, k: float = 1.2) -> SkeletonData:
+    """Ranges and compact weights from interior distances computed elsewhere (e.g. over a
+    frame's pixel mask rather than along mesh edges).
+
+    Parameters
+    ----------
+    V : (n, 2) float. b : (k,) int pin vertices. bones : (m, 2) int pin index pairs.
+    D : (k, n) float
+        Interior distance from each pin to each vertex (0 at the pin's own vertex, finite).
+    k : float
+        Range factor (> 1).
+    """
+    V = np.asarray(V, dtype=np.float64)
+    b = np.asarray(b, dtype=np.int64).reshape(-1)
+    bones = np.asarray(bones, dtype=np.int64).reshape(-1, 2)
+    if len(bones):
+        bones = np.unique(np.sort(bones, axis=1), axis=0)
+    D = np.asarray(D, dtype=np.float64).reshape(len(b), len(V))
     ell = _bone_lengths(V, D, b, bones)
     r = _isotropic_ranges(D, b, bones, ell, k)
     R = _bone_ranges(V, D, b, bones, ell, r, k)

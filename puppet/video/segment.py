@@ -32,6 +32,19 @@ def clean_mask(mask: np.ndarray) -> np.ndarray:
     """Fill holes and drop specks: (H, W) bool -> (H, W) bool."""
     import cv2
 
+    x, y, w, h = cv2.boundingRect(mask.astype(np.uint8))
+    out = np.zeros_like(mask, dtype=bool)
+    if w == 0:
+        return out
+    H, W = mask.shape
+    x0, y0, x1, y1 = max(x - 1, 0), max(y - 1, 0), min(x + w + 1, W), min(y + h + 1, H)
+    out[y0:y1, x0:x1] = _clean(mask[y0:y1, x0:x1])
+    return out
+
+
+def _clean(mask: np.ndarray) -> np.ndarray:
+    import cv2
+
     m8 = mask.astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(m8, connectivity=8)
     if n <= 1:
@@ -81,7 +94,7 @@ class Segmenter:
         if self.kind == "alpha":
             m = mk.alpha_mask(rgba)
         elif self.kind == "threshold":
-            m = mk.threshold_mask(rgba, self.threshold, self.invert)
+            m = _threshold(rgba, self.threshold, self.invert)
         elif self.prev is None:
             m = mk.grabcut_mask(rgba, self.rect, self.offset) & (rgba[..., 3] > 0)
         else:
@@ -91,6 +104,19 @@ class Segmenter:
             m = self.prev.copy()  # the character vanished: keep the last mask (tracking reports it)
         self.prev = m
         return m
+
+
+def _threshold(rgba: np.ndarray, threshold: float, invert: bool) -> np.ndarray:
+    """:func:`puppet.imaging.masks.threshold_mask` in integer arithmetic (Rec. 601 luma
+    in thousandths: ``299 R + 587 G + 114 B < 1000 T``), a few times faster per frame."""
+    r = rgba[..., 0].astype(np.int32)
+    r *= 299
+    r += 587 * rgba[..., 1].astype(np.int32)
+    r += 114 * rgba[..., 2].astype(np.int32)
+    m = r < int(round(1000 * threshold))
+    if invert:
+        m = ~m
+    return m & (rgba[..., 3] > 0)
 
 
 def _grabcut_from(rgba: np.ndarray, prev: np.ndarray, iterations: int = 2) -> np.ndarray:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.deform.skeleton import skeleton_precompute, skeleton_solve
+from puppet.deform.skeleton import skeleton_from_distances, skeleton_solve
 
 __all__ = ["grid_mesh", "backward_map", "skeleton_maps", "WarpMaps", "composite", "background_fill"]
 
@@ -30,7 +30,8 @@ FAR = -1e6
 
 
 def grid_mesh(mask: np.ndarray, step: int, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A triangulated grid over the mask's cells (one cell of margin), joints as vertices.
+    """A triangulated grid over the cells that hold mask pixels and one cell around them
+    (the margin keeps the silhouette inside the triangles), joints as vertices.
 
     Parameters
     ----------
@@ -54,7 +55,7 @@ def grid_mesh(mask: np.ndarray, step: int, joints: np.ndarray) -> tuple[np.ndarr
     ci = np.clip((J[:, 1] // step).astype(int), 0, gh - 1)
     cj = np.clip((J[:, 0] // step).astype(int), 0, gw - 1)
     cells[ci, cj] = 1  # a joint off the mask still gets its cell
-    cells = cv2.dilate(cells, np.ones((3, 3), np.uint8)).astype(bool)
+    cells = cv2.dilate(cells, np.ones((3, 3), np.uint8)).astype(bool)  # one cell of margin
     vid = -np.ones((gh + 1, gw + 1), np.int64)
     used = np.zeros((gh + 1, gw + 1), bool)
     used[:-1, :-1] |= cells
@@ -81,6 +82,76 @@ def grid_mesh(mask: np.ndarray, step: int, joints: np.ndarray) -> tuple[np.ndarr
         taken.add(int(free[0]))
         V[b[k]] = (x, y)
     return V, F, b
+
+
+def _cell_fraction(mask: np.ndarray, step: int) -> np.ndarray:
+    """(gh, gw) fraction of each grid cell's pixels on the mask."""
+    H, W = mask.shape
+    gw, gh = -(-W // step), -(-H // step)
+    pad = np.zeros((gh * step, gw * step), np.float32)
+    pad[:H, :W] = mask
+    return pad.reshape(gh, step, gw, step).mean(axis=(1, 3))
+
+
+def interior_distances(mask: np.ndarray, sources: np.ndarray, targets: np.ndarray, *, res: int = 3) -> np.ndarray:
+    """Shortest paths inside the mask from each source point to each target point.
+
+    The mask is reduced to cells of ``res`` px (a cell is inside when at least half
+    of its pixels are); Dijkstra runs over the 8-connected inside cells. A point off the
+    mask is joined to its nearest inside cell by a straight line.
+
+    Parameters
+    ----------
+    mask : (H, W) bool. sources : (k, 2), targets : (n, 2) float, OpenCV pixel coordinates.
+
+    Returns
+    -------
+    D : (k, n) float64, finite (a target no source reaches inside the mask gets the
+        Euclidean distance).
+    """
+    import cv2
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import dijkstra
+
+    S = np.asarray(sources, np.float64).reshape(-1, 2)
+    T = np.asarray(targets, np.float64).reshape(-1, 2)
+    on = _cell_fraction(mask, res) >= 0.5
+    gh, gw = on.shape
+
+    def cell(P):
+        return (np.clip(((P[:, 1] + 0.5) // res).astype(np.int64), 0, gh - 1),
+                np.clip(((P[:, 0] + 0.5) // res).astype(np.int64), 0, gw - 1))
+    si, sj = cell(S)
+    ti, tj = cell(T)
+    on[si, sj] = True  # every source has its cell
+    oi, oj = np.nonzero(on)
+    r0, c0 = min(oi.min(), ti.min(initial=gh)), min(oj.min(), tj.min(initial=gw))
+    r1, c1 = max(oi.max(), ti.max(initial=0)) + 1, max(oj.max(), tj.max(initial=0)) + 1
+    on = on[r0:r1, c0:c1]  # the work is on the character's bounding box only
+    si, sj, ti, tj = si - r0, sj - c0, ti - r0, tj - c0
+    gh, gw = on.shape
+    idx = -np.ones((gh, gw), np.int64)
+    idx[on] = np.arange(on.sum())
+    rows, cols, lens = [], [], []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = idx[0:gh - di, max(0, -dj):gw - max(0, dj)]  # cell (i, j) ...
+        bb = idx[di:gh, max(0, dj):gw - max(0, -dj)]  # ... and (i + di, j + dj)
+        ok = (a >= 0) & (bb >= 0)
+        rows.append(a[ok])
+        cols.append(bb[ok])
+        lens.append(np.full(ok.sum(), res * np.hypot(di, dj)))
+    n = int(on.sum())
+    G = sp.csr_matrix((np.concatenate(lens), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    Dn = dijkstra(G, directed=False, indices=idx[si, sj])
+    # each target's nearest inside cell (labels of the nearest zero pixel, in raster order)
+    _, labels = cv2.distanceTransformWithLabels((~on).astype(np.uint8), cv2.DIST_L2, 3,
+                                                labelType=cv2.DIST_LABEL_PIXEL)
+    node = labels[ti, tj].astype(np.int64) - 1
+    ni, nj = np.divmod(np.flatnonzero(on)[node], gw)
+    centre = np.c_[(nj + c0 + 0.5) * res - 0.5, (ni + r0 + 0.5) * res - 0.5]
+    D = Dn[:, node] + np.linalg.norm(T - centre, axis=1)[None, :]
+    euclid = np.linalg.norm(S[:, None, :] - T[None, :, :], axis=-1)
+    return np.where(np.isfinite(D), D, euclid)
 
 
 def _grid_samples(W: int, H: int, out_step: int) -> tuple[int, int]:
@@ -156,8 +227,9 @@ class WarpMaps:
 
     Attributes
     ----------
-    mapx, mapy : (H, W) float32. V, U : (n, 2) rest and deformed grid vertices.
-    F : (m, 3) triangles. b : (k,) joint vertices.
+    mapx, mapy : (H, W) float32 (:data:`FAR` outside ``roi``). V, U : (n, 2) rest and
+    deformed grid vertices. F : (m, 3) triangles drawn. b : (k,) joint vertices.
+    roi : (x0, y0, x1, y1) the pixels the warped character may reach.
     """
 
     mapx: np.ndarray
@@ -166,10 +238,11 @@ class WarpMaps:
     U: np.ndarray
     F: np.ndarray
     b: np.ndarray
+    roi: tuple[int, int, int, int] = (0, 0, 0, 0)
 
 
 def skeleton_maps(mask: np.ndarray, joints, targets, bones, *, step: int = 6, out_step: int = 4,
-                  k: float = 1.2) -> WarpMaps:
+                  k: float = 1.2, tear: float = 3.0) -> WarpMaps:
     """Backward maps re-posing the character from ``joints`` to ``targets``.
 
     Parameters
@@ -179,23 +252,50 @@ def skeleton_maps(mask: np.ndarray, joints, targets, bones, *, step: int = 6, ou
     bones : (m, 2) int pin index pairs.
     step : grid spacing of the MLS evaluation, px. out_step : spacing of the rasterised
         backward map, px. k : skeleton range factor (paper: 1.2).
+    tear : a triangle whose edge grows more than this factor is left out (it straddled a gap).
+
+    Interior distances are measured on the mask itself (:func:`interior_distances`, at
+    ``step / 2``), not along the grid, so two limbs that share a grid cell stay apart.
     """
     import cv2
 
     H, W = mask.shape
     V, F, b = grid_mesh(mask, step, joints)
-    data = skeleton_precompute(V, F, b, bones, k=k)
+    D = interior_distances(mask, V[b], V, res=max(1, step // 2))
+    D[np.arange(len(b)), b] = 0.0
+    data = skeleton_from_distances(V, b, bones, D, k=k)
     U = skeleton_solve(data, np.asarray(targets, np.float64).reshape(-1, 2))
+    # a triangle torn apart (it straddled two limbs that now part) is not drawn
+    e = np.stack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1)
+    rest = np.linalg.norm(V[e[..., 0]] - V[e[..., 1]], axis=-1)
+    now = np.linalg.norm(U[e[..., 0]] - U[e[..., 1]], axis=-1)
+    F = F[(now <= tear * rest + 1e-9).all(axis=1)]
+    # where the warp folds, the cells fullest of character are drawn last (they win)
+    frac = _cell_fraction(mask, step)
+    cell = (V[F].mean(axis=1) // step).astype(np.int64)
+    F = F[np.argsort(frac[cell[:, 1], cell[:, 0]], kind="stable")]
     src, covered = backward_map(U, V, F, (W, H), out_step)
     src = _extend(src, covered)
-    gh, gw = covered.shape
-    full = cv2.resize(src, (gw * out_step, gh * out_step), interpolation=cv2.INTER_LINEAR)[:H, :W]
-    return WarpMaps(mapx=np.ascontiguousarray(full[..., 0]), mapy=np.ascontiguousarray(full[..., 1]),
-                    V=V, U=U, F=F, b=b)
+    mapx = np.full((H, W), FAR, np.float32)
+    mapy = np.full((H, W), FAR, np.float32)
+    roi = (0, 0, 0, 0)
+    if covered.any():  # only the samples around the character are upsampled
+        gh, gw = covered.shape
+        rows, cols = np.nonzero(covered)
+        r0, r1 = max(rows.min() - 2, 0), min(rows.max() + 3, gh)
+        c0, c1 = max(cols.min() - 2, 0), min(cols.max() + 3, gw)
+        block = cv2.resize(src[r0:r1, c0:c1], ((c1 - c0) * out_step, (r1 - r0) * out_step),
+                           interpolation=cv2.INTER_LINEAR)
+        x0, y0 = c0 * out_step, r0 * out_step
+        x1, y1 = min(c1 * out_step, W), min(r1 * out_step, H)
+        mapx[y0:y1, x0:x1] = block[:y1 - y0, :x1 - x0, 0]
+        mapy[y0:y1, x0:x1] = block[:y1 - y0, :x1 - x0, 1]
+        roi = (x0, y0, x1, y1)
+    return WarpMaps(mapx=mapx, mapy=mapy, V=V, U=U, F=F, b=b, roi=roi)
 
 
 def background_fill(rgb: np.ndarray, mask: np.ndarray, method: str = "telea", *, grow: int = 3,
-                    scale: int = 2) -> np.ndarray:
+                    scale: int = 4) -> np.ndarray:
     """The frame with the character's pixels (``mask`` grown by ``grow`` px) refilled from
     the background around them; untouched elsewhere. The fill is computed on the hole's
     bounding box at 1/``scale`` resolution (a smooth fill does not need more).
@@ -208,16 +308,16 @@ def background_fill(rgb: np.ndarray, mask: np.ndarray, method: str = "telea", *,
 
     from puppet.imaging.inpaint import inpaint
 
-    hole = cv2.dilate(mask.astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
     out = rgb.copy()
-    if not hole.any():
-        return out
     H, W = mask.shape
-    ys, xs = np.nonzero(hole)
+    box = cv2.boundingRect(mask.astype(np.uint8))
+    if box[2] == 0:
+        return out
     m = 4 * grow + 2 * scale
-    y0, y1 = max(ys.min() - m, 0), min(ys.max() + m + 1, H)
-    x0, x1 = max(xs.min() - m, 0), min(xs.max() + m + 1, W)
-    roi, rh = rgb[y0:y1, x0:x1], hole[y0:y1, x0:x1]
+    x0, y0 = max(box[0] - m, 0), max(box[1] - m, 0)
+    x1, y1 = min(box[0] + box[2] + m, W), min(box[1] + box[3] + m, H)
+    rh = cv2.dilate(mask[y0:y1, x0:x1].astype(np.uint8), np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)) > 0
+    roi = rgb[y0:y1, x0:x1]
     if scale > 1:
         sw, sh = max(1, (x1 - x0) // scale), max(1, (y1 - y0) // scale)
         small = cv2.resize(roi, (sw, sh), interpolation=cv2.INTER_AREA)
@@ -225,7 +325,7 @@ def background_fill(rgb: np.ndarray, mask: np.ndarray, method: str = "telea", *,
         sh_hole |= cv2.resize(rh.astype(np.float32), (sw, sh), interpolation=cv2.INTER_AREA) > 0
         if sh_hole.all():
             return out
-        filled = inpaint(small, sh_hole, method if method != "none" else "telea", radius=3.0)
+        filled = inpaint(small, sh_hole, method if method != "none" else "telea", radius=2.0)
         filled = cv2.resize(filled, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
     else:
         if rh.all():
@@ -244,11 +344,15 @@ def composite(rgb: np.ndarray, background: np.ndarray, mask: np.ndarray, maps: W
     """
     import cv2
 
-    fg = cv2.remap(rgb, maps.mapx, maps.mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    alpha = cv2.remap(mask.astype(np.float32), maps.mapx, maps.mapy, cv2.INTER_LINEAR,
-                      borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
-    on = alpha > 0
     out = background.copy()
-    a = alpha[on][:, None]
-    out[on] = np.clip(fg[on] * a + background[on] * (1.0 - a) + 0.5, 0, 255).astype(np.uint8)
+    x0, y0, x1, y1 = maps.roi
+    if x1 <= x0 or y1 <= y0:
+        return out
+    mx, my = maps.mapx[y0:y1, x0:x1], maps.mapy[y0:y1, x0:x1]
+    fg = cv2.remap(rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    alpha = cv2.remap(mask.astype(np.float32), mx, my, cv2.INTER_LINEAR,
+                      borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
+    sub = out[y0:y1, x0:x1]
+    a = alpha[..., None]
+    sub[:] = np.clip(fg * a + sub * (1.0 - a) + 0.5, 0, 255).astype(np.uint8)
     return out
