@@ -32,8 +32,9 @@ _compositors: dict[int, object] = {}  # thread id -> compositor (a GL context is
 _scenes: OrderedDict[str, tuple[str, list, object]] = OrderedDict()  # path -> (files hash, inputs, scene)
 
 
-class BudgetExceeded(Exception):
-    """Raised inside a job's thread when its solve runs over the job's budget."""
+class BudgetExceeded(BaseException):
+    """Raised inside a job's thread when its solve runs over the job's budget (a
+    BaseException, so that no ``except Exception`` on the way swallows it)."""
 
 
 def compositor():
@@ -200,7 +201,7 @@ def run_job(job: dict) -> dict:
         rec["inputs"] = inputs_digest(spec(job), hashed)
         scene.compositor = compositor()  # this thread's GL context (never the client's)
         _render(job, scene, inputs)
-    except Exception as e:  # noqa: BLE001 - every failure is the job's, reported; the batch goes on
+    except (Exception, BudgetExceeded) as e:  # noqa: BLE001 - every failure is the job's; the batch goes on
         rec.update(status="failed", error=one_line(e))
         if type(e).__name__ == "NoMatch":
             rec["status"] = "no-match"

@@ -1,0 +1,154 @@
+"""Job lists, scene folders and template folders become jobs; command errors are one line,
+exit status 2, and touch nothing (no cluster is started by these tests)."""
+from __future__ import annotations
+
+import json
+import os
+
+import pytest
+
+from puppet.batch import jobs as J
+from puppet.errors import SceneError
+from tests.batch.conftest import write_bar, write_list
+
+
+def _read(tmp_path, entries, name="jobs.json"):
+    out = os.path.realpath(tmp_path / "out")
+    return J.read_job_list(write_list(tmp_path / name, entries), out, {"size": None, "budget": 5.0}), out
+
+
+def test_list_paths_relative_to_the_list_and_outputs_inside_out_dir(tmp_path):
+    (tmp_path / "sub").mkdir()
+    write_bar(tmp_path / "sub")
+    jobs, out = _read(tmp_path, [{"scene": "sub/bar.json", "pose": "bend", "output": "a/b.png"},
+                                 {"scene": "sub/bar.json", "time": 0.5, "size": "60x20"},
+                                 {"scene": "sub/bar.json", "animate": {"fps": 5}, "output": "anim/"},
+                                 {"scene": "sub/bar.json"}])
+    assert [j["id"] for j in jobs] == [0, 1, 2, 3]
+    assert jobs[0]["scene"] == str(tmp_path / "sub" / "bar.json")
+    assert jobs[0]["output"] == os.path.join(out, "a", "b.png") and jobs[0]["rel"] == "a/b.png"
+    assert (jobs[1]["kind"], jobs[1]["time"], jobs[1]["size"], jobs[1]["rel"]) == ("time", 0.5, [60, 20], "bar/t0_5.png")
+    assert jobs[2]["kind"] == "animate" and jobs[2]["animate"] == {"fps": 5.0} and jobs[2]["rel"] == "anim/"
+    assert (jobs[3]["kind"], jobs[3]["pose"], jobs[3]["rel"]) == ("pose", "rest", "bar/rest.png")
+    assert all(j["budget"] == 5.0 for j in jobs)
+
+
+def test_jsonl_list_and_its_line_numbers(tmp_path):
+    write_bar(tmp_path)
+    (tmp_path / "jobs.jsonl").write_text('{"scene": "bar.json", "pose": "bend"}\n\n{"scene": "bar.json", "time": 1}\n')
+    jobs = J.read_job_list(str(tmp_path / "jobs.jsonl"), str(tmp_path / "out"), {})
+    assert [j["kind"] for j in jobs] == ["pose", "time"]
+    (tmp_path / "bad.jsonl").write_text('{"scene": "bar.json"}\n{"scene": "bar.json", "pose": 3}\n')
+    with pytest.raises(SceneError, match=r"bad.jsonl: line 2.pose: pose must be a pose name"):
+        J.read_job_list(str(tmp_path / "bad.jsonl"), str(tmp_path / "out"), {})
+    (tmp_path / "broken.jsonl").write_text('{"scene": "bar.json"}\n{"scene": \n')
+    with pytest.raises(SceneError, match=r"line 2: not JSON"):
+        J.read_job_list(str(tmp_path / "broken.jsonl"), str(tmp_path / "out"), {})
+
+
+@pytest.mark.parametrize("entry, message", [
+    ({"scene": "s.json", "output": "../x.png"}, "leaves OUT_DIR"),
+    ({"scene": "s.json", "output": "/tmp/x.png"}, "must be relative"),
+    ({"scene": "s.json", "output": "report.json"}, "batch's own"),
+    ({"scene": "s.json", "output": "x.gif"}, "a frame goes to a .png"),
+    ({"scene": "s.json", "animate": True, "output": "x.png"}, "an animation goes to"),
+    ({"scene": "s.json", "pose": "a", "time": 1}, "not pose and time"),
+    ({"scene": "s.json", "time": -1}, "time must be"),
+    ({"scene": "s.json", "size": [0, 10]}, "size"),
+    ({"scene": "s.json", "size": "big"}, "size must be"),
+    ({"scene": "s.json", "colour": 1}, "unknown key 'colour'"),
+    ({"pose": "a"}, "'scene'"),
+    ([1, 2], "a job is an object"),
+])
+def test_bad_entries_name_the_list_and_the_job(tmp_path, entry, message):
+    with pytest.raises(SceneError, match=message) as e:
+        _read(tmp_path, [{"scene": "s.json"}, entry])
+    assert "jobs.json: [1]" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_symlink_out_of_out_dir_and_duplicate_outputs_are_refused(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (tmp_path / "elsewhere").mkdir()
+    os.symlink(tmp_path / "elsewhere", out / "link")
+    with pytest.raises(SceneError, match="leaves OUT_DIR"):
+        _read(tmp_path, [{"scene": "s.json", "output": "link/x.png"}])
+    with pytest.raises(SceneError, match="jobs 0 and 1 both write 'a/x.png'"):
+        _read(tmp_path, [{"scene": "s.json", "output": "a/x.png"}, {"scene": "t.json", "output": "a/./x.png"}])
+    with pytest.raises(SceneError, match="inside an animation folder"):
+        _read(tmp_path, [{"scene": "s.json", "animate": True, "output": "a/"}, {"scene": "t.json", "output": "a/x.png"}])
+
+
+def test_folder_gives_every_pose_and_the_animation_and_a_job_for_a_bad_scene(tmp_path):
+    write_bar(tmp_path)
+    (tmp_path / "broken.json").write_text("{not json")
+    (tmp_path / "notes.txt").write_text("not a scene")
+    jobs = J.folder_jobs(str(tmp_path), str(tmp_path / "out"), {"size": [30, 10]})
+    assert [(j["kind"], j["rel"]) for j in jobs] == [
+        ("pose", "bar/rest.png"), ("pose", "bar/bend.png"), ("animate", "bar/animation.gif"),
+        ("pose", "broken/rest.png")]
+    assert all(j["size"] == [30, 10] for j in jobs)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(SceneError, match="no scene files"):
+        J.folder_jobs(str(tmp_path / "empty"), str(tmp_path / "out"), {})
+
+
+def test_template_jobs_one_per_image(tmp_path):
+    imgs = tmp_path / "imgs"
+    imgs.mkdir()
+    for n in ("b.png", "a.png", "a.jpg", "c.txt"):
+        (imgs / n).write_bytes(b"not read when the jobs are made")
+    jobs = J.template_jobs("/t/garment.json", str(imgs), "lift", str(tmp_path / "out"), {}, tolerance=0.1)
+    assert [(os.path.basename(j["image"]), j["rel"]) for j in jobs] == [
+        ("a.jpg", "a_jpg.png"), ("a.png", "a_png.png"), ("b.png", "b.png")]
+    assert all(j["kind"] == "template" and j["pose"] == "lift" and j["tolerance"] == 0.1 for j in jobs)
+
+
+def test_spec_changes_with_what_decides_the_output():
+    a = {"kind": "pose", "pose": "x", "size": None, "rel": "a.png", "budget": 1}
+    assert J.spec(a) == J.spec(dict(a, budget=9))
+    assert J.spec(a) != J.spec(dict(a, size=[10, 10])) and J.spec(a) != J.spec(dict(a, pose="y"))
+
+
+# -- the command's own errors: one line, exit 2, nothing written ------------------------
+@pytest.mark.parametrize("argv, message", [
+    (["batch", "-o", "OUT"], "give JOBS"),
+    (["batch", "--template", "t.json", "-o", "OUT"], "--template needs --images and --pose"),
+    (["batch", "LIST", "--pose", "x", "-o", "OUT"], "--pose is for template mode"),
+    (["batch", "LIST", "--workers", "0", "-o", "OUT"], "--workers"),
+    (["batch", "LIST", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1", "-o", "OUT"], "--workers is for"),
+    (["batch", "missing.json", "-o", "OUT"], "missing.json: no such file"),
+    (["batch", "LIST", "-o", "OUT"], "leaves OUT_DIR"),
+])
+def test_command_errors(tmp_path, capsys, argv, message):
+    from puppet.cli import main
+
+    write_bar(tmp_path)
+    lst = write_list(tmp_path / "jobs.json", [{"scene": "bar.json", "output": "../escape.png"}])
+    argv = [a.replace("LIST", lst).replace("OUT", str(tmp_path / "out")).replace("missing", str(tmp_path / "missing"))
+            for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("puppet: error: ") and message in err and err.count("\n") == 1, err
+    assert not (tmp_path / "out").exists() and not (tmp_path / "escape.png").exists()
+
+
+def test_template_pose_must_exist(tmp_path, capsys):
+    from puppet.cli import main
+
+    t = write_bar(tmp_path)
+    (tmp_path / "imgs").mkdir()
+    assert main(["batch", "--template", t, "--images", str(tmp_path / "imgs"), "--pose", "nope",
+                 "-o", str(tmp_path / "out")]) == 2
+    assert "--pose 'nope': no such pose (poses: rest, bend)" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_parsing_the_command_loads_no_dask():
+    import subprocess
+    import sys
+
+    code = ("import sys, puppet.cli as c; c.build_parser().parse_args(['batch', 'x', '-o', 'y']); "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed', 'tqdm', 'moderngl')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -1,0 +1,47 @@
+"""A worker process killed in the middle of a job loses no job: its nanny starts a new
+worker and Dask runs the job again (up to --retries); no temporary file is left."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+
+import pytest
+
+from puppet.batch.jobs import read_job_list
+from puppet.batch.runner import run_batch
+from tests.batch.conftest import copy_scene, temporaries, write_list
+
+pytestmark = [pytest.mark.gl, pytest.mark.slow]
+
+
+def test_killing_a_worker_mid_run_loses_no_job(cluster2, tmp_path):
+    scene = os.path.basename(copy_scene("trex-layers.json", tmp_path))
+    entries = [{"scene": scene, "time": round(0.1 * k, 2), "size": [90, 75], "output": f"f{k:02d}.png"}
+               for k in range(24)]
+    out = os.path.realpath(tmp_path / "out")
+    os.mkdir(out)
+    jobs = read_job_list(write_list(tmp_path / "jobs.json", entries), out, {"budget": 120.0})
+    killed = []
+
+    def kill_a_busy_worker(batch, recs):
+        if killed:
+            return
+        busy = {w: keys for w, keys in cluster2.processing().items() if keys}
+        if not busy:
+            return
+        victim = sorted(busy)[0]
+        pid = cluster2.run(os.getpid, workers=[victim])[victim]
+        os.kill(pid, signal.SIGKILL)
+        killed.append((victim, pid, list(busy[victim])))
+
+    summary = run_batch(jobs, out, client=cluster2, retries=2, on_result=kill_a_busy_worker)
+    assert killed and killed[0][2], "no worker was busy when results came in"
+    report = json.loads(open(summary["report"]).read())
+    assert summary["counts"]["done"] == len(entries), [j["error"] for j in report["jobs"] if j["error"]]
+    assert all(os.path.isfile(os.path.join(out, e["output"])) for e in entries)
+    assert temporaries(out) == []
+    manifest = json.loads(open(os.path.join(out, "manifest.json")).read())["outputs"]
+    assert sorted(manifest) == sorted(e["output"] for e in entries)
+    cluster2.wait_for_workers(2, timeout=120)  # the nanny started a new worker
+    assert killed[0][1] not in cluster2.run(os.getpid).values()
