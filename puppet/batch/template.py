@@ -7,19 +7,19 @@ with pins and poses. For each new picture, :func:`transfer`:
 1. segments the picture the way the template's layer is segmented (its ``alpha`` or
    ``threshold`` mask rule; the default rule when the template uses the default or a
    rule tied to its own pixels: polygon, rect, grabcut, mask file);
-2. takes the outer outline of the largest component of both masks and aligns the
-   template's onto the picture's by a similarity (:func:`puppet.geom.outline_match.align_outlines`);
-   the match score is the symmetric mean distance between the aligned outlines divided
-   by ``sqrt(area)`` of the picture's outline; above ``tolerance`` the picture is
-   refused with :class:`NoMatch`;
-3. corresponds the outlines by arc length between matched curvature landmarks (sleeve
-   ends, armpits, hem corners; :func:`puppet.geom.outline_match.outline_correspondence`);
+2. takes the outer outline of the largest component of both masks, aligns the
+   template's onto the picture's by a similarity and corresponds them by arc length
+   between matched curvature landmarks (sleeve ends, armpits, hem corners):
+   :func:`puppet.geom.outline_corr.match_outlines`;
+3. scores the match: symmetric mean distance between the aligned outlines under that
+   correspondence, over ``sqrt(area)`` of the picture's outline; above ``tolerance``
+   the picture is refused with :class:`NoMatch` (the message says by how much);
 4. moves each pin: a pin on or outside the outline (within 1.5 px, or an exterior pin)
    goes to the corresponding outline point, offset by its scaled offset in the local
-   (tangent, normal) frame; an interior pin keeps its mean value coordinates relative to the outline
-   (:func:`puppet.geom.mvc.mean_value_coordinates`). Interior pins must land on a mask
-   pixel: one that misses by at most :data:`NUDGE` px is moved onto the nearest mask
-   pixel's centre, otherwise :class:`NoMatch`;
+   (tangent, normal) frame; an interior pin keeps its mean value coordinates relative
+   to the outline (:func:`puppet.geom.mvc.mean_value_coordinates`). Interior pins
+   must land on a mask pixel: one that misses by at most :data:`NUDGE` px is moved onto
+   the nearest mask pixel's centre, otherwise :class:`NoMatch`;
 5. moves each pose target by the template's displacement of that pin turned and scaled
    by the similarity (``angle`` and ``depth`` kept), so a pose means the same on the
    new garment.
@@ -222,7 +222,8 @@ class Template:
         pins, moved, nudged = self._pins(corr, S, new.mask, image, score)
         doc["pins"] = pins
         self._poses(doc, corr, S, moved, new.mask)
-        return Transfer(scene=doc, score=float(score), distance=match.distance, similarity=S, landmarks=len(corr.anchors), nudged=nudged)
+        return Transfer(scene=doc, score=float(score), distance=match.distance, similarity=S,
+                        landmarks=len(corr.anchors), nudged=nudged)
 
     def _pins(self, corr, S, mask: np.ndarray, image: str, score: float):
         X = np.array([p.at for p in self.pins], float).reshape(-1, 2)

@@ -106,6 +106,13 @@ def test_other_kinds_do_not_match(tshirt, pictures, picture):
     assert tshirt.transfer(path, tolerance=0.5).score > 0.1  # reported, not forced
 
 
+def test_a_pin_that_cannot_be_placed_is_a_mismatch(tshirt):
+    """Forced past the outline test, the running person leaves a sleeve pin in the air."""
+    runner = os.path.join(G.ROOT, "assets", "noto-emoji", "emoji_u1f3c3.png")
+    with pytest.raises(NoMatch, match=r"pin '\w+' lands .* outside the picture's mask .*outline match 0\.\d+"):
+        tshirt.transfer(runner, tolerance=1.0)
+
+
 def test_recoloured_and_scaled_kenney_shirt(tmp_path):
     """A template on Kenney's blue shirt: the red one (same outline) gets the same pins;
     a double-size copy gets them doubled."""
