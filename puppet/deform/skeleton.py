@@ -4,25 +4,28 @@ Pins (control points) are mesh vertices ``b``; bones are pairs of pins. Each pin
 influences the part of the shape its bones say it owns, so dragging a hand does not
 move the head. Distances are interior (geodesic along mesh edges).
 
-Ranges (``k`` = 1.2 by default, ``D[i]`` = interior distance from pin i):
+Ranges, after Shen, Ma and Liu 2010 ("An MLS-based cartoon deformation", §3, eq. 10-13),
+with ``k`` = 1.2 (the paper's value) and ``D[i]`` = interior distance from pin i:
 
 * bone length ``l_e`` = interior distance between its two pins (Euclidean if the two
   pins are in different components);
-* degree rules, isotropic range ``r_i = k * rho_i``: a pin with bones takes ``rho_i`` =
-  the mean length of its incident bones (an end pin: its one bone; a joint: the mean);
-  a pin without bones takes the interior distance to the nearest other pin; a pin
-  that reaches no other pin has ``r_i = inf`` (global support);
-* bone bodies (anisotropic range): for a bone e = (i, j) and a vertex v with Euclidean
-  projection parameter ``s`` on the segment (0 at pin i, clamped to [0, 1]) and
-  membership ``tau = clip((k l_e - D_i(v) - D_j(v)) / ((k - 1) l_e), 0, 1)`` (1 on the
-  bone, 0 outside the interior-distance ellipse with foci at the pins), pin i's range
-  at v is raised to ``r_i + s tau max(k l_e - r_i, 0)`` (and pin j's with ``1 - s``):
-  interpolated along the bone from the pin's own range to ``k l_e`` at the far pin, so
-  the weights of both pins cover the whole bone body. ``R[i, v]`` is the largest of the
-  isotropic and bone ranges.
+* reach of pin ``u`` along its bone to ``v``: ``rho_uv = l_uv`` when ``v`` ends the
+  skeleton there (one bone), else ``l_uv + min(other bones of v) / 2`` (eq. 11: the
+  range ends halfway along the next bone);
+* an end pin (one bone) has the isotropic range ``k rho`` of its one reach (eq. 11);
+* a joint (two bones or more) is anisotropic (eq. 12): around the joint, the bone
+  directions cut the plane into sectors; a vertex in the sector from bone direction 1
+  to 2 (opening ``Theta``) at angle ``t`` from direction 1 gets ``k (rho_1 cos(pi t /
+  (2 Theta)) + rho_2 sin(pi t / (2 Theta)))``: each bone's reach along it, blended in between;
+* a pin without bones (the paper has none) takes the interior distance to the nearest
+  other pin; a pin that reaches no other pin has range ``inf`` (global support).
 
-Weights: ``w_i(v) = max(1/D_i(v)^2 - 1/(lam(v) R[i, v])^2, 0)`` (compact support, one-hot
-at the pin vertex itself). ``lam(v) = max(1, rho2(v) / 0.8)`` where ``rho2`` is the
+``R[i, v]`` is pin i's range at vertex v; ``r[i]`` its longest reach along a bone (times ``k``).
+
+Weights (eq. 13): ``w_i(v) = max(1/D_i(v)^2 - 1/(lam(v) R[i, v])^2, 0)`` (compact support,
+one-hot at the pin vertex itself). The paper asks that every point be controlled by
+at least two pins and chooses the ranges for it; where they do not overlap enough
+(shapes the paper did not meet) ``lam(v) = max(1, rho2(v) / 0.8)`` where ``rho2`` is the
 second smallest of ``D_i(v) / R[i, v]``: 1 wherever two pins cover v with margin, and
 otherwise just large enough that the two nearest pins (in units of their ranges) do.
 This is the fallback for vertices no pin reaches (far from every range it tends to
@@ -59,8 +62,9 @@ class SkeletonData:
     bones : (m, 2) pin index pairs (deduplicated, i < j).
     D : (k, n) interior distances from the pins (Euclidean in columns no pin reaches).
     lengths : (m,) bone lengths.
-    r : (k,) isotropic ranges (degree rules, ``k`` included).
-    R : (k, n) ranges after the bone bodies.
+    r : (k,) each pin's longest reach along a bone times ``k`` (an end pin's range in every
+        direction; a pin without bones: ``k`` times the distance to the nearest pin).
+    R : (k, n) each pin's range at each vertex (eq. 11-12, ``k`` included).
     lam : (n,) coverage widening factor (1 where two pins cover the vertex).
     W : (k, n) weights, columns scaled to max 1.
     exact : (n,) pin at distance 0 from the vertex (first one), -1 if none.
@@ -115,35 +119,65 @@ def _bone_lengths(V, D, b, bones):
     return ell
 
 
-def _isotropic_ranges(D, b, bones, ell, k):
-    """Degree rules: mean incident bone length; nearest other pin; inf."""
+def _reaches(b, bones, ell):
+    """Per pin: list of (other pin, reach along the bone to it) (eq. 11-12)."""
     n_pins = len(b)
-    deg = np.bincount(bones.ravel(), minlength=n_pins)
-    total = np.bincount(bones.ravel(), weights=np.repeat(ell, 2), minlength=n_pins)
-    rho = np.full(n_pins, np.inf)
-    rho[deg > 0] = total[deg > 0] / deg[deg > 0]
-    for i in np.flatnonzero(deg == 0):
-        d = D[i, b]
-        d = d[np.isfinite(d) & (d > 0)]
-        if len(d):
-            rho[i] = d.min()
-    return k * rho
-
-
-def _bone_ranges(V, D, b, bones, ell, r, k):
-    """Raise each pin's range along its bones' bodies (see module docstring)."""
-    R = np.repeat(r[:, None], V.shape[0], axis=1)
+    nbrs: list[list[tuple[int, float]]] = [[] for _ in range(n_pins)]
     for (i, j), le in zip(bones, ell):
-        a, e = V[b[i]], V[b[j]] - V[b[i]]
-        ee = e @ e
-        s = np.clip(((V - a) @ e) / ee, 0.0, 1.0) if ee > 0 else np.full(len(V), 0.5)
-        with np.errstate(invalid="ignore"):
-            tau = np.clip((k * le - D[i] - D[j]) / ((k - 1.0) * le), 0.0, 1.0)
-        tau = np.nan_to_num(tau, nan=0.0)
-        for pin, frac in ((i, s), (j, 1.0 - s)):
-            if np.isfinite(r[pin]) and k * le > r[pin]:
-                R[pin] = np.maximum(R[pin], r[pin] + frac * tau * (k * le - r[pin]))
-    return R
+        nbrs[i].append((int(j), float(le)))
+        nbrs[j].append((int(i), float(le)))
+    reach: list[list[tuple[int, float]]] = [[] for _ in range(n_pins)]
+    for u in range(n_pins):
+        for v, le in nbrs[u]:
+            beyond = [lv for w, lv in nbrs[v] if w != u]
+            reach[u].append((v, le + (min(beyond) / 2.0 if beyond else 0.0)))
+    return reach
+
+
+def _ranges(V, D, b, bones, ell, k):
+    """``(r, R)``: each pin's largest range (k, ) and its range at every vertex (k, n)."""
+    n_pins, n = len(b), V.shape[0]
+    reach = _reaches(b, bones, ell)
+    R = np.full((n_pins, n), np.inf)
+    r = np.full(n_pins, np.inf)
+    for i in range(n_pins):
+        if reach[i]:
+            r[i] = k * max(rho for _, rho in reach[i])
+        if len(reach[i]) == 1:  # an end pin: isotropic
+            R[i] = r[i]
+        elif len(reach[i]) >= 2:
+            R[i] = k * _sector_ranges(V, V[b[i]], [(V[b[j]], rho) for j, rho in reach[i]])
+        else:  # no bones: the nearest other pin
+            d = D[i, b]
+            d = d[np.isfinite(d) & (d > 0)]
+            if len(d):
+                R[i] = r[i] = k * d.min()
+    return r, R
+
+
+def _sector_ranges(V, a, arms) -> np.ndarray:
+    """Eq. 12: the range of a joint at ``a`` toward every vertex, from its bones' reaches.
+
+    ``arms``: (other end, reach) per bone. A vertex at angle ``t`` into the sector between
+    consecutive bone directions 1 and 2 (opening ``Theta``) gets
+    ``rho_1 cos(pi t / (2 Theta)) + rho_2 sin(pi t / (2 Theta))``.
+    """
+    phi = np.array([np.arctan2(e[1] - a[1], e[0] - a[0]) for e, _ in arms]) % (2 * np.pi)
+    rho = np.array([r for _, r in arms])
+    order = np.lexsort((-rho, phi))
+    phi, rho = phi[order], rho[order]
+    keep = np.r_[True, np.diff(phi) > 1e-12]  # bones along one direction: the longest reach
+    phi, rho = phi[keep], rho[keep]
+    theta = np.arctan2(V[:, 1] - a[1], V[:, 0] - a[0]) % (2 * np.pi)
+    if len(phi) == 1:
+        return np.full(len(V), rho[0])
+    s = np.searchsorted(phi, theta, side="right") - 1  # sector start (-1: wraps from the last)
+    s = np.where(s < 0, len(phi) - 1, s)
+    e = (s + 1) % len(phi)
+    opening = (phi[e] - phi[s]) % (2 * np.pi)
+    t = (theta - phi[s]) % (2 * np.pi)
+    x = np.pi * t / (2 * opening)
+    return rho[s] * np.cos(x) + rho[e] * np.sin(x)
 
 
 def _compact_weights(D, R):
@@ -212,8 +246,7 @@ def skeleton_from_distances(V, b, bones, D, *, k: float = 1.2) -> SkeletonData:
         bones = np.unique(np.sort(bones, axis=1), axis=0)
     D = np.asarray(D, dtype=np.float64).reshape(len(b), len(V))
     ell = _bone_lengths(V, D, b, bones)
-    r = _isotropic_ranges(D, b, bones, ell, k)
-    R = _bone_ranges(V, D, b, bones, ell, r, k)
+    r, R = _ranges(V, D, b, bones, ell, k)
     W, lam, exact = _compact_weights(D, R)
     return SkeletonData(V=V, b=b, bones=bones, D=D, lengths=ell, r=r, R=R, lam=lam,
                         W=W, exact=exact)
