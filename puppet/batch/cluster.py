@@ -61,7 +61,7 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
     with dask.config.set(settings):
         if scheduler:
             try:
-                client = Client(scheduler, timeout="20s", set_as_default=False)
+                client = Client(scheduler, timeout="10s", set_as_default=False)
             except (OSError, TimeoutError, ValueError) as e:
                 raise SceneError(f"--scheduler {scheduler}: cannot connect ({str(e).splitlines()[0]})") from None
             try:

@@ -8,6 +8,7 @@ why); 130 interrupted (Ctrl+C: OUT_DIR consistent, ``--resume`` finishes the res
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 
@@ -141,13 +142,20 @@ def run(args: argparse.Namespace) -> int:
         raise SceneError("exists and is not a folder", file=args.output)
     out_dir = os.path.realpath(args.output)
     jobs = _jobs(args, out_dir)  # every command error is found before OUT_DIR is made or touched
+    created = not os.path.exists(out_dir)
     out_dir = _out_dir(args.output)
 
     def say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
-    summary = run_batch(jobs, out_dir, workers=args.workers, scheduler=args.scheduler, retries=args.retries,
-                        resume=args.resume, progress=sys.stderr.isatty(), say=say)
+    try:
+        summary = run_batch(jobs, out_dir, workers=args.workers, scheduler=args.scheduler, retries=args.retries,
+                            resume=args.resume, progress=sys.stderr.isatty(), say=say)
+    except SceneError:  # e.g. the scheduler cannot be reached: nothing ran, leave nothing behind
+        if created:
+            with contextlib.suppress(OSError):
+                os.rmdir(out_dir)  # only when still empty
+        raise
     c, secs = summary["counts"], summary["seconds"]
     failed = c["failed"] + c["no-match"]
     line = (f"puppet batch: {len(jobs)} jobs: {c['done']} done, {failed} failed"
