@@ -84,13 +84,28 @@ def grid_mesh(mask: np.ndarray, step: int, joints: np.ndarray) -> tuple[np.ndarr
     return V, F, b
 
 
+def _u8(mask: np.ndarray) -> np.ndarray:
+    """A bool mask as uint8 0/1 (a view when it can be)."""
+    return mask.view(np.uint8) if mask.dtype == bool and mask.flags.c_contiguous else mask.astype(np.uint8)
+
+
 def _cell_fraction(mask: np.ndarray, step: int) -> np.ndarray:
     """(gh, gw) fraction of each grid cell's pixels on the mask."""
+    import cv2
+
     H, W = mask.shape
     gw, gh = -(-W // step), -(-H // step)
-    pad = np.zeros((gh * step, gw * step), np.float32)
-    pad[:H, :W] = mask
-    return pad.reshape(gh, step, gw, step).mean(axis=(1, 3))
+    out = np.zeros((gh, gw), np.float32)
+    x, y, w, h = cv2.boundingRect(_u8(mask))
+    if w == 0:
+        return out
+    c0, r0 = x // step, y // step  # only the cells over the mask's bounding box
+    c1, r1 = -(-(x + w) // step), -(-(y + h) // step)
+    pad = np.zeros(((r1 - r0) * step, (c1 - c0) * step), np.uint8)
+    sub = mask[r0 * step:r1 * step, c0 * step:c1 * step]
+    pad[:sub.shape[0], :sub.shape[1]] = sub
+    out[r0:r1, c0:c1] = pad.reshape(r1 - r0, step, c1 - c0, step).sum(axis=(1, 3), dtype=np.int32) / (step * step)
+    return out
 
 
 def interior_distances(mask: np.ndarray, sources: np.ndarray, targets: np.ndarray, *, res: int = 3) -> np.ndarray:
@@ -150,8 +165,11 @@ def interior_distances(mask: np.ndarray, sources: np.ndarray, targets: np.ndarra
     ni, nj = np.divmod(np.flatnonzero(on)[node], gw)
     centre = np.c_[(nj + c0 + 0.5) * res - 0.5, (ni + r0 + 0.5) * res - 0.5]
     D = Dn[:, node] + np.linalg.norm(T - centre, axis=1)[None, :]
-    euclid = np.linalg.norm(S[:, None, :] - T[None, :, :], axis=-1)
-    return np.where(np.isfinite(D), D, euclid)
+    lost = ~np.isfinite(D)
+    if lost.any():
+        si_, ti_ = np.nonzero(lost)
+        D[lost] = np.linalg.norm(S[si_] - T[ti_], axis=1)
+    return D
 
 
 def _grid_samples(W: int, H: int, out_step: int) -> tuple[int, int]:
@@ -310,7 +328,7 @@ def background_fill(rgb: np.ndarray, mask: np.ndarray, method: str = "telea", *,
 
     out = rgb.copy()
     H, W = mask.shape
-    box = cv2.boundingRect(mask.astype(np.uint8))
+    box = cv2.boundingRect(_u8(mask))
     if box[2] == 0:
         return out
     m = 4 * grow + 2 * scale
@@ -350,7 +368,10 @@ def composite(rgb: np.ndarray, background: np.ndarray, mask: np.ndarray, maps: W
         return out
     mx, my = maps.mapx[y0:y1, x0:x1], maps.mapy[y0:y1, x0:x1]
     fg = cv2.remap(rgb, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    alpha = cv2.remap(mask.astype(np.float32), mx, my, cv2.INTER_LINEAR,
+    bx, by, bw, bh = cv2.boundingRect(_u8(mask))  # the mask is read on its bounding box only
+    bx, by = max(bx - 1, 0), max(by - 1, 0)
+    sub_mask = mask[by:by + bh + 2, bx:bx + bw + 2].astype(np.float32)
+    alpha = cv2.remap(sub_mask, mx - np.float32(bx), my - np.float32(by), cv2.INTER_LINEAR,
                       borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
     sub = out[y0:y1, x0:x1]
     a = alpha[..., None]
