@@ -32,6 +32,8 @@ MIN_FPS, MAX_FPS = 0.01, 240.0
 GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
 #: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
 GIF_SAMPLE_CACHE = 64 << 20
+#: Frames from which ``solver="auto"`` solves in a child process (it costs ~1-3 s to start).
+PROCESS_MIN_FRAMES = 200
 
 # kept importable from here (older callers)
 flatten = sinks.flatten
@@ -131,7 +133,7 @@ def _gif_palette(frame_at, n: int, alpha: bool) -> tuple[object, dict[int, np.nd
 
 
 def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None, wireframe=False,
-               progress=False, background=None, threads: bool = True,
+               progress=False, background=None, threads: bool = True, solver: str = "auto",
                timings: pipeline.Timings | None = None) -> int:
     """Render the scene's animation to ``output``; returns the number of frames.
 
@@ -145,6 +147,9 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     background : None (the scene's), ``"transparent"`` or an RGBA tuple (see :func:`parse_background`).
     progress : draw a progress bar on stderr.
     threads : overlap solve, composite and encode (False: one after the other; same output).
+    solver : where frames are solved when ``threads``: ``"thread"``, ``"process"`` (a child
+        process, see :mod:`puppet.anim.solver`; falls back to a thread if its first frame
+        differs) or ``"auto"`` (a process from :data:`PROCESS_MIN_FRAMES` frames on).
     timings : filled with seconds per stage (see :class:`puppet.anim.pipeline.Timings`).
 
     The output is checked (writable, no input of the scene overwritten), the frame count
@@ -190,16 +195,16 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     if kind == "gif":
         palette, cached = _gif_palette(lambda i: composite(solve(i)), n, alpha)
 
+    todo = [i for i in range(n) if i not in cached]
+    remote = bar = None
+
     def frames() -> Iterator[np.ndarray]:
-        drawn = pipeline.frames(solve, composite, [i for i in range(n) if i not in cached],
-                                threads=threads, timings=timings)
+        drawn = pipeline.frames(solve, composite, todo, threads=threads, timings=timings, remote=remote)
         try:
             for i in range(n):
                 yield cached.pop(i) if i in cached else next(drawn)
         finally:
             drawn.close()
-
-    bar = pipeline.Progress(n, progress)
 
     def stream(sink) -> int:
         try:
@@ -212,6 +217,13 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
 
     written = [0]
     try:
+        if threads and todo and (solver == "process" or (solver == "auto" and len(todo) >= PROCESS_MIN_FRAMES)):
+            from puppet.anim.solver import ProcessSolver
+
+            remote = ProcessSolver(scene, t0, rate)
+            if not remote.start(todo[0]):
+                remote = None
+        bar = pipeline.Progress(n, progress)
         if kind == "dir":
             return write_folder(output, lambda tmp: stream(sinks.DirSink(tmp)), inputs=inputs)
 
@@ -233,4 +245,7 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
         atomic_write(output, write, inputs=inputs)
         return written[0]
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
+        if remote is not None:
+            remote.close()

@@ -110,14 +110,22 @@ class Progress:
             self.bar = None
 
 
-def _solver(solve: Callable[[int], object], indices: Iterable[int], out: queue.Queue, timings: Timings):
-    """A thread that puts ``(i, solve(i))`` for each index, then the end mark."""
+def _solver(solve: Callable[[int], object], indices: list[int], out: queue.Queue, timings: Timings,
+            remote=None):
+    """A thread that puts ``(i, solve(i))`` for each index, then the end mark; with
+    ``remote`` (a :class:`puppet.anim.solver.ProcessSolver`), the frames are solved there
+    and this thread only passes them on."""
     def body():
-        for i in indices:
-            t = time.perf_counter()
-            item = solve(i)
-            timings.add("solve", time.perf_counter() - t)
-            worker.put(out, (i, item))
+        if remote is not None:
+            for i, item, seconds in remote.results(indices, worker.stop.is_set):
+                timings.add("solve", seconds)
+                worker.put(out, (i, item))
+        else:
+            for i in indices:
+                t = time.perf_counter()
+                item = solve(i)
+                timings.add("solve", time.perf_counter() - t)
+                worker.put(out, (i, item))
         worker.put(out, (None, _END))
     worker = _Worker("puppet-solve", body)
     return worker
@@ -138,9 +146,10 @@ def _encoder(add: Callable[[np.ndarray], None], inbox: queue.Queue, timings: Tim
 
 
 def frames(solve: Callable[[int], object], composite: Callable[[object], np.ndarray], indices: list[int], *,
-           threads: bool = True, timings: Timings | None = None) -> Iterator[np.ndarray]:
+           threads: bool = True, timings: Timings | None = None, remote=None) -> Iterator[np.ndarray]:
     """Frames ``composite(solve(i))`` for ``i`` in ``indices``, in order, solving ahead on
-    a thread when ``threads`` (compositing stays on the caller's thread)."""
+    a thread when ``threads`` (compositing stays on the caller's thread), or in the
+    started ``remote`` solver process (see :mod:`puppet.anim.solver`)."""
     timings = Timings() if timings is None else timings
     if not threads:
         for i in indices:
@@ -153,7 +162,7 @@ def frames(solve: Callable[[int], object], composite: Callable[[object], np.ndar
             yield rgba
         return
     q: queue.Queue = queue.Queue(DEPTH)
-    worker = _solver(solve, indices, q, timings)
+    worker = _solver(solve, indices, q, timings, remote)
     worker.start()
     try:
         while True:

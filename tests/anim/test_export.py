@@ -149,3 +149,74 @@ def test_progress_bar_on_request_only(tmp_path, capsys):
 def test_cli_shows_no_bar_off_a_terminal(bar, tmp_path, capfd):
     assert main(["animate", bar, "-o", str(tmp_path / "a.gif")]) == 0
     assert capfd.readouterr().err == ""
+
+
+@pytest.mark.parametrize("name", ["f/", "a.mp4"])
+def test_solver_process_gives_the_same_frames(tmp_path, name):
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=2.0))
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir(), b.mkdir()
+    assert export.animate_to(scene, os.path.join(a, name), solver="process") == 21
+    assert export.animate_to(scene, os.path.join(b, name), threads=False) == 21
+    if name.endswith("/"):
+        fa, fb = pngs(a / "f"), pngs(b / "f")
+        assert all(np.array_equal(x, y) for x, y in zip(fa, fb))
+    else:
+        assert (a / name).read_bytes() == (b / name).read_bytes()
+
+
+def test_solver_process_is_used_and_stopped(tmp_path, monkeypatch):
+    from puppet.anim import solver
+
+    started, closed = [], []
+    real_start, real_close = solver.ProcessSolver.start, solver.ProcessSolver.close
+    monkeypatch.setattr(solver.ProcessSolver, "start", lambda self, first, **k: started.append(
+        real_start(self, first, **k)) or started[-1])
+    monkeypatch.setattr(solver.ProcessSolver, "close", lambda self: closed.append(self.proc) or real_close(self))
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=2.0))
+    export.animate_to(scene, str(tmp_path / "f") + "/", solver="process")
+    assert started == [True] and closed and not closed[0].is_alive()
+
+
+def test_solver_process_falls_back_when_the_scene_differs_from_its_file(tmp_path):
+    """An edit the child cannot see (here: a solve patched in this process only) is caught
+    on the first frame; the export then solves on a thread and matches the sequential one."""
+    from puppet.anim.solver import ProcessSolver
+
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=2.0))
+    real = type(scene).layers
+
+    def shifted(self, *a, **k):
+        out = real(self, *a, **k)
+        for r in out:
+            r.deformed = r.deformed + 3.0
+        return out
+
+    scene.layers = shifted.__get__(scene)
+    p = ProcessSolver(scene, 0.0, 10.0)
+    assert p.start(0) is False and p.proc is None
+    a, b = tmp_path / "a", tmp_path / "b"
+    export.animate_to(scene, str(a) + "/", solver="process")
+    export.animate_to(scene, str(b) + "/", threads=False)
+    assert all(np.array_equal(x, y) for x, y in zip(pngs(a), pngs(b)))
+
+
+def test_solver_process_error_is_raised(tmp_path):
+    """A frame the child cannot solve (a negative time) raises the child's user error here."""
+    from puppet.anim.solver import ProcessSolver
+
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=2.0))
+    with pytest.raises(SceneError) as want:
+        scene.layers(time=-5.0)
+    p = ProcessSolver(scene, 0.0, 10.0)
+    assert p.start(0)
+    try:
+        got = list(p.results([3, 4], lambda: False))
+        assert [i for i, _, _ in got] == [3, 4]
+        assert np.array_equal(got[1][1][0].deformed, scene.layers(time=0.4)[0].deformed)
+        with pytest.raises(SceneError) as e:
+            list(p.results([-50], lambda: False))
+        assert str(e.value) == str(want.value)
+    finally:
+        p.close()
+    assert p.proc is None
