@@ -131,19 +131,23 @@ def symmetric_mean_distance(P, Q, *, step: float = 0.5) -> float:
     return float(0.5 * (dab + dba))
 
 
-def _icp(A: np.ndarray, B: np.ndarray, tree_b, S: Similarity, iterations: int) -> Similarity:
+def _icp(A: np.ndarray, B: np.ndarray, tree_b, S: Similarity, iterations: int) -> tuple[Similarity, float]:
+    """Symmetric ICP from ``S``; returns the similarity and the mean nearest-sample
+    distance (both ways) it was last fitted from."""
     from scipy.spatial import cKDTree
 
+    resid = np.inf
     for _ in range(iterations):
         TA = S.apply(A)
-        j = tree_b.query(TA)[1]
-        i = cKDTree(TA).query(B)[1]
+        dj, j = tree_b.query(TA)
+        di, i = cKDTree(TA).query(B)
+        resid = 0.5 * (dj.mean() + di.mean())
         S_new = similarity_fit(np.vstack([A, A[i]]), np.vstack([B[j], B]))
         done = abs(S_new.a - S.a) < 1e-7 * abs(S.a) and abs(S_new.b - S.b) < 1e-4
         S = S_new
         if done:
             break
-    return S
+    return S, float(resid)
 
 
 def _candidate_angles(A: np.ndarray, B: np.ndarray, cA: np.ndarray, cB: np.ndarray, fixed: int) -> list[float]:
@@ -192,14 +196,14 @@ def alignment_candidates(P, Q, *, samples: int = 256, iterations: int = 40, fixe
     coarse: list[tuple[float, Similarity]] = []
     for th in _candidate_angles(A, B, cP, cQ, fixed_angles):
         a = s0 * np.exp(1j * th)
-        S = _icp(A, B, tree_b, Similarity(complex(a), complex(*cQ) - a * complex(*cP)), 6)
-        coarse.append((symmetric_mean_distance(S.apply(A), B, step=step), S))
+        S, resid = _icp(A, B, tree_b, Similarity(complex(a), complex(*cQ) - a * complex(*cP)), 6)
+        coarse.append((resid, S))
     coarse.sort(key=lambda c: c[0])
     out: list[tuple[float, Similarity]] = []
     for _, S in coarse:
         if len(out) == keep:
             break
-        S = _icp(A, B, tree_b, S, iterations)
+        S, _ = _icp(A, B, tree_b, S, iterations)
         if any(abs(S.a - T.a) < 0.01 * abs(T.a) and abs(S.b - T.b) < 0.01 * np.sqrt(aQ) for _, T in out):
             continue  # converged to one already kept
         out.append((symmetric_mean_distance(S.apply(A), B, step=step), S))
