@@ -190,3 +190,13 @@ def test_bad_values_exit_2_with_one_line(scene, tmp_path, capsys, args, say, mon
     err = capsys.readouterr().err
     assert err.startswith("puppet: error:") and err.count("\n") == 1 and say in err, err
     assert sorted(os.listdir(tmp_path)) == ["s"]
+
+
+def test_sheet_atlas_never_overwrites_the_scene(tmp_path, capsys):
+    """``puppet animate s/scene.json -o s/scene.png``: the atlas would be the scene file."""
+    scene = make_bar(tmp_path / "s")
+    before = open(scene).read()
+    assert main(["animate", scene, "-o", os.path.splitext(scene)[0] + ".png"]) == 2
+    err = capsys.readouterr().err
+    assert "it is a file the scene reads" in err and err.count("\n") == 1
+    assert open(scene).read() == before and not os.path.exists(os.path.splitext(scene)[0] + ".png")
