@@ -4,7 +4,7 @@ The same mask options as a layer (:mod:`puppet.imaging.masks`): ``alpha`` (frame
 transparency), ``threshold`` (and ``invert``), and ``grabcut``: the rectangle is used
 on the start frame only; every next frame runs GrabCut seeded from the previous
 frame's mask (probably-foreground inside it, probably-background in a band around it,
-background beyond) on the band's bounding box at half resolution. A layer without a
+background beyond) on the band's bounding box (at half resolution when it is large). A layer without a
 mask takes the default rule of a still scene, chosen on the start frame (alpha when it
 has transparency, else threshold 250 on white). Fixed shapes (``polygon``, ``rect``,
 ``file``) cannot follow a moving character and are refused.
@@ -26,6 +26,8 @@ __all__ = ["Segmenter", "clean_mask"]
 SPECK = 0.02
 #: Band around the previous mask that GrabCut may grow into, px (at full resolution).
 GRABCUT_BAND = 24
+#: GrabCut runs at half resolution on boxes larger than this many pixels.
+HALF_AREA = 160_000
 
 
 def clean_mask(mask: np.ndarray) -> np.ndarray:
@@ -120,7 +122,8 @@ def _threshold(rgba: np.ndarray, threshold: float, invert: bool) -> np.ndarray:
 
 
 def _grabcut_from(rgba: np.ndarray, prev: np.ndarray, iterations: int = 2) -> np.ndarray:
-    """GrabCut seeded from the previous mask, on the band's bounding box at half size."""
+    """GrabCut seeded from the previous mask, on the band's bounding box (at half size
+    when it is larger than :data:`HALF_AREA` pixels)."""
     import cv2
 
     H, W = prev.shape
@@ -136,7 +139,8 @@ def _grabcut_from(rgba: np.ndarray, prev: np.ndarray, iterations: int = 2) -> np
     seed[prev[y0:y1, x0:x1]] = cv2.GC_PR_FGD
     seed[core[y0:y1, x0:x1]] = cv2.GC_PR_FGD
     bgr = np.ascontiguousarray(rgba[y0:y1, x0:x1, 2::-1])
-    sw, sh = max(2, (x1 - x0) // 2), max(2, (y1 - y0) // 2)
+    half = 2 if (x1 - x0) * (y1 - y0) > HALF_AREA else 1
+    sw, sh = max(2, (x1 - x0) // half), max(2, (y1 - y0) // half)
     small = cv2.resize(bgr, (sw, sh), interpolation=cv2.INTER_AREA)
     s_seed = cv2.resize(seed, (sw, sh), interpolation=cv2.INTER_NEAREST)
     if not ((s_seed == cv2.GC_PR_FGD).any() and (s_seed != cv2.GC_PR_FGD).any()):

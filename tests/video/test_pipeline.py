@@ -141,3 +141,20 @@ def test_threshold_segmenter_follows_the_character(dx):
     rgba = np.dstack([frame(dx), np.full(frame().shape[:2], 255, np.uint8)])
     seg = Segmenter(layer, rgba)
     np.testing.assert_array_equal(seg(rgba), character_mask(dx))
+
+
+def test_grabcut_segmenter_is_seeded_from_the_previous_frame():
+    from types import SimpleNamespace
+
+    from puppet.scene.model import Mask
+    from puppet.video.segment import Segmenter
+
+    def rgba(dx):
+        return np.dstack([frame(dx), np.full(frame().shape[:2], 255, np.uint8)])
+
+    layer = SimpleNamespace(mask=Mask("grabcut", rect=(60, 20, 80, 85)), offset=(0.0, 0.0), index=0, name="body")
+    seg = Segmenter(layer, rgba(0))
+    for dx in (0, 3, 6, 30):  # the last step leaves the first frame's rectangle
+        m, truth = seg(rgba(dx)), character_mask(dx)
+        iou = (m & truth).sum() / (m | truth).sum()
+        assert iou > 0.9, (dx, iou)
