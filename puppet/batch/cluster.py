@@ -70,21 +70,26 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
                 with contextlib.suppress(Exception):
                     client.close(timeout=10)
             return
-        dash = ":0" if importlib.util.find_spec("bokeh") else None
+        # a free port for the scheduler's HTTP server (Dask's default 8787 may be taken);
+        # a dashboard only with bokeh installed
+        dash = importlib.util.find_spec("bokeh") is not None
         with tempfile.TemporaryDirectory(prefix="puppet-batch-") as scratch:
-            with _sigint_blocked():  # the cluster's thread, and the workers it spawns, never see Ctrl+C
-                cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                                       processes=True, dashboard_address=dash, local_directory=scratch,
-                                       scheduler_port=0, host="127.0.0.1", silence_logs=logging.CRITICAL,
-                                       preload=["puppet.batch.preload"])
-            client = Client(cluster, set_as_default=False)
+            cluster = client = None
             try:
+                with _sigint_blocked():  # the cluster's thread, and the workers it spawns, never see Ctrl+C
+                    cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
+                                           processes=True, dashboard_address=":0", local_directory=scratch,
+                                           scheduler_port=0, host="127.0.0.1", silence_logs=logging.CRITICAL,
+                                           preload=["puppet.batch.preload"])
+                    client = Client(cluster, set_as_default=False)
                 yield client, _dashboard(client) if dash else None
             finally:
-                with contextlib.suppress(Exception):
-                    client.close(timeout=10)
-                with contextlib.suppress(Exception):
-                    cluster.close(timeout=20)
+                if client is not None:
+                    with contextlib.suppress(Exception):
+                        client.close(timeout=10)
+                if cluster is not None:
+                    with contextlib.suppress(Exception):
+                        cluster.close(timeout=20)
 
 
 @contextlib.contextmanager

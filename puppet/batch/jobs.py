@@ -173,6 +173,9 @@ def read_job_list(file: str, out_dir: str, defaults: dict) -> list[dict]:
             raw = json.loads(text)
         except json.JSONDecodeError as e:
             raise SceneError(f"not JSON: {e.msg} (line {e.lineno}, column {e.colno})", file=file) from None
+        if isinstance(raw, dict) and "layers" in raw and "jobs" not in raw:
+            raise SceneError("this is a scene, not a job list: give a folder of scenes or a job list "
+                             "(puppet render / animate for one scene)", file=file)
         prefix = "jobs" if isinstance(raw, dict) else ""
         if isinstance(raw, dict):
             raw = raw.get("jobs")

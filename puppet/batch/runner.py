@@ -56,18 +56,25 @@ def chunks(jobs: list[dict], workers: int) -> list[list[dict]]:
             alone.append([j])  # long: its own task (results arrive, and retry, per animation)
         else:
             by_scene.setdefault(j["scene"], []).append(j)
-    return [group[i:i + size] for group in by_scene.values() for i in range(0, len(group), size)] + alone
+    # the long ones first, so that they do not end the batch alone on one worker
+    return alone + [group[i:i + size] for group in by_scene.values() for i in range(0, len(group), size)]
 
 
 def homes(pieces: list[list[dict]], workers: list[str]) -> list[str | None]:
-    """A preferred worker per chunk: consecutive chunks (so each scene) to one worker, equal job
-    counts per worker; Dask may still run a chunk elsewhere (work stealing, a worker gone)."""
+    """A preferred worker per chunk: animations in turn, then consecutive chunks (so each
+    scene) to one worker with equal job counts per worker. Dask may still run a chunk
+    elsewhere (work stealing, a worker gone)."""
     if len(workers) < 2:
         return [None] * len(pieces)
-    total = sum(len(p) for p in pieces)
-    out, before = [], 0
+    anims = [p for p in pieces if p[0]["kind"] == "animate"]
+    total = sum(len(p) for p in pieces) - len(anims)
+    out, before, turn = [], 0, 0
     for p in pieces:
-        out.append(workers[min(len(workers) - 1, int(before * len(workers) / total))])
+        if p[0]["kind"] == "animate":
+            out.append(workers[turn % len(workers)])
+            turn += 1
+            continue
+        out.append(workers[min(len(workers) - 1, int(before * len(workers) / max(1, total)))])
         before += len(p)
     return out
 

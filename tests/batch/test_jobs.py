@@ -152,3 +152,16 @@ def test_parsing_the_command_loads_no_dask():
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed', 'tqdm', 'moderngl')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_chunks_keep_a_scene_together_and_animations_alone_first():
+    from puppet.batch.runner import chunks, homes
+
+    jobs = [{"id": i, "scene": s, "kind": k} for i, (s, k) in enumerate(
+        [("a", "pose")] * 10 + [("b", "pose")] * 6 + [("a", "animate"), ("b", "animate")])]
+    pieces = chunks(jobs, 2)  # 18 jobs, 2 workers: chunks of ceil(18 / 8) = 3
+    assert [[j["id"] for j in p] for p in pieces] == [[16], [17], [0, 1, 2], [3, 4, 5], [6, 7, 8], [9],
+                                                      [10, 11, 12], [13, 14, 15]]
+    assert homes(pieces, ["w1", "w2"]) == ["w1", "w2", "w1", "w1", "w1", "w2", "w2", "w2"]
+    assert homes(pieces, ["w1"]) == [None] * len(pieces)
+    assert sum(len(p) for p in chunks(jobs, 1)) == len(jobs)
