@@ -41,9 +41,12 @@ def mask_of(doc: dict) -> np.ndarray:
 
 
 def assert_on_mask(doc: dict) -> None:
+    """Every interior pin on a mask pixel (exterior pins may lie outside)."""
     mask = mask_of(doc)
+    interior = {p["name"] for p in doc["pins"] if p.get("kind", "interior") == "interior"}
     for name, (x, y) in pins_of(doc).items():
-        assert mask[int(np.floor(y)), int(np.floor(x))], f"{name} at {(x, y)} is off the mask"
+        if name in interior:
+            assert mask[int(np.floor(y)), int(np.floor(x))], f"{name} at {(x, y)} is off the mask"
 
 
 def test_similarity_copy_gets_the_transformed_pins_and_poses(tshirt, pictures):
@@ -71,6 +74,24 @@ def test_similarity_copy_gets_the_transformed_pins_and_poses(tshirt, pictures):
     L = r.scene["layers"][0]
     assert L == {"name": "shirt", "image": os.path.abspath(path), "mask": "alpha", "mesh": {"max_area": 60}}
     assert r.scene["animation"] == data.raw["animation"]
+
+
+def test_the_dress_template_takes_its_layer_from_source(pictures):
+    """The bundled dress template: layer pixels from ``source``, default mask, exterior pins."""
+    tpl = os.path.join(G.ROOT, "assets", "scenes", "dress-garment.json")
+    path = pictures["dir"] / "dress.png"
+    a, b = G.similar_copy(G.DRESS, path, scale=0.7, angle=-15.0, shift=(40, 80), size=(460, 460))
+    doc = transfer(tpl, str(path))
+    assert "source" not in doc and doc["layers"][0] == {"name": "dress", "image": str(path), "mesh": {"max_area": 40}}
+    data = load_scene_data(tpl)
+    got = pins_of(doc)
+    assert len(got) == len(data.pins) == 12
+    for p in data.pins:  # exterior pins (outside the mask) included
+        z = a * complex(*p.at) + b
+        assert np.hypot(*(got[p.name] - [z.real, z.imag])) < 2.0, p.name
+    assert_on_mask(doc)
+    with pytest.raises(NoMatch):
+        transfer(tpl, G.TSHIRT)
 
 
 def test_a_reproportioned_tshirt_gets_corresponding_pins(tshirt, pictures):
