@@ -13,8 +13,6 @@
 """
 from __future__ import annotations
 
-import time as _time
-
 from puppet.app import timeline as tl
 from puppet.app.record import Recording
 from puppet.app.tools import _delta, _moved, pose_tool
@@ -68,8 +66,9 @@ def key_drag_tool(app, press):
         app.timeline.selected = [t]
 
 
-def record_tool(app, press, clock=_time.monotonic):
+def record_tool(app, press):
     timeline = app.timeline
+    clock = timeline.clock
     start = _grab(app, press)
     if start is None:
         app.say("Record is on: drag a pin to record its motion from the playhead", "error")

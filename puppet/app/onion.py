@@ -18,8 +18,9 @@ import numpy as np
 
 from puppet.render.layers import DrawLayer
 
-#: solved frames kept per scene state (LayerResults are a few arrays per layer)
-FRAME_CACHE = 512
+#: solved frames kept per scene state (LayerResults are a few arrays per layer: ~0.25 MB
+#: a frame for the T-rex's 9 800 vertices)
+FRAME_CACHE = 400
 #: default onion skin settings (the timeline panel edits a copy)
 DEFAULTS = {"mode": "keys", "count": 1, "opacity": 0.4, "before": (0.9, 0.15, 0.1), "after": (0.1, 0.75, 0.2),
             "fps": 24.0}
@@ -73,6 +74,35 @@ def layers_at(w, t: float):
     if len(frames) > FRAME_CACHE:
         frames.popitem(last=False)
     return layers
+
+
+def cached(w) -> int:
+    """How many frames of the scene as it is now are solved (any thread; a glance)."""
+    cache = getattr(w, "_frame_cache", None)
+    return len(cache[1]) if cache is not None and w.scene is not None and cache[0] is w.scene.data else 0
+
+
+def prefetch_job(times):
+    """A job solving the frames at ``times`` ahead of playback, one per run: it submits
+    itself again while some are missing, behind whatever the window posted meanwhile, so an
+    edit waits for at most one frame's solve. It stops when the scene changes (the
+    timeline asks again for the new state)."""
+    times = [round(float(t), 6) for t in times][:FRAME_CACHE]
+
+    def job(w):
+        s = w.scene
+        if s is None or s.data.animation is None:
+            return None
+        data = s.data
+        cache = getattr(w, "_frame_cache", None)
+        have = cache[1] if cache is not None and cache[0] is data else {}
+        todo = [t for t in times if t not in have]
+        if todo:
+            layers_at(w, todo[0])
+        if len(todo) > 1 and w.scene is s and s.data is data:
+            w.submit(job, key="prefetch", publish=False)
+        return None
+    return job
 
 
 def frame_of(w, anim: dict | None) -> tuple[float | None, tuple]:

@@ -20,6 +20,8 @@ EASES = ("linear", "smooth", "step", "bezier")
 #: a new bezier ease starts as CSS's "ease"
 DEFAULT_CURVE = (0.25, 0.1, 0.25, 1.0)
 EPS = 1e-6
+#: while recording, a pointer that has not moved for this long (s) is sampled where it rests
+REST_SAMPLE = 0.1
 
 
 def same(a: float, b: float) -> bool:
@@ -40,16 +42,19 @@ class Timeline:
         self.clipboard: list[dict] = []  # copied keys, times relative to the first
         self.record = False  # record mode armed: a pin drag records its motion
         self.speed = 1.0  # record speed: timeline seconds per second of dragging
-        self.tolerance = 2.0  # record smoothing, canvas pixels
+        self.tolerance = 3.0  # record smoothing, canvas pixels
         self.onion = dict(onion.DEFAULTS)
         self.onion_on = False
         self.focus = False  # the last click was in the timeline (Delete, Ctrl+C/V act on keys)
+        self.clock = _time.monotonic  # real time for playing and recording (tests replace it)
         self.recording: Recording | None = None  # the record gesture under way
         self.last_recording: Recording | None = None
         self._rec_pos: dict = {}
         self._rec_last = 0.0
         self._play = (0.0, 0.0)  # (real time, timeline time) when play started
         self._sent: tuple | None = None
+        self._fetched = None  # the animation whose frames were asked for in the background
+        self.prefetch = True  # solve the frames ahead of playing (tests that settle turn it off)
 
     def reset(self) -> None:
         """A new scene: playhead at 0, showing its active pose, nothing selected."""
@@ -112,7 +117,7 @@ class Timeline:
         if self.time >= self.duration() - EPS:
             self.time = min(float(self.keys()[0]["time"]), self.duration())
         self.playing, self.showing = True, True
-        self._play = (_time.monotonic(), self.time)
+        self._play = (self.clock(), self.time)
         self._push()
 
     def step_frame(self, n: int) -> None:
@@ -129,9 +134,11 @@ class Timeline:
 
     def tick(self, now: float | None = None) -> bool:
         """Advance playback and recording (once a frame); True while something moves."""
-        now = _time.monotonic() if now is None else now
+        now = self.clock() if now is None else now
         if self.recording is not None:
-            if now - self._rec_last >= 1 / 60 and self._rec_pos:
+            # a pointer at rest still records (it holds still); while it moves only its own
+            # events count: a sample of the last position at a later time would be a jerk
+            if now - self._rec_last >= REST_SAMPLE and self._rec_pos:
                 self._rec_last = now
                 self.recording.add(now, self._rec_pos)
             self.time = self.recording.time(now)
@@ -155,6 +162,7 @@ class Timeline:
     def _push(self) -> None:
         """Tell the scene thread what to show (time, onion skin) when that changed."""
         show = self.time if self.showing and self.app.mode == "pose" else None
+        self._prefetch(show)
         settings = dict(self.onion, fps=self.fps) if self.onion_on else None
         want = (show, None if settings is None else tuple(sorted(settings.items())))
         if want == self._sent:
@@ -164,6 +172,25 @@ class Timeline:
         def job(w):
             w.show_time, w.onion = show, settings
         self.app.worker.submit(job, key="timeline-time")
+
+    def frame_times(self) -> list[float]:
+        """Every frame of the animation, from the first key to the last."""
+        ks = self.keys()
+        if not ks:
+            return []
+        t0, t1, f = float(ks[0]["time"]), self.duration(), self.fps
+        return [round(t0 + i / f, 6) for i in range(int((t1 - t0) * f + 1e-6) + 1)]
+
+    def _prefetch(self, show) -> None:
+        """Solve the animation's frames in the background (once per scene state) while the
+        canvas shows the animation, so that playing does not wait for solves."""
+        anim = self.anim
+        if show is None or not anim or not self.prefetch or self._fetched == anim:
+            return
+        self._fetched = anim
+        times = self.frame_times()
+        k = min(range(len(times)), key=lambda i: abs(times[i] - show)) if times else 0
+        self.app.worker.submit(onion.prefetch_job(times[k:] + times[:k]), key="prefetch", publish=False)
 
     # -- keys -------------------------------------------------------------------------------
     def add_key(self) -> None:

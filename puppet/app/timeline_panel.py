@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
-from puppet.app import timeline as tl
+from puppet.app import onion, timeline as tl
 from puppet.app.overlay import col
 from puppet.app.record import SPEEDS
 from puppet.app.widgets import button, note, toggle
@@ -163,6 +163,12 @@ class TimelinePanel:
         imgui.text_disabled("(showing the animation)" if t.showing and self.app.mode == "pose" else
                             "(showing the pose)")
         keys = [k for k in t.keys() if any(tl.same(k["time"], s) for s in t.selected)]
+        n = len(t.frame_times())
+        if t.showing and t.prefetch and n:
+            done = min(onion.cached(self.app.worker), n)
+            if done < n:
+                imgui.same_line()
+                imgui.text_disabled(f" solving frames {done}/{n}")
         if t.recording is not None:
             imgui.same_line()
             imgui.text_colored(imgui.ImVec4(1, 0.3, 0.25, 1), "  REC")

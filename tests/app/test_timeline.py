@@ -186,18 +186,24 @@ def test_record_mode_keys_replay_the_dragged_path(bar_anim):
     d.click(*widget("Record"))
     assert tl.record
     tl.tolerance = 1.0
+    tl.clock = clock = Clock()
     scrub(d, 0.2)
     p = d.pin_screen("left")
-    # a curved path: the pin goes right and up, then down again
+    # a curved path: the pin goes right and up, then down again, 40 moves 1/20 s apart;
+    # it rests 0.3 s in the middle (sampled where it rests)
     p = (round(p[0]), round(p[1]))  # the pointer is on whole pixels
     path = [p] + [(p[0] + 4 * k, p[1] - round(25 * np.sin(k / 10))) for k in range(1, 40)]
     d.press(*path[0])
-    for q in path[1:]:
+    for k, q in enumerate(path[1:]):
+        clock.now += 0.05 if k != 20 else 0.3
+        if k == 20:
+            tl.tick()
         d.drag(*q)
     d.release(*path[-1])
     d.settle()
     rec = tl.last_recording
     assert rec is not None and rec.start == pytest.approx(0.2) and len(rec.times) >= 40
+    assert rec.times[-1] == pytest.approx(0.2 + 38 * 0.05 + 0.3)  # real time at 1x
     s = d.scene()
     i = [pin.name for pin in s.data.pins].index("left")
     keyed = [k["time"] for k in s.keys() if "left" in k.get("pins", {})]
@@ -216,6 +222,36 @@ def test_record_mode_keys_replay_the_dragged_path(bar_anim):
     d.key(key.Z, key.MOD_CTRL)
     d.settle()
     assert d.scene().keys() == before
+
+
+def test_record_speed_half_time(bar_anim):
+    """At 0.5x the playhead runs at half speed: 2 s of dragging make 1 s of keys."""
+    d = bar_anim
+    tl = d.app.timeline
+    tl.record, tl.speed, tl.clock = True, 0.5, Clock()
+    scrub(d, 0.0)
+    p = d.pin_screen("right")
+    p = (round(p[0]), round(p[1]))
+    d.press(*p)
+    for k in range(1, 21):
+        tl.clock.now += 0.1
+        d.drag(p[0] - 3 * k, p[1] + k)  # straight at constant speed: two keys
+    d.release()
+    d.settle()
+    keyed = [k for k in d.scene().keys() if "right" in k.get("pins", {})]
+    assert [k["time"] for k in keyed] == [0.0, 1.0]
+    np.testing.assert_allclose(keyed[1]["pins"]["right"], np.array(keyed[0]["pins"]["right"])
+                               + np.array([-60, 20]) / d.app.view.scale, atol=0.01)
+
+
+class Clock:
+    """A clock the test moves."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
 
 
 def _mask(rgba):
