@@ -57,7 +57,12 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
     # scheduler; an existing scheduler keeps its own distributed.scheduler.allowed-failures)
     settings = {"distributed.scheduler.allowed-failures": int(retries),
                 "distributed.worker.multiprocessing-method": "spawn",
-                "distributed.worker.daemon": False}
+                "distributed.worker.daemon": False,
+                # measured ~8 % slower solves with Dask's malloc trimming in the workers
+                # (MALLOC_TRIM_THRESHOLD_=65536); a worker holds a few scenes, not growing data
+                "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                # the statistical profiler samples the task thread every 10 ms: not needed here
+                "distributed.worker.profile.enabled": False}
     with dask.config.set(settings):
         if scheduler:
             try:
