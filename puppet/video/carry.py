@@ -30,12 +30,15 @@ class Carried:
         Weighted RMS residual (pixels) of the local similarity over its nearest matches.
     how : str
         ``"triangle"`` (eq. 19) or ``"local"`` (similarity of the nearest matches).
+    affine : (2, 3) float array
+        The map that carried it (``xy = affine @ [p, 1]``), for warping the point's neighbourhood.
     """
 
     xy: np.ndarray
     support: int
     resid: float
     how: str
+    affine: np.ndarray
 
 
 class PairMap:
@@ -59,14 +62,20 @@ class PairMap:
         self.dst = np.asarray(dst, np.float64)
         self.groups = np.asarray(groups)
         self.radius, self.k, self.h = float(radius), int(k), float(h)
-        self.tri = None
+        self.simplices = np.zeros((0, 3), int)
         if len(self.src) >= 3:
             from scipy.spatial import Delaunay, QhullError
 
             try:
-                self.tri = Delaunay(self.src)
+                self.simplices = Delaunay(self.src).simplices
             except (QhullError, ValueError):
-                self.tri = None
+                pass
+        # barycentric set-up of every triangle, vectorised (scipy's find_simplex builds its
+        # transforms through LAPACK, seconds under load)
+        t = self.src[self.simplices]  # (m, 3, 2)
+        self._e1, self._e2, self._o = t[:, 0] - t[:, 2], t[:, 1] - t[:, 2], t[:, 2]
+        det = self._e1[:, 0] * self._e2[:, 1] - self._e1[:, 1] * self._e2[:, 0]
+        self._det = np.where(np.abs(det) > 1e-12, det, np.nan)
 
     def __len__(self) -> int:
         return len(self.src)
@@ -91,20 +100,54 @@ class PairMap:
             c, mx, my = similarity_fit(self.src[mine], self.dst[mine], wm)
             pred = apply_similarity(c, mx, my, self.src[mine])
             resid = float(np.sqrt((wm / wm.sum()) @ ((pred - self.dst[mine]) ** 2).sum(axis=1)))
-            local = apply_similarity(c, mx, my, p[None])[0]
+            R = np.array([[c.real, -c.imag], [c.imag, c.real]])
         else:
             resid = 0.0
-            local = p + self.dst[mine[0]] - self.src[mine[0]]
-        if self.tri is not None:
-            s = int(self.tri.find_simplex(p))
-            if s >= 0:
-                v = self.tri.simplices[s]
-                if np.all(self.groups[v] == g):
-                    return Carried(self._barycentric(s, v, p), support, resid, "triangle")
-        return Carried(local, support, resid, "local")
+            R, mx, my = np.eye(2), self.src[mine[0]], self.dst[mine[0]]
+        local = np.hstack([R, (my - R @ mx)[:, None]])
+        s = self._find(p)
+        if s >= 0:
+            v = self.simplices[s]
+            if np.all(self.groups[v] == g):
+                A = _triangle_affine(self.src[v], self.dst[v])
+                if A is not None:
+                    return Carried(A @ np.append(p, 1.0), support, resid, "triangle", A)
+        return Carried(local @ np.append(p, 1.0), support, resid, "local", local)
 
-    def _barycentric(self, s: int, v: np.ndarray, p: np.ndarray) -> np.ndarray:
-        T = self.tri.transform[s]
-        b = T[:2] @ (p - T[2])
-        bary = np.array([b[0], b[1], 1.0 - b.sum()])
-        return bary @ self.dst[v]
+    def _find(self, p: np.ndarray, eps: float = 1e-9) -> int:
+        """Index of the triangle containing ``p`` (-1 outside the triangulation)."""
+        if not len(self.simplices):
+            return -1
+        d = p - self._o
+        b1 = (d[:, 0] * self._e2[:, 1] - d[:, 1] * self._e2[:, 0]) / self._det
+        b2 = (self._e1[:, 0] * d[:, 1] - self._e1[:, 1] * d[:, 0]) / self._det
+        inside = (b1 >= -eps) & (b2 >= -eps) & (b1 + b2 <= 1 + eps)
+        hits = np.flatnonzero(inside)
+        return int(hits[0]) if len(hits) else -1
+
+
+def _triangle_affine(T0: np.ndarray, T1: np.ndarray) -> np.ndarray | None:
+    """The affine map of triangle ``T0`` ((3, 2)) onto ``T1`` (eq. 17-18): ``[B | T*]`` (2, 3).
+
+    ``B = U V^-1`` with ``V = [T1 - T3, T2 - T3]`` of the source and ``U`` of the target (2x2
+    inverses written out: LAPACK calls on tiny matrices are slow when threads are contended).
+    ``None`` for a folded or strongly sheared map (mismatched vertices, not a moving part).
+    """
+    V = (T0[:2] - T0[2]).T
+    U = (T1[:2] - T1[2]).T
+    det = V[0, 0] * V[1, 1] - V[0, 1] * V[1, 0]
+    if abs(det) < 1e-9:
+        return None
+    Vinv = np.array([[V[1, 1], -V[0, 1]], [-V[1, 0], V[0, 0]]]) / det
+    B = U @ Vinv
+    a, b, c, d = B[0, 0], B[0, 1], B[1, 0], B[1, 1]
+    detB = a * d - b * c
+    if detB <= 0:
+        return None
+    # singular values of a 2x2 matrix: sqrt of (q +- sqrt(q^2 - detB^2)) with q = |B|_F^2 / 2
+    q = 0.5 * (a * a + b * b + c * c + d * d)
+    root = np.sqrt(max(q * q - detB * detB, 0.0))
+    s1, s2 = np.sqrt(q + root), np.sqrt(max(q - root, 0.0))
+    if s1 > 2.0 * s2:
+        return None
+    return np.hstack([B, (T1[2] - B @ T0[2])[:, None]])

@@ -124,10 +124,14 @@ class Tracker:
         SIFT contrast threshold.
     ratio : float
         Lowe's ratio test threshold.
+    patch : int, optional
+        Half size in pixels of the neighbourhood aligned by ECC (:mod:`puppet.video.refine`);
+        by default 3% of the frame diagonal (24 px at 640x480).
     """
 
     def __init__(self, first: np.ndarray, joints: dict[str, Point], *, mask: np.ndarray | None = None,
-                 min_matches: int = 8, detect_scale: float | None = None, contrast: float = 0.02, ratio: float = 0.8):
+                 min_matches: int = 8, detect_scale: float | None = None, contrast: float = 0.02, ratio: float = 0.8,
+                 patch: int | None = None):
         from puppet.video.features import Detector
 
         self.names = list(joints)
@@ -137,6 +141,7 @@ class Tracker:
             detect_scale = min(1.0, 240.0 / min(np.shape(first)[:2]))
         self._det = Detector(scale=detect_scale, contrast=contrast)
         self._dis = None
+        self.patch = int(patch) if patch else max(8, int(round(0.03 * np.hypot(*np.shape(first)[:2]))))
         self._held = np.array([joints[n] for n in self.names], np.float64).reshape(-1, 2)
         self.reanchor(first, joints, mask)
 
@@ -161,6 +166,7 @@ class Tracker:
         self._ref = _Frame(self._det(gray, mask), gray, P)
         self._prev = self._ref
         self._held = P.copy()
+        self._aff = np.tile(np.hstack([np.eye(2), np.zeros((2, 1))]), (len(P), 1, 1))
 
     def step(self, frame: np.ndarray, *, mask: np.ndarray | None = None) -> TrackStep:
         """Track the joints onto the next frame ((H, W, 3) uint8, same size as the first)."""
@@ -173,27 +179,65 @@ class Tracker:
             return self._lost(f"too few matches ({best} < {self.min_matches})")
         new = np.empty_like(self._held)
         conf = np.empty(len(self.names))
+        affs = np.empty_like(self._aff)
         flow = None
         for j in range(len(self.names)):
             a = ref_map.carry(self._ref.joints[j]) if len(ref_map) >= self.min_matches else None
             b = prev_map.carry(self._prev.joints[j]) if len(prev_map) >= self.min_matches else None
-            pick = _choose(a, b)
+            if b is not None:  # its map from the reference frame, through the previous one
+                b.affine = _compose(b.affine, self._aff[j])
+            pick = self._best(j, a, b, gray)
             if pick is None:
                 if flow is None:
                     flow = self._flow(self._prev.gray, gray)
-                new[j] = self._prev.joints[j] + _sample(flow, self._prev.joints[j])
-                conf[j] = 0.25
+                d = _sample(flow, self._prev.joints[j])
+                new[j], conf[j] = self._prev.joints[j] + d, 0.25
+                affs[j] = self._aff[j] + np.hstack([np.zeros((2, 2)), d[:, None]])
             else:
-                new[j], conf[j] = pick
+                new[j], conf[j], affs[j] = pick
         w, h = self.size
         out = [n for n, p in zip(self.names, new) if not (-0.5 <= p[0] <= w - 0.5 and -0.5 <= p[1] <= h - 0.5)]
         self._prev = _Frame(cur, gray, new)
+        self._aff = affs
         if out:
             return self._lost(f"joint(s) left the frame: {', '.join(out)}")
         self._held = new.copy()
         return TrackStep(self._as_dict(new), {n: float(c) for n, c in zip(self.names, conf)})
 
     # -- helpers ------------------------------------------------------------------------------
+    def _best(self, j: int, a, b, gray: np.ndarray, *, good: float = 0.97):
+        """Refine the reference-frame estimate ``a`` and the previous-frame one ``b`` (Carried or
+        None) against the joint's neighbourhood on the reference frame.
+
+        ``a`` is tried first (no drift); ``b`` (which carries the joint's own turn from the
+        previous frame) too unless ``a`` aligned with correlation ``>= good``. With neither
+        aligned, a wider correlation search around them; failing that, the carried position.
+        Returns ``(xy, confidence, affine)`` or None when both are None.
+        """
+        from puppet.video.refine import refine
+
+        cands = [c for c in (a, b) if c is not None]
+        if not cands:
+            return None
+        best = None
+        for c in cands:
+            r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self.patch)
+            if r.ok and (best is None or r.rho > best.rho):
+                best = r
+            if best is not None and best.rho >= good:
+                break
+        if best is None:
+            for c in cands:
+                r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self.patch, wide=2 * self.patch)
+                if r.ok:
+                    best = r
+                    break
+        if best is not None:
+            return best.xy, 0.5 + 0.5 * float(np.clip((best.rho - 0.8) / 0.2, 0, 1)), best.affine
+        if a is not None:
+            return a.xy, 0.7 * _confidence(a), a.affine
+        return b.xy, 0.5 * _confidence(b), b.affine
+
     def _lost(self, reason: str) -> TrackStep:
         return TrackStep(self._as_dict(self._held), {n: 0.0 for n in self.names}, True, reason)
 
@@ -219,22 +263,9 @@ class Tracker:
         return self._dis.calc(g0, g1, None)
 
 
-def _choose(a, b, *, gate: float = 6.0, min_support: int = 3):
-    """Pick the reference-frame estimate ``a`` or the previous-frame one ``b`` (each Carried or None).
-
-    Returns ``(xy, confidence)`` or ``None`` when neither exists.
-    """
-    if a is None and b is None:
-        return None
-    if a is not None and b is not None:
-        d = float(np.hypot(*(a.xy - b.xy)))
-        if d <= gate or a.support >= max(min_support, b.support):
-            agree = 1.0 if d <= gate else 0.5
-            return a.xy, _confidence(a) * agree
-        return b.xy, _confidence(b) * 0.5
-    if a is not None:
-        return a.xy, _confidence(a)
-    return b.xy, _confidence(b) * 0.8
+def _compose(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A o B`` for (2, 3) affine maps."""
+    return np.hstack([A[:, :2] @ B[:, :2], (A[:, :2] @ B[:, 2] + A[:, 2])[:, None]])
 
 
 def _confidence(c) -> float:

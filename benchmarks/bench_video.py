@@ -1,0 +1,101 @@
+"""Video tracking on puppet-rendered ground-truth clips (issue 13 part 6).
+
+Per clip: TAP-Vid style fraction of visible joints within 1, 2, 4, 8, 16 px of the truth and
+their average (delta_avg), median error (visible joints), worst joint's median, lost frames, and
+the tracker's frames per second (``Tracker.step`` only, wall clock; clip generation is cached) and
+its CPU milliseconds per frame (all threads: a steadier number on a shared machine).
+Targets: delta_avg >= 0.85, median <= 2 px over 100 frames at 640x480, tracker >= 20 fps.
+
+    .venv/bin/python benchmarks/bench_video.py [--frames 100] [--size 640x480] [--masks] [--clips trex,character]
+
+One function per measurement: ``measure_tracker`` here; end-to-end fps lives beside it.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+THRESHOLDS = (1, 2, 4, 8, 16)
+
+
+def tap_scores(pred: np.ndarray, truth: np.ndarray, visible: np.ndarray) -> dict:
+    """TAP-Vid position accuracy.
+
+    Parameters
+    ----------
+    pred, truth : (n, k, 2) float arrays
+        Predicted and true positions of ``k`` joints on ``n`` frames (frame 0, the query, excluded
+        by the caller).
+    visible : (n, k) bool array
+
+    Returns
+    -------
+    dict with ``within`` {threshold: fraction}, ``delta_avg``, ``median``, ``worst_median``.
+    """
+    err = np.linalg.norm(pred - truth, axis=2)
+    err = np.where(np.isnan(err), np.inf, err)
+    ev = err[visible]
+    within = {t: float(np.mean(ev < t)) for t in THRESHOLDS}
+    per_joint = [np.median(err[:, j][visible[:, j]]) for j in range(err.shape[1]) if visible[:, j].any()]
+    return {"within": within, "delta_avg": float(np.mean(list(within.values()))),
+            "median": float(np.median(ev)), "worst_median": float(max(per_joint))}
+
+
+def measure_tracker(clip, *, masks: bool = False, **options) -> dict:
+    """Track ``clip``'s joints from its first frame; accuracy and tracker frames per second."""
+    from puppet.video.track import Tracker
+
+    names = list(clip.joints)
+    first = {k: tuple(clip.joints[k][0]) for k in names}
+    m = clip.masks if masks else [None] * len(clip.frames)
+    import scipy.spatial  # noqa: F401  (imports outside the timing)
+
+    tk = Tracker(clip.frames[0], first, mask=m[0], **options)
+    pred = [np.array([first[k] for k in names])]
+    lost = 0
+    t0, c0 = time.perf_counter(), time.process_time()
+    for i in range(1, len(clip.frames)):
+        st = tk.step(clip.frames[i], mask=m[i])
+        lost += st.lost
+        pred.append(np.array([st.joints[k] for k in names]))
+    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+    truth = np.stack([clip.joints[k] for k in names], 1)
+    vis = np.stack([clip.visible[k] for k in names], 1)
+    out = tap_scores(np.array(pred)[1:], truth[1:], vis[1:])
+    out.update(fps=(len(clip.frames) - 1) / dt, cpu_ms=1e3 * cpu / (len(clip.frames) - 1), lost=lost)
+    return out
+
+
+def tracker_table(clips: list[str], *, n: int, size: tuple[int, int], masks: bool) -> None:
+    from puppet.video.clips import load_clip
+
+    print(f"tracker on ground-truth clips: {n} frames at {size[0]}x{size[1]}, masks={'on' if masks else 'off'}; "
+          f"load {os.getloadavg()[0]:.2f}")
+    head = " ".join(f"<{t:<2d}px" for t in THRESHOLDS)
+    print(f"{'clip':10s} {head} {'d_avg':>6s} {'median':>7s} {'worst':>6s} {'lost':>5s} {'fps':>6s} {'cpu ms':>7s}")
+    for name in clips:
+        clip = load_clip(name, n=n, size=size)
+        r = measure_tracker(clip, masks=masks)
+        cells = " ".join(f"{r['within'][t]:5.3f}" for t in THRESHOLDS)
+        print(f"{name:10s} {cells} {r['delta_avg']:6.3f} {r['median']:7.2f} {r['worst_median']:6.2f} "
+              f"{r['lost']:5d} {r['fps']:6.1f} {r['cpu_ms']:7.1f}")
+
+
+def main() -> None:
+    from puppet.video.clips import clip_names
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=100)
+    ap.add_argument("--size", default="640x480")
+    ap.add_argument("--masks", action="store_true", help="give the tracker each frame's foreground mask")
+    ap.add_argument("--clips", default=",".join(clip_names()))
+    a = ap.parse_args()
+    size = tuple(int(v) for v in a.size.split("x"))
+    tracker_table(a.clips.split(","), n=a.frames, size=size, masks=a.masks)
+
+
+if __name__ == "__main__":
+    main()
