@@ -5,11 +5,11 @@ Each triangle's deformation gradient J (rest -> key) is split by a polar decompo
 into a rotation by angle theta and a symmetric stretch S. Between key A and key B at
 fraction u the wanted gradient is ``R((1-u) theta_A + u theta_B) ((1-u) S_A + u S_B)``:
 rotation and stretch are interpolated separately, so a limb swinging 180 degrees turns
-instead of shrinking through its joint as straight-line vertex paths do. The angle
-difference theta_B - theta_A of each triangle is unwrapped over the mesh (a spanning
-tree of the triangle adjacency grown from the least-rotated triangle, along the
-smallest jumps), so neighbours turn the same way round; it depends only on the two key
-meshes (trajectory invariance: no frame depends on the frame before it).
+instead of shrinking through its joint as straight-line vertex paths do. Each triangle
+turns the short way unless that is nearly half a turn; then it turns the way its
+neighbours do (a spanning tree of the triangle adjacency along the smallest jumps), so a
+limb turned 180 degrees turns all one way round. Both depend only on the two key meshes
+(trajectory invariance: no frame depends on the frame before it).
 
 The vertices are then the least-squares fit of those gradients (a Poisson solve with the
 cotangent Laplacian, factorised once per mesh and fixed set): vertices in ``fixed``
@@ -81,14 +81,23 @@ def triangle_adjacency(F: np.ndarray) -> np.ndarray:
     return np.stack([tri[:-1][same], tri[1:][same]], axis=1)
 
 
-def unwrap_angles(F: np.ndarray, delta: np.ndarray) -> np.ndarray:
-    """Per-triangle rotation angles ``delta`` (m,) shifted by multiples of 2 pi so that
-    they vary continuously over the mesh.
+#: A triangle turning more than this (radians) between two keys is "nearly half a turn":
+#: which way round it went is taken from its neighbours, not from the short way.
+HALF_TURN = np.radians(150.0)
 
-    In each connected part the triangle that turns least (|delta| wrapped) keeps its
-    wrapped value; the others follow a minimum spanning tree of the triangle adjacency
-    weighted by the wrapped jump between neighbours, each taking the value nearest its
-    parent's. Deterministic: depends only on ``F`` and ``delta``.
+
+def unwrap_angles(F: np.ndarray, delta: np.ndarray, *, half_turn: float = HALF_TURN) -> np.ndarray:
+    """Per-triangle rotation angles between two keys, ``delta`` (m,) modulo 2 pi, made
+    into the turns the in-between takes.
+
+    Each triangle turns the short way (|angle| <= pi) unless that is nearly half a turn
+    (more than ``half_turn``): such a triangle takes the value nearest its parent's in a
+    minimum spanning tree of the triangle adjacency, weighted by the wrapped jump between
+    neighbours and grown in each connected part from the triangle that turns least. So a
+    limb turned 180 degrees turns the same way round all along (the way the joint's
+    triangles show), while a part that turned less than ``half_turn`` turns the short
+    way even where a twisted joint would wind it round the long way. Deterministic:
+    depends only on ``F`` and ``delta``.
     """
     from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 
@@ -108,9 +117,9 @@ def unwrap_angles(F: np.ndarray, delta: np.ndarray) -> np.ndarray:
         root = int(members[np.argmin(np.abs(d[members]))])
         order, pred = breadth_first_order(T, root, directed=False, return_predecessors=True)
         parent[order[1:]] = pred[order[1:]]
-    # k_j = k_parent - round((d_j - d_parent) / 2 pi), summed root-down by pointer jumping
+    parent[np.abs(d) <= half_turn] = np.flatnonzero(np.abs(d) <= half_turn)  # short way: own root
+    # k_j = k_parent - round((d_j - d_parent) / 2 pi), summed down from each root by pointer jumping
     k = -np.rint((d - d[parent]) / (2 * np.pi)).astype(np.int64)
-    k[parent == np.arange(m)] = 0
     p = parent.copy()
     while np.any(p != p[p]):
         k = k + k[p]

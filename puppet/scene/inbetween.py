@@ -5,7 +5,8 @@
 like a pose. ``rigid``: the meshes solved at the two key times around t (each exactly as
 that pose would be) are interpolated as rigidly as possible
 (:mod:`puppet.deform.interp`) with the later key's ease; pins that stay put between the
-two keys are held, the others move with the shape. At key times both modes give the key's
+two keys are held, the others move with the shape; triangles the least-squares fit
+leaves folded are relaxed as in a solved pose (``deformer.relax_foldovers``). At key times both modes give the key's
 solved mesh exactly. The pin depth follows its track in both modes.
 """
 from __future__ import annotations
@@ -15,6 +16,7 @@ import numpy as np
 from puppet.deform.boundary import exterior_positions
 from puppet.deform.depth import depth_field
 from puppet.deform.interp import interp_pair, interp_precompute, interp_solve
+from puppet.deform.relax import relax_foldovers
 from puppet.scene.cache import fingerprint
 from puppet.scene.rig import Built, LayerResult, Rig
 from puppet.scene.timeline import key_span
@@ -57,7 +59,7 @@ def rigid_group(rig: Rig, built: Built, gi: int, UA: np.ndarray, UB: np.ndarray,
                 depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(U, depth, exterior positions) of group ``gi`` between key meshes ``UA`` and ``UB``
     (n, 2) at eased fraction ``u``; ``depth`` (k,) are the scene pins' depths now."""
-    g, ge = built.groups[gi], built.exterior[gi]
+    g, pre, ge = built.groups[gi], built.pre[gi], built.exterior[gi]
     if np.array_equal(UA, UB):
         U = UA
     else:
@@ -67,6 +69,8 @@ def rigid_group(rig: Rig, built: Built, gi: int, UA: np.ndarray, UB: np.ndarray,
                             lambda: interp_precompute(g.mesh.V, g.mesh.F, fixed))
         pair = rig.memo.get("keypair", fingerprint(built.pre_keys[gi], UA, UB), lambda: interp_pair(data, UA, UB))
         U = interp_solve(data, pair, u, anchors=g.b)
+        if built.data.deformer.relax_foldovers and pre.arap is not None and len(g.b):
+            U = relax_foldovers(pre.arap, U, U[g.b])  # as solved poses are relaxed
     d = _depth(built, gi, depth, U)
     ext = exterior_positions(U, ge.frame) if ge.frame is not None else np.zeros((0, 2))
     return U, d, ext

@@ -128,9 +128,11 @@ class KeyEdits:
         return self._edit(Event("animation", "", "none", f"ease of key at {float(time):g} s"), m)
 
     def _set_anim(self, field: str, value, label: str) -> bool:
+        """Set an animation-wide field; the value it has now (its default included) is no change."""
         def m(doc):
             self._keys_of(doc)
-            doc["animation"][field] = value
+            if getattr(self.data.animation, field) != value:
+                doc["animation"][field] = value
         return self._edit(Event("animation", "", "none", label), m)
 
     def set_fps(self, fps: float) -> bool:
