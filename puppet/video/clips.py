@@ -152,7 +152,8 @@ def global_motion(name: str, t: float, size: tuple[int, int]) -> np.ndarray:
     angle = spec["turn"] * _wave(t, 1)
     scale = 1.0 + spec["zoom"] * _wave(t, 0.7, 0.1)
     M = cv2.getRotationMatrix2D(((W - 1) / 2, (H - 1) / 2), float(angle), float(scale))
-    M[:, 2] += (spec["shift"][0] * _wave(t, 0.5), spec["shift"][1] * _wave(t, 1.3, 0.2))
+    # shifts are given for 640x480 and scale with the frame
+    M[:, 2] += (spec["shift"][0] * W / 640 * _wave(t, 0.5), spec["shift"][1] * H / 480 * _wave(t, 1.3, 0.2))
     return M
 
 

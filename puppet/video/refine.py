@@ -38,6 +38,32 @@ class Refined:
     ok: bool
 
 
+def patch_radius(gray: np.ndarray, xy, radii, *, min_eig: float = 1500.0) -> int:
+    """The smallest radius of ``radii`` whose neighbourhood of ``xy`` on ``gray`` pins a shift down.
+
+    The smaller eigenvalue of the structure tensor (sum of gradient outer products, Sobel / 8)
+    must reach ``min_eig``: edges in two directions. A small neighbourhood keeps the alignment
+    local (limbs bend around a joint); a flat one has to reach out to the nearest outlines.
+    The largest radius when none does.
+    """
+    x, y = int(round(xy[0])), int(round(xy[1]))
+    big = int(max(radii)) + 1
+    h, w = gray.shape
+    x0, y0 = max(x - big, 0), max(y - big, 0)
+    g = gray[y0:min(y + big + 1, h), x0:min(x + big + 1, w)].astype(np.float32)
+    if g.size == 0:
+        return int(max(radii))
+    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / 8
+    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / 8
+    cx, cy = x - x0, y - y0
+    for r in sorted(radii):
+        sl = (slice(max(cy - r, 0), cy + r + 1), slice(max(cx - r, 0), cx + r + 1))
+        a, b, c = float((gx[sl] ** 2).sum()), float((gx[sl] * gy[sl]).sum()), float((gy[sl] ** 2).sum())
+        if 0.5 * (a + c) - np.sqrt(0.25 * (a - c) ** 2 + b * b) >= min_eig:
+            return int(r)
+    return int(max(radii))
+
+
 _CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 25, 1e-4)
 
 
@@ -78,6 +104,9 @@ def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarra
         return fail
     win = cur_gray[y0:y1, x0:x1]
     start = (px - x0, py - y0)
+    here = win[start[1]:start[1] + n, start[0]:start[0] + n]
+    if here.shape == tmpl.shape and np.array_equal(here, tmpl):
+        return Refined(pred, 1.0, affine, True)  # already in place (ECC's smoothing would nudge it)
     rho, warp = _ecc(tmpl, win, start, motion)
     u = pred - (px, py)
     xy = warp[:, :2].astype(np.float64) @ u + warp[:, 2] + (x0, y0)

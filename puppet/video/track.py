@@ -126,7 +126,8 @@ class Tracker:
         Lowe's ratio test threshold.
     patch : int, optional
         Half size in pixels of the neighbourhood aligned by ECC (:mod:`puppet.video.refine`);
-        by default 3% of the frame diagonal (24 px at 640x480).
+        by default chosen per joint on the reference frame: the smallest of 12, 16, 24, 32, 48 px
+        (at 640x480; in proportion to the frame diagonal) with edges in two directions.
     """
 
     def __init__(self, first: np.ndarray, joints: dict[str, Point], *, mask: np.ndarray | None = None,
@@ -141,7 +142,7 @@ class Tracker:
             detect_scale = min(1.0, 240.0 / min(np.shape(first)[:2]))
         self._det = Detector(scale=detect_scale, contrast=contrast)
         self._dis = None
-        self.patch = int(patch) if patch else max(8, int(round(0.03 * np.hypot(*np.shape(first)[:2]))))
+        self.patch = int(patch) if patch else None
         self._held = np.array([joints[n] for n in self.names], np.float64).reshape(-1, 2)
         self.reanchor(first, joints, mask)
 
@@ -164,6 +165,7 @@ class Tracker:
         gray = _gray(frame)
         self.size = (gray.shape[1], gray.shape[0])
         self._ref = _Frame(self._det(gray, mask), gray, P)
+        self._radii = np.array([self._radius(gray, p) for p in P], int)
         self._prev = self._ref
         self._held = P.copy()
         self._aff = np.tile(np.hstack([np.eye(2), np.zeros((2, 1))]), (len(P), 1, 1))
@@ -205,12 +207,16 @@ class Tracker:
         return TrackStep(self._as_dict(new), {n: float(c) for n, c in zip(self.names, conf)})
 
     # -- helpers ------------------------------------------------------------------------------
-    def _best(self, j: int, a, b, gray: np.ndarray, *, good: float = 0.97):
+    def _best(self, j: int, a, b, gray: np.ndarray, *, good: float = 0.97, gate: float = 4.0,
+              tie: float = 0.01):
         """Refine the reference-frame estimate ``a`` and the previous-frame one ``b`` (Carried or
         None) against the joint's neighbourhood on the reference frame.
 
-        ``a`` is tried first (no drift); ``b`` (which carries the joint's own turn from the
-        previous frame) too unless ``a`` aligned with correlation ``>= good``. With neither
+        When they agree (within ``gate`` pixels) ``a`` is tried first (no drift), and ``b``
+        (which carries the joint's own turn from the previous frame) too unless ``a`` aligned
+        with correlation ``>= good``; when they disagree, both, and ``a`` replaces ``b`` only
+        with a correlation higher by ``tie`` (continuity: a look-alike part elsewhere can align
+        well too). With neither
         aligned, a wider correlation search around them; failing that, the carried position.
         Returns ``(xy, confidence, affine)`` or None when both are None.
         """
@@ -219,16 +225,19 @@ class Tracker:
         cands = [c for c in (a, b) if c is not None]
         if not cands:
             return None
+        if len(cands) == 2:
+            far = np.hypot(*(a.xy - b.xy)) > gate
+            cands = [b, a] if far else [a, b]
         best = None
         for c in cands:
-            r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self.patch)
-            if r.ok and (best is None or r.rho > best.rho):
+            r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self._radii[j])
+            if r.ok and (best is None or r.rho > best.rho + tie):
                 best = r
-            if best is not None and best.rho >= good:
+            if best is not None and best.rho >= good and not (len(cands) == 2 and far):
                 break
         if best is None:
             for c in cands:
-                r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self.patch, wide=2 * self.patch)
+                r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self._radii[j], wide=2 * self._radii[j])
                 if r.ok:
                     best = r
                     break
@@ -237,6 +246,14 @@ class Tracker:
         if a is not None:
             return a.xy, 0.7 * _confidence(a), a.affine
         return b.xy, 0.5 * _confidence(b), b.affine
+
+    def _radius(self, gray: np.ndarray, p: np.ndarray) -> int:
+        from puppet.video.refine import patch_radius
+
+        if self.patch:
+            return self.patch
+        f = float(np.hypot(*gray.shape)) / 800.0
+        return patch_radius(gray, p, sorted({max(10, int(round(f * r))) for r in (12, 16, 24, 32, 48)}))
 
     def _lost(self, reason: str) -> TrackStep:
         return TrackStep(self._as_dict(self._held), {n: 0.0 for n in self.names}, True, reason)
