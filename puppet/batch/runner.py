@@ -207,7 +207,7 @@ class Batch:
         for j in self.jobs:
             r = self.records.get(j["id"], {"status": "not-run", "error": None})
             jobs.append({**describe(j), "status": r["status"], "error": r.get("error"),
-                         "seconds": r.get("seconds")})
+                         "seconds": r.get("seconds"), "worker": r.get("worker")})
         report = {"puppet_batch_report": 1, "started": self.started, "finished": now(),
                   "seconds": round(seconds, 3), "cluster": self.cluster, "interrupted": self.interrupted,
                   "counts": counts, "jobs": jobs}

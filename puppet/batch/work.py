@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import os
+import socket
 import threading
 import time
 from collections import OrderedDict
@@ -28,6 +29,7 @@ from puppet.errors import SceneError
 #: Scenes kept loaded per worker (each holds its images, meshes and factorisations).
 SCENE_CACHE = 4
 
+_WHO = f"{socket.gethostname()}:{os.getpid()}"  # the worker process, as reports name it
 _compositors: dict[int, object] = {}  # thread id -> compositor (a GL context is current in one thread)
 _scenes: OrderedDict[str, tuple[str, list, object]] = OrderedDict()  # path -> (files hash, inputs, scene)
 
@@ -187,10 +189,10 @@ def run_job(job: dict) -> dict:
     """Render one job and write its output (atomically); returns its record::
 
         {"id": 0, "status": "done" | "failed" | "no-match", "error": None | "one line",
-         "inputs": HASH | None, "seconds": 0.12, "worker": PID}
+         "inputs": HASH | None, "seconds": 0.12, "worker": "HOST:PID"}
     """
     t0 = time.perf_counter()
-    rec = {"id": job["id"], "status": "done", "error": None, "inputs": None, "seconds": 0.0, "worker": os.getpid()}
+    rec = {"id": job["id"], "status": "done", "error": None, "inputs": None, "seconds": 0.0, "worker": _WHO}
     try:
         with budget(job.get("budget"), "loading the scene"):
             if job["kind"] == "template":
