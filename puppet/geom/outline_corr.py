@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from puppet.geom.curvature import contour_curvature, curvature_maxima, resample_closed
-from puppet.geom.outline_match import Similarity, alignment_candidates, oriented, ring_centroid, similarity_fit
+from puppet.geom.outline_match import (Similarity, alignment_candidates, oriented, ring_centroid, similarity_fit,
+                                       symmetric_mean_distance)
 
 __all__ = ["smooth_ring", "match_landmarks", "LandmarkRing", "Correspondence", "outline_correspondence",
            "correspondence_distance", "OutlineMatch", "match_outlines"]
@@ -240,7 +241,9 @@ def match_outlines(P, Q, *, keep: int = 6, samples: int = 1024, beta: float = 4.
     """Align ``P`` onto ``Q``, correspond them and score the match.
 
     The ``keep`` best alignments (:func:`puppet.geom.outline_match.alignment_candidates`)
-    are each corresponded; the one with the lowest :func:`correspondence_distance` wins.
+    are each corresponded, then re-fitted to their correspondence (a least-squares
+    similarity) and corresponded again, up to ``refine`` times while the score improves;
+    the lowest :func:`correspondence_distance` wins.
 
     Parameters
     ----------
@@ -249,14 +252,18 @@ def match_outlines(P, Q, *, keep: int = 6, samples: int = 1024, beta: float = 4.
     """
     p = P if isinstance(P, LandmarkRing) else LandmarkRing.of(P, samples=samples, beta=beta)
     q = Q if isinstance(Q, LandmarkRing) else LandmarkRing.of(Q, samples=samples, beta=beta)
-    best = None
-    for dist, S in alignment_candidates(p.R, q.R, keep=keep):
-        for _ in range(refine + 1):
+    best: tuple[float, Similarity, Correspondence] | None = None
+    for _, S in alignment_candidates(p.R, q.R, keep=keep):
+        last = np.inf
+        for _ in range(refine + 1):  # re-fit to the correspondence while that helps
             corr = outline_correspondence(p, q, S, gate=gate)
             score = correspondence_distance(corr, S)
-            if best is None or score < best.score:
-                best = OutlineMatch(S, corr, score, float(dist / np.sqrt(q.area)))
-            elif best.correspondence is not corr:
+            if not score < last:
                 break
-            S = similarity_fit(p.R, corr.corresponding_ring())  # fit to the correspondence
-    return best
+            last = score
+            if best is None or score < best[0]:
+                best = (score, S, corr)
+            S = similarity_fit(p.R, corr.corresponding_ring())
+    score, S, corr = best
+    distance = symmetric_mean_distance(S.apply(p.R), q.R, step=np.sqrt(q.area) / 400.0) / np.sqrt(q.area)
+    return OutlineMatch(S, corr, float(score), float(distance))
