@@ -124,6 +124,9 @@ class Tracker:
         SIFT contrast threshold.
     ratio : float
         Lowe's ratio test threshold.
+    align : bool
+        Align each carried joint on the picture (ECC, :mod:`puppet.video.refine`); ``False``
+        keeps the key-point carrying alone (the paper's method, for comparison).
     patch : int, optional
         Half size in pixels of the neighbourhood aligned by ECC (:mod:`puppet.video.refine`);
         by default chosen per joint on the reference frame: the smallest of 12, 16, 24, 32, 48 px
@@ -132,7 +135,7 @@ class Tracker:
 
     def __init__(self, first: np.ndarray, joints: dict[str, Point], *, mask: np.ndarray | None = None,
                  min_matches: int = 8, detect_scale: float | None = None, contrast: float = 0.02, ratio: float = 0.8,
-                 patch: int | None = None):
+                 align: bool = True, patch: int | None = None):
         from puppet.video.features import Detector
 
         self.names = list(joints)
@@ -143,6 +146,7 @@ class Tracker:
         self._det = Detector(scale=detect_scale, contrast=contrast)
         self._dis = None
         self.patch = int(patch) if patch else None
+        self.align = bool(align)
         self._held = np.array([joints[n] for n in self.names], np.float64).reshape(-1, 2)
         self.reanchor(first, joints, mask)
 
@@ -225,6 +229,9 @@ class Tracker:
         cands = [c for c in (a, b) if c is not None]
         if not cands:
             return None
+        if not self.align:
+            c = a if a is not None and (b is None or a.support >= 3) else b
+            return c.xy, _confidence(c), c.affine
         if len(cands) == 2:
             far = np.hypot(*(a.xy - b.xy)) > gate
             cands = [b, a] if far else [a, b]
