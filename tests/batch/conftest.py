@@ -11,7 +11,7 @@ import pytest
 from tests.conftest import SCENES, bar_image, bar_scene, write_rgba
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def client():
     """A client on an embedded LocalCluster of 2 spawned worker processes (one thread each)."""
     from puppet.batch.cluster import connect
