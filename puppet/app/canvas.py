@@ -138,6 +138,7 @@ class CanvasRenderer:
         self.composite_ms = 0.0
         self.composites = 0
         self.preview_pixels = PREVIEW_PIXELS
+        self.fast = False  # composite every snapshot like a drag preview (while playing)
         self.last_scale = 1.0
         self._depth_fbo = self._depth_rb = self._depth_tex = None
         self._edges: dict[int, tuple] = {}
@@ -257,13 +258,15 @@ class CanvasRenderer:
         :attr:`preview_pixels` is composited smaller and stretched (linear filtering); the
         exact pose on release is composited at full resolution again."""
         x0, y0, x1, y1 = rect
-        key = (snap.version, snap.file, view.scale, view.origin, rect, tuple(r.name for r, _ in shown), background)
+        fast = snap.preview or self.fast
+        key = (snap.version, snap.file, view.scale, view.origin, rect, tuple(r.name for r, _ in shown), background,
+               fast)
         if key == self._frame_key and self.frame_tex is not None:
             return self.frame_tex
         t = time.perf_counter()
         w, h = x1 - x0, y1 - y0
         f = 1.0
-        if snap.preview and w * h > self.preview_pixels:
+        if fast and w * h > self.preview_pixels:
             f = float(np.sqrt(self.preview_pixels / (w * h)))
         size = (max(1, int(round(w * f))), max(1, int(round(h * f))))
         fx, fy = size[0] / w, size[1] / h

@@ -11,7 +11,8 @@ from puppet.app.exporter import Export
 from puppet.app.widgets import button, note
 
 TITLE = "Export animation"
-FORMATS = ".mp4 (H.264), .webm (VP9 with alpha), .gif, .apng, .png (sprite sheet + .json atlas), folder/ (PNG frames)"
+FORMATS = ".mp4 (H.264), .webm (VP9, alpha), .gif, .apng, .png (sprite sheet + .json atlas), folder/ (PNG frames)"
+WIDTH = 440
 BACKGROUNDS = ("scene", "transparent")
 ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
 
@@ -69,42 +70,48 @@ def draw(app) -> None:
     busy = run.running
     imgui.begin_disabled(busy)
     imgui.text("Output file or folder/ (the extension picks the format):")
-    imgui.set_next_item_width(460)
+    imgui.set_next_item_width(WIDTH)
     _, f.path = imgui.input_text("##export-path", f.path)
     imgui.set_item_tooltip(FORMATS)
     note("export:path")
+    imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + WIDTH)
     imgui.text_disabled(FORMATS)
-    imgui.set_next_item_width(90)
-    _, f.fps = imgui.input_float("fps", f.fps, 0, 0, "%g")
+    imgui.pop_text_wrap_pos()
+    for label, attr, fmt, width in (("fps", "fps", "%g", 45), ("from", "start", "%.3g s", 55),
+                                    ("to", "end", "%.3g s", 55)):
+        imgui.align_text_to_frame_padding()
+        imgui.text(label)
+        imgui.same_line()
+        imgui.set_next_item_width(width)
+        _, v = imgui.input_float(f"##export-{attr}", float(getattr(f, attr)), 0, 0, fmt)
+        setattr(f, attr, v)
+        imgui.same_line()
+    imgui.text("background")
     imgui.same_line()
-    imgui.set_next_item_width(80)
-    _, f.start = imgui.input_float("from", f.start, 0, 0, "%g s")
-    imgui.same_line()
-    imgui.set_next_item_width(80)
-    _, f.end = imgui.input_float("to", f.end, 0, 0, "%g s")
-    imgui.same_line()
-    imgui.set_next_item_width(110)
-    _, f.background = imgui.combo("background", f.background, list(BACKGROUNDS))
+    imgui.set_next_item_width(imgui.get_content_region_avail().x)
+    _, f.background = imgui.combo("##export-background", f.background, list(BACKGROUNDS))
     imgui.set_item_tooltip("the scene's background, or transparent where the format allows (webm, apng, png, gif)")
     imgui.end_disabled()
     if run.state != "idle":
         frac = run.done / run.total if run.total else 0.0
-        imgui.progress_bar(frac, imgui.ImVec2(460, 0), f"{run.done} / {run.total}" if run.total else "starting...")
+        imgui.progress_bar(frac, imgui.ImVec2(WIDTH, 0), f"{run.done} / {run.total}" if run.total else "starting...")
         note("export:progress")
         if busy:
             imgui.text_disabled(run.eta() or "solving the first frames...")
         elif run.message:
+            imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + WIDTH)
             if run.state == "failed":
                 imgui.text_colored(ERROR, run.message)
             else:
-                imgui.text_wrapped(run.message)
+                imgui.text(run.message)
+            imgui.pop_text_wrap_pos()
     if not busy:
         if button("Export", "write the animation (the scene as it is now, unsaved edits too)",
                   enabled=bool(f.path.strip())):
             run.start(app, f.path.strip(), **f.options())
             app.say(f"exporting to {run.output}...")
         imgui.same_line()
-        if button("Close", "close this dialog (Esc)"):
+        if button("Close", "close this dialog (Esc)") or imgui.is_key_pressed(imgui.Key.escape):
             if run.message:
                 app.say(run.message, "error" if run.state == "failed" else "info")
             app.dialog = None

@@ -34,6 +34,8 @@ PANEL_WIDTH = 330
 BUSY_FPS = 15.0
 #: most frames a second for input alone (a new snapshot is drawn at once)
 MAX_FPS = 60.0
+#: frames a second that move the playhead while playing or recording (new frames: at once)
+PLAY_FPS = 30.0
 FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
          | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings
          | imgui.WindowFlags_.no_bring_to_front_on_focus)
@@ -215,6 +217,7 @@ class AppWindow:
         ctx.error  # a stale flag would make the next GL call fail
         ctx.screen.use()
         ctx.viewport = (0, 0, fb[0], fb[1])
+        self.canvas.fast = app.timeline.playing  # frames come and go: composite them smaller
         self.canvas.draw(app.snap, app.view, app.area, (w, h), hidden=app.hidden, depth_view=app.depth_view,
                          wireframe=app.show_mesh, fb_height=fb[1], tint=app.script.tint(app),
                          under=self._ghosts_under if app.snap.ghosts and app.timeline.onion_on else None)
@@ -354,7 +357,8 @@ class AppWindow:
         app = self.app
         new = app.worker.latest is not app.snap
         waiting = self._gesture is not None and not app.worker.idle()
-        if app.timeline.playing or app.timeline.recording is not None:
+        if (app.timeline.playing or app.timeline.recording is not None) and \
+                now - self._last_frame >= 1.0 / PLAY_FPS:
             touched = True  # the playhead moves
         if touched or new:
             self._settle = 3

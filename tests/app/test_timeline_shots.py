@@ -33,7 +33,7 @@ def test_onion_skin_and_a_recording_on_the_trex():
         # the onion skin between roar (0.5 s) and wave (1 s): the keys around, tinted
         tl.scrub(0.75)
         d.click(*widget("onion"))
-        d.settle()
+        d.settle(600)  # the T-rex's in-betweens take a while on a loaded machine
         assert sorted(round(g[1], 2) for g in app.snap.ghosts) == [1.0, 1.0]
         d.move(900, 300)
         d.frame(2)
@@ -43,7 +43,7 @@ def test_onion_skin_and_a_recording_on_the_trex():
         d.click(*widget("Record"))
         tl.speed = 0.5
         tl.scrub(0.25)
-        d.settle()
+        d.settle(600)
         a = d.pin_screen("hand_front")
         a = (round(a[0]), round(a[1]))
         d.press(*a)
@@ -52,7 +52,7 @@ def test_onion_skin_and_a_recording_on_the_trex():
             ang = k / 40 * np.pi
             d.drag(a[0] - round(60 * np.sin(ang)), a[1] - round(130 * (1 - np.cos(ang)) / 2))
         d.release()
-        d.settle()
+        d.settle(600)
         rec = tl.last_recording
         assert rec.times[-1] == pytest.approx(0.25 + 2.0 * 0.5)
         keyed = [k["time"] for k in d.scene().keys() if "hand_front" in k.get("pins", {})]
@@ -61,7 +61,7 @@ def test_onion_skin_and_a_recording_on_the_trex():
         tl.onion.update(mode="frames", count=3)
         tl.onion_on = True
         tl.scrub(0.75)
-        d.settle()
+        d.settle(600)
         assert len(app.snap.ghosts) == 6
         d.move(900, 300)
         d.frame(2)
