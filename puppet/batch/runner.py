@@ -107,6 +107,7 @@ class Batch:
 
     def __init__(self, jobs: list[dict], out_dir: str, *, resume: bool, progress: bool):
         self.jobs, self.out_dir = jobs, out_dir
+        self.by_id = {j["id"]: j for j in jobs}
         self.resume, self.show = resume, progress
         self.records: dict[int, dict] = {}
         self.manifest = Manifest(out_dir)
@@ -176,12 +177,10 @@ class Batch:
                         bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}, {rate_fmt}{postfix}]")
 
     def _take(self, recs: list[dict]) -> None:
-        by_id = {j["id"]: j for j in self.jobs} if not hasattr(self, "_by_id") else self._by_id
-        self._by_id = by_id
         for r in recs:
             self.records[r["id"]] = r
             if r["status"] == "done" and r.get("inputs"):
-                self.manifest.add(by_id[r["id"]]["rel"], r["inputs"])
+                self.manifest.add(self.by_id[r["id"]]["rel"], r["inputs"])
         if self.manifest.dirty and time.perf_counter() - self._saved > MANIFEST_EVERY:
             self.manifest.save()
             self._saved = time.perf_counter()

@@ -225,6 +225,12 @@ def run_chunk(jobs: list[dict]) -> list[dict]:
 
 
 def warm() -> int:
-    """Create the worker's GL context now (benchmarks: startup outside the timing); its pid."""
+    """Import what jobs use and create this thread's GL context now (benchmarks: the worker's
+    start-up outside the timing, like an in-process loop that has loaded puppet); its pid."""
+    import importlib
+
+    for m in ("puppet.api", "puppet.scene.document", "puppet.scene.solve", "puppet.scene.build",
+              "puppet.deform", "puppet.imaging.io", "puppet.output", "puppet.anim.export"):
+        importlib.import_module(m)
     compositor()
     return os.getpid()
