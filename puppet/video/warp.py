@@ -374,6 +374,6 @@ def composite(rgb: np.ndarray, background: np.ndarray, mask: np.ndarray, maps: W
     alpha = cv2.remap(sub_mask, mx - np.float32(bx), my - np.float32(by), cv2.INTER_LINEAR,
                       borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
     sub = out[y0:y1, x0:x1]
-    a = alpha[..., None]
-    sub[:] = np.clip(fg * a + sub * (1.0 - a) + 0.5, 0, 255).astype(np.uint8)
+    np.clip(alpha, 0.0, 1.0, out=alpha)
+    sub[:] = cv2.blendLinear(fg, np.ascontiguousarray(sub), alpha, 1.0 - alpha)  # rounds and saturates
     return out
