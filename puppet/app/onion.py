@@ -206,6 +206,15 @@ class GhostRenderer:
                 tex.release()
                 del self.textures[key]
 
+    def under(self, app):
+        """``canvas.draw``'s ``under``: the ghosts of ``app``'s snapshot with its settings."""
+        t = app.timeline
+
+        def draw(screen, view, rect):
+            self.draw(app.snap, view, rect, screen, hidden=app.hidden, opacity=float(t.onion["opacity"]),
+                      colours={"before": t.onion["before"], "after": t.onion["after"]})
+        return draw
+
     def release(self) -> None:
         for _, tex in self.textures.values():
             tex.release()

@@ -196,6 +196,9 @@ class Timeline:
     def add_key(self) -> None:
         """Key (K): store what the canvas shows at the playhead: the active pose (as a pose
         key) when it shows a pose, else every pin's target at that time (a pins key)."""
+        if self.app.mode != "pose":
+            self.app.say("keys are set in Pose mode (2): the canvas shows the rest pose in Pin mode", "error")
+            return
         t, showing = self.time, self.showing and self.anim is not None
 
         def fn(s):

@@ -43,6 +43,14 @@ class TimelinePanel:
     def tl(self) -> tl.Timeline:
         return self.app.timeline
 
+    def window(self, rect, flags) -> None:
+        """The panel in its own fixed window at ``rect`` (x, y, w, h)."""
+        imgui.set_next_window_pos(imgui.ImVec2(rect[0], rect[1]))
+        imgui.set_next_window_size(imgui.ImVec2(rect[2], rect[3]))
+        imgui.begin("##timeline", None, flags | imgui.WindowFlags_.no_scrollbar)
+        self.draw()
+        imgui.end()
+
     def draw(self) -> None:
         if not self.app.snap.loaded:
             return

@@ -198,11 +198,7 @@ class AppWindow:
         app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
         cursor = self._canvas_window()
         if tl_h:
-            imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h - tl_h))
-            imgui.set_next_window_size(imgui.ImVec2(w - PANEL_WIDTH, tl_h))
-            imgui.begin("##timeline", None, FIXED | imgui.WindowFlags_.no_scrollbar)
-            self.timeline_panel.draw()
-            imgui.end()
+            self.timeline_panel.window((0, h - status_h - tl_h, w - PANEL_WIDTH, tl_h), FIXED)
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
         imgui.set_next_window_size(imgui.ImVec2(w, status_h))
         imgui.begin("##status", None, FIXED)
@@ -220,7 +216,7 @@ class AppWindow:
         self.canvas.fast = app.timeline.playing  # frames come and go: composite them smaller
         self.canvas.draw(app.snap, app.view, app.area, (w, h), hidden=app.hidden, depth_view=app.depth_view,
                          wireframe=app.show_mesh, fb_height=fb[1], tint=app.script.tint(app),
-                         under=self._ghosts_under if app.snap.ghosts and app.timeline.onion_on else None)
+                         under=self.ghosts.under(app) if app.snap.ghosts and app.timeline.onion_on else None)
         self.gui.render(imgui.get_draw_data(), fb)
         win.flip()
         self.frames += 1
@@ -234,12 +230,6 @@ class AppWindow:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
                 self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
                             "file": app.snap.file})
-
-    def _ghosts_under(self, screen, view, rect) -> None:
-        t = self.app.timeline
-        self.ghosts.draw(self.app.snap, view, rect, screen, hidden=self.app.hidden,
-                         opacity=float(t.onion["opacity"]),
-                         colours={"before": t.onion["before"], "after": t.onion["after"]})
 
     def _dump_rects(self) -> None:
         """Where the widgets and the canvas are (``PUPPET_APP_RECTS=FILE``: end-to-end tests
