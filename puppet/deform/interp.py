@@ -203,7 +203,16 @@ def interp_pair(data: InterpData, UA, UB) -> KeyPair:
 
 def interp_gradients(pair: KeyPair, u: float) -> np.ndarray:
     """The wanted gradients at fraction ``u``: R(theta_A + u delta) ((1-u) S_A + u S_B), (m, 2, 2)."""
-    return rotations(pair.theta_a + u * pair.delta) @ ((1.0 - u) * pair.SA + u * pair.SB)
+    th = pair.theta_a + u * pair.delta
+    co, si = np.cos(th), np.sin(th)
+    S = (1.0 - u) * pair.SA + u * pair.SB
+    s00, s01, s10, s11 = S[:, 0, 0], S[:, 0, 1], S[:, 1, 0], S[:, 1, 1]
+    J = np.empty_like(S)
+    J[:, 0, 0] = co * s00 - si * s10
+    J[:, 0, 1] = co * s01 - si * s11
+    J[:, 1, 0] = si * s00 + co * s10
+    J[:, 1, 1] = si * s01 + co * s11
+    return J
 
 
 def interp_solve(data: InterpData, pair: KeyPair, u: float, *, anchors=None) -> np.ndarray:

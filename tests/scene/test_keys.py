@@ -40,7 +40,8 @@ def test_bezier_hand_checked():
 def test_v1_keys_load_unchanged(bar):
     sc = puppet.load_scene(bar)
     an = sc.data.animation
-    assert [(k.time, k.pose, k.ease, k.pins) for k in an.keys] == [(0, "rest", "linear", None), (1, "bend", "linear", None)]
+    assert [(k.time, k.pose, k.ease, k.pins) for k in an.keys] == [(0, "rest", "linear", None),
+                                                                   (1, "bend", "linear", None)]
     assert an.inbetween == "rigid" and an.depth == "step" and an.fps == 10
     assert sc.keys() == [{"time": 0, "pose": "rest"}, {"time": 1, "pose": "bend"}]
 
@@ -282,3 +283,21 @@ def test_rigid_frames_depend_only_on_keys_and_time(tmp_path):
     for t in (0.9, 0.1, 0.6, 0.35, 0.2):
         sc.layers(time=t)
     assert np.array_equal(sc.layers(time=0.35)[1].deformed, fresh)
+
+
+def test_linear_interpolate_is_the_v1_blend(make_scene):
+    """With "inbetween": "linear", "depth": "interpolate" a v1 animation's frames are the
+    v1 ones: the eased blend of the two poses around t, solved."""
+    from puppet.scene import evaluate as ev
+
+    s = bar_scene()
+    s["poses"]["deep"] = {"right": {"to": [95, 30], "angle": 20, "depth": 4}, "left": [18, 22]}
+    s["animation"] = {"fps": 10, "inbetween": "linear", "depth": "interpolate",
+                      "keys": [{"time": 0, "pose": "bend"}, {"time": 2, "pose": "deep", "ease": "smooth"}]}
+    sc = puppet.load_scene(make_scene(s, {"bar.png": bar_image()}))
+    u = 0.75 ** 2 * (3 - 2 * 0.75)
+    want = ev.blend(sc.state("bend"), sc.state("deep"), u, np.zeros((0, 2)))
+    got = sc.state(time=1.5)
+    for f in ("to", "angle", "depth"):
+        assert np.allclose(getattr(got, f), getattr(want, f))
+    assert np.array_equal(sc.layers(time=1.5)[0].deformed, sc.rig.evaluate(sc.built, want)[0].deformed)
