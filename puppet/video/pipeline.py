@@ -141,7 +141,7 @@ def read_anchors(path: str) -> dict[int, dict[str, tuple[float, float]]]:
 
 
 def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6, out_step: int = 4,
-              timer: dict | None = None) -> Iterator[FrameResult]:
+              plate: bool = True, timer: dict | None = None) -> Iterator[FrameResult]:
     """Re-posed frames ``plan.first .. plan.last``, streamed.
 
     Frames from the start frame to ``first - 1`` are tracked but not warped.
@@ -150,6 +150,8 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
     ----------
     tracker : ``Tracker``-like class (default :class:`puppet.video.track.Tracker`).
     step, out_step : grids of the warp (:func:`puppet.video.warp.skeleton_maps`).
+    plate : refill the character's place from the background seen on earlier frames
+        where there is one (:class:`puppet.video.plate.Plate`; inpainting elsewhere).
     timer : when given, seconds spent per stage are added to it
         (``decode``, ``segment``, ``track``, ``deform``).
     """
@@ -168,7 +170,10 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
         clock[stage] = clock.get(stage, 0.0) + t - t0
         return t
 
+    from puppet.video.plate import Plate
+
     src = clip_source(plan.data)
+    clean = Plate() if plate else None
     names, k = plan.names, len(plan.names)
     seg = trk = None
     frames = prefetch(src, plan.start, plan.last + 1)
@@ -197,16 +202,18 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
             conf = np.array([st.confidence[n] for n in names], np.float64)
             lost, reason = st.lost, st.reason
         t = add("track", t)
-        if i < plan.first:
-            continue
         rgb = np.ascontiguousarray(rgba[..., :3])
-        out = _deform(rgb, mask, J, plan, step, out_step, skeleton_maps, background_fill, composite)
+        if i < plan.first:
+            if clean is not None:
+                clean.apply(rgb, mask, rgb)  # learn the background only
+            continue
+        out = _deform(rgb, mask, J, plan, step, out_step, skeleton_maps, background_fill, composite, clean)
         t = add("deform", t)
         yield FrameResult(index=i, rgb=out, joints=J + HALF, confidence=conf, lost=lost, reason=reason)
         t = time.perf_counter()
 
 
-def _deform(rgb, mask, J, plan, step, out_step, skeleton_maps, background_fill, composite) -> np.ndarray:
+def _deform(rgb, mask, J, plan, step, out_step, skeleton_maps, background_fill, composite, clean=None) -> np.ndarray:
     """The frame re-posed from joints ``J`` (OpenCV coordinates) to the relative-form targets."""
     Tf = plan.rel.apply(J)
     for s in (step, max(2, step // 2)):  # joints closer than a grid step: a finer grid
@@ -218,4 +225,6 @@ def _deform(rgb, mask, J, plan, step, out_step, skeleton_maps, background_fill, 
     else:
         return rgb.copy()
     bg = background_fill(rgb, mask, plan.inpaint)
+    if clean is not None:
+        bg = clean.apply(rgb, mask, bg)
     return composite(rgb, bg, mask, maps)

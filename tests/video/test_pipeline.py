@@ -158,3 +158,27 @@ def test_grabcut_segmenter_is_seeded_from_the_previous_frame():
         m, truth = seg(rgba(dx)), character_mask(dx)
         iou = (m & truth).sum() / (m | truth).sum()
         assert iou > 0.9, (dx, iou)
+
+
+def test_the_plate_gives_back_the_background_seen_before():
+    from puppet.video.plate import Plate
+
+    rng = np.random.default_rng(1)
+    back = rng.integers(100, 256, size=frame().shape, dtype=np.uint8)  # a textured background
+    m0, m1 = character_mask(0), character_mask(30)
+    f0, f1 = back.copy(), back.copy()
+    f0[m0], f1[m1] = 20, 20
+    plate = Plate()
+    plate.apply(f0, m0, f0)
+    filled1 = background_fill(f1, m1)
+    out = plate.apply(f1, m1, filled1)
+    seen = ~plate._hole(m0) & plate._hole(m1)  # behind the character now, free on frame 0
+    assert seen.sum() > 500
+    np.testing.assert_array_equal(out[seen], back[seen])  # exact, where inpainting only guesses
+    assert np.abs(filled1[seen].astype(int) - back[seen]).mean() > 20
+    unseen = plate._hole(m0) & plate._hole(m1)
+    np.testing.assert_array_equal(out[unseen], filled1[unseen])
+    # a moved camera: the plate no longer matches around the character and is dropped
+    shifted = np.roll(f1, 9, axis=1)
+    out2 = plate.apply(shifted, np.roll(m1, 9, axis=1), shifted)
+    np.testing.assert_array_equal(out2, shifted)
