@@ -250,6 +250,23 @@ def signed(r):
     return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
+def covered_twice(r, step=0.5) -> int:
+    """Sample points (every ``step`` px) inside two or more of a layer's triangles: the
+    layer folded over itself."""
+    U, F = r.deformed, r.triangles
+    lo, hi = U.min(axis=0), U.max(axis=0)
+    X, Y = np.meshgrid(np.arange(lo[0], hi[0], step) + 0.013, np.arange(lo[1], hi[1], step) + 0.029)
+    P = np.c_[X.ravel(), Y.ravel()]
+    count = np.zeros(len(P), int)
+    for a, b, c in U[F]:
+        s = np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+        inside = np.ones(len(P), bool)
+        for p, q in ((a, b), (b, c), (c, a)):
+            inside &= s * ((q[0] - p[0]) * (P[:, 1] - p[1]) - (q[1] - p[1]) * (P[:, 0] - p[0])) > 0
+        count += inside
+    return int((count >= 2).sum())
+
+
 def test_rigid_swing_keeps_the_arm_where_linear_folds_it(tmp_path):
     sc = puppet.load_scene(arm_scene(str(tmp_path)))
     rest = sc.layers("rest")[1]
@@ -267,9 +284,10 @@ def test_rigid_swing_keeps_the_arm_where_linear_folds_it(tmp_path):
     ratio_lin, ratio_rig = signed(lin) / a0, signed(rig) / a0
     # straight-line pin paths meet at the shoulder: the arm collapses, its hand on its shoulder
     hand = lambda r: np.linalg.norm(r.deformed[r.pins["hand"]] - r.deformed[r.pins["shoulder"]])  # noqa: E731
-    assert hand(lin) < 5 and ratio_lin.min() < 0.2
+    assert hand(lin) < 5 and ratio_lin.min() < 0.2 and covered_twice(lin) > 50
     # the rigid in-between turns it: the same length, no triangle squashed or folded
     assert hand(rig) == pytest.approx(70, abs=0.5) and ratio_rig.min() > 0.95 and ratio_rig.max() < 1.05
+    assert covered_twice(rig) == 0 and covered_twice(rest) == 0
     for t in np.arange(0.1, 1.0, 0.1):
         r = sc.layers(time=float(t))[1]
         assert (signed(r) / a0).min() > 0.9
