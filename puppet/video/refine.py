@@ -30,12 +30,17 @@ class Refined:
         Reference frame -> current frame map around the joint, correction included.
     ok : bool
         Whether the alignment converged with ``rho >= min_rho`` and moved less than ``r / 2``.
+    context : float
+        Normalised correlation of the neighbourhood twice as large through ``affine`` (-1..1,
+        ``-1`` when not ``ok``): a look-alike part elsewhere (the other hand) matches the
+        small neighbourhood but rarely its surroundings.
     """
 
     xy: np.ndarray
     rho: float
     affine: np.ndarray
     ok: bool
+    context: float = -1.0
 
 
 def patch_radius(gray: np.ndarray, xy, radii, *, min_eig: float = 1500.0) -> int:
@@ -64,7 +69,7 @@ def patch_radius(gray: np.ndarray, xy, radii, *, min_eig: float = 1500.0) -> int
     return int(max(radii))
 
 
-_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 25, 1e-4)
+_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 15, 1e-4)
 
 
 def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarray, *, r: int = 24,
@@ -105,8 +110,8 @@ def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarra
     win = cur_gray[y0:y1, x0:x1]
     start = (px - x0, py - y0)
     here = win[start[1]:start[1] + n, start[0]:start[0] + n]
-    if here.shape == tmpl.shape and np.array_equal(here, tmpl):
-        return Refined(pred, 1.0, affine, True)  # already in place (ECC's smoothing would nudge it)
+    if here.shape == tmpl.shape and np.array_equal(here, tmpl):  # already in place (ECC's smoothing would nudge it)
+        return Refined(pred, 1.0, affine, True, context(ref_gray, ref_xy, cur_gray, affine, 2 * r))
     rho, warp = _ecc(tmpl, win, start, motion)
     u = pred - (px, py)
     xy = warp[:, :2].astype(np.float64) @ u + warp[:, 2] + (x0, y0)
@@ -125,11 +130,11 @@ def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarra
                 if far:
                     rho = 0.0
                 if rho >= min_rho:
-                    return _done(xy, rho, warp, affine, px, py, x0, y0)
+                    return _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r)
         return Refined(pred, float(rho), affine, False)
     if not (rho >= min_rho and np.hypot(*(xy - pred)) <= r / 2):
         return Refined(pred, float(rho), affine, False)
-    return _done(xy, rho, warp, affine, px, py, x0, y0)
+    return _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r)
 
 
 def _ecc(tmpl: np.ndarray, win: np.ndarray, start, motion: int) -> tuple[float, np.ndarray]:
@@ -142,8 +147,24 @@ def _ecc(tmpl: np.ndarray, win: np.ndarray, start, motion: int) -> tuple[float, 
     return float(rho), warp
 
 
-def _done(xy, rho, warp, affine, px, py, x0, y0) -> Refined:
+def _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r) -> Refined:
     # current = warp(template coords) = warp(affine(ref) - (px, py)) + (x0, y0)
     Wl = warp[:, :2].astype(np.float64)
     new = np.hstack([Wl @ affine[:, :2], (Wl @ (affine[:, 2] - (px, py)) + warp[:, 2] + (x0, y0))[:, None]])
-    return Refined(xy, float(rho), new, True)
+    return Refined(xy, float(rho), new, True, context(ref_gray, ref_xy, cur_gray, new, 2 * r))
+
+
+def context(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarray, r: int) -> float:
+    """Normalised correlation of the reference neighbourhood of ``ref_xy`` (half size ``r``),
+    seen through ``affine``, with the current frame around where it lands."""
+    q = affine @ np.append(np.asarray(ref_xy, np.float64), 1.0)
+    n = 2 * r + 1
+    px, py = int(round(q[0])) - r, int(round(q[1])) - r
+    M = affine.copy()
+    M[:, 2] -= (px, py)
+    a = cv2.warpAffine(ref_gray, M, (n, n), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    S = np.float64([[1, 0, -px], [0, 1, -py]])
+    b = cv2.warpAffine(cur_gray, S, (n, n), flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+    if a.std() < 1e-6 or b.std() < 1e-6:
+        return 0.0
+    return float(cv2.matchTemplate(b, a, cv2.TM_CCOEFF_NORMED)[0, 0])

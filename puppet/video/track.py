@@ -211,17 +211,17 @@ class Tracker:
         return TrackStep(self._as_dict(new), {n: float(c) for n, c in zip(self.names, conf)})
 
     # -- helpers ------------------------------------------------------------------------------
-    def _best(self, j: int, a, b, gray: np.ndarray, *, good: float = 0.97, gate: float = 4.0,
-              tie: float = 0.01):
+    def _best(self, j: int, a, b, gray: np.ndarray, *, gate: float = 4.0,
+              tie: float = 0.02):
         """Refine the reference-frame estimate ``a`` and the previous-frame one ``b`` (Carried or
         None) against the joint's neighbourhood on the reference frame.
 
-        When they agree (within ``gate`` pixels) ``a`` is tried first (no drift), and ``b``
-        (which carries the joint's own turn from the previous frame) too unless ``a`` aligned
-        with correlation ``>= good``; when they disagree, both, and ``a`` replaces ``b`` only
-        with a correlation higher by ``tie`` (continuity: a look-alike part elsewhere can align
-        well too). With neither
-        aligned, a wider correlation search around them; failing that, the carried position.
+        When they agree (within ``gate`` pixels) ``a`` is aligned (no drift), ``b`` only if that
+        fails; when they disagree, both, and ``a`` replaces ``b`` (which carries the joint's own turn from the
+        previous frame) only with a correlation (ECC's plus that of the surroundings,
+        :attr:`puppet.video.refine.Refined.context`) higher by ``tie`` (continuity: a look-alike
+        part elsewhere can align well too). With neither aligned, a wider correlation search
+        around them; failing that, the carried position.
         Returns ``(xy, confidence, affine)`` or None when both are None.
         """
         from puppet.video.refine import refine
@@ -232,15 +232,15 @@ class Tracker:
         if not self.align:
             c = a if a is not None and (b is None or a.support >= 3) else b
             return c.xy, _confidence(c), c.affine
-        if len(cands) == 2:
-            far = np.hypot(*(a.xy - b.xy)) > gate
-            cands = [b, a] if far else [a, b]
+        far = len(cands) == 2 and np.hypot(*(a.xy - b.xy)) > gate
+        if far:
+            cands = [b, a]
         best = None
         for c in cands:
             r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self._radii[j])
-            if r.ok and (best is None or r.rho > best.rho + tie):
+            if r.ok and (best is None or r.rho + r.context > best.rho + best.context + tie):
                 best = r
-            if best is not None and best.rho >= good and not (len(cands) == 2 and far):
+            if best is not None and not far:
                 break
         if best is None:
             for c in cands:
