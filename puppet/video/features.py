@@ -153,7 +153,7 @@ def motion_groups(src: np.ndarray, dst: np.ndarray, *, threshold: float = 2.5, m
         if len(rest) < max(min_inliers, 2):
             break
         M, inl = cv2.estimateAffinePartial2D(src[rest], dst[rest], method=cv2.RANSAC,
-                                             ransacReprojThreshold=threshold, maxIters=400,
+                                             ransacReprojThreshold=threshold, maxIters=200,
                                              confidence=0.995, refineIters=5)
         if M is None or inl is None:
             break

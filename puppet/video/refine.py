@@ -73,7 +73,7 @@ _CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 15, 1e-4)
 
 
 def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarray, *, r: int = 24,
-           search: int = 12, wide: int = 0, min_rho: float = 0.8, motion: int = cv2.MOTION_EUCLIDEAN) -> Refined:
+           search: int = 12, wide: int = 0, min_rho: float = 0.8, with_context: bool = True, motion: int = cv2.MOTION_EUCLIDEAN) -> Refined:
     """Align the neighbourhood of ``ref_xy`` on ``ref_gray`` to ``cur_gray``.
 
     Parameters
@@ -87,6 +87,8 @@ def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarra
         Half size of the neighbourhood in pixels.
     search : int
         Extra margin of the current frame's window around the prediction.
+    with_context : bool
+        Measure :attr:`Refined.context` (else it stays -1).
     wide : int
         When ECC fails from the prediction, look for the neighbourhood by normalised correlation
         (``cv2.matchTemplate``) this far around it and run ECC from there (0: do not).
@@ -111,7 +113,8 @@ def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarra
     start = (px - x0, py - y0)
     here = win[start[1]:start[1] + n, start[0]:start[0] + n]
     if here.shape == tmpl.shape and np.array_equal(here, tmpl):  # already in place (ECC's smoothing would nudge it)
-        return Refined(pred, 1.0, affine, True, context(ref_gray, ref_xy, cur_gray, affine, 2 * r))
+        ctx = context(ref_gray, ref_xy, cur_gray, affine, 2 * r) if with_context else -1.0
+        return Refined(pred, 1.0, affine, True, ctx)
     rho, warp = _ecc(tmpl, win, start, motion)
     u = pred - (px, py)
     xy = warp[:, :2].astype(np.float64) @ u + warp[:, 2] + (x0, y0)
@@ -130,11 +133,11 @@ def refine(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarra
                 if far:
                     rho = 0.0
                 if rho >= min_rho:
-                    return _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r)
+                    return _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r, with_context)
         return Refined(pred, float(rho), affine, False)
     if not (rho >= min_rho and np.hypot(*(xy - pred)) <= r / 2):
         return Refined(pred, float(rho), affine, False)
-    return _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r)
+    return _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r, with_context)
 
 
 def _ecc(tmpl: np.ndarray, win: np.ndarray, start, motion: int) -> tuple[float, np.ndarray]:
@@ -147,11 +150,12 @@ def _ecc(tmpl: np.ndarray, win: np.ndarray, start, motion: int) -> tuple[float, 
     return float(rho), warp
 
 
-def _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r) -> Refined:
+def _done(xy, rho, warp, affine, px, py, x0, y0, ref_gray, ref_xy, cur_gray, r, with_context) -> Refined:
     # current = warp(template coords) = warp(affine(ref) - (px, py)) + (x0, y0)
     Wl = warp[:, :2].astype(np.float64)
     new = np.hstack([Wl @ affine[:, :2], (Wl @ (affine[:, 2] - (px, py)) + warp[:, 2] + (x0, y0))[:, None]])
-    return Refined(xy, float(rho), new, True, context(ref_gray, ref_xy, cur_gray, new, 2 * r))
+    ctx = context(ref_gray, ref_xy, cur_gray, new, 2 * r) if with_context else -1.0
+    return Refined(xy, float(rho), new, True, ctx)
 
 
 def context(ref_gray: np.ndarray, ref_xy, cur_gray: np.ndarray, affine: np.ndarray, r: int) -> float:

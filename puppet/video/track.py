@@ -237,14 +237,15 @@ class Tracker:
             cands = [b, a]
         best = None
         for c in cands:
-            r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self._radii[j])
+            r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self._radii[j], with_context=far)
             if r.ok and (best is None or r.rho + r.context > best.rho + best.context + tie):
                 best = r
             if best is not None and not far:
                 break
         if best is None:
             for c in cands:
-                r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self._radii[j], wide=2 * self._radii[j])
+                r = refine(self._ref.gray, self._ref.joints[j], gray, c.affine, r=self._radii[j],
+                           wide=2 * self._radii[j], with_context=False)
                 if r.ok:
                     best = r
                     break
