@@ -60,7 +60,7 @@ class Timeline:
         """A new scene: playhead at 0, showing its active pose, nothing selected."""
         self.time, self.showing, self.playing, self.selected = 0.0, False, False, []
         self.recording = None
-        self._sent = None
+        self._sent = self._fetched = None
         self._push()
 
     # -- reading the snapshot ------------------------------------------------------------

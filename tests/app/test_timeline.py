@@ -244,6 +244,33 @@ def test_record_speed_half_time(bar_anim):
                                + np.array([-60, 20]) / d.app.view.scale, atol=0.01)
 
 
+def test_selected_pins_record_together(bar_anim):
+    d = bar_anim
+    tl = d.app.timeline
+    tl.record, tl.clock = True, Clock()
+    scrub(d, 0.0)
+    left, right = d.pin_screen("left"), d.pin_screen("right")
+    d.click(*left)  # a click without a drag records nothing and selects the pin
+    d.settle()
+    d.click(*right, mods=key.MOD_SHIFT)
+    d.settle()
+    assert d.app.selection == ["left", "right"]
+    before = d.scene().keys()
+    assert before == bar_scene()["animation"]["keys"]
+    d.press(*left)
+    for k in range(1, 11):
+        tl.clock.now += 0.1
+        d.drag(left[0], left[1] + 2 * k)
+    d.release()
+    d.settle()
+    keys = d.scene().keys()
+    for pin in ("left", "right"):
+        assert [k["time"] for k in keys if pin in k.get("pins", {})] == [0.0, 1.0]
+    s = d.scene()
+    at1 = s.state(time=1.0).to
+    np.testing.assert_allclose(at1[0] - s.state(time=0.0).to[0], [0, 20 / d.app.view.scale], atol=0.02)
+
+
 class Clock:
     """A clock the test moves."""
 
