@@ -70,7 +70,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=1000)
     ap.add_argument("--fps", type=float, default=24.0)
     ap.add_argument("--size", default="1280x720")
-    ap.add_argument("--formats", nargs="+", default=["mp4", "dir"], choices=["mp4", "dir", "webm", "apng", "gif"])
+    ap.add_argument("--formats", nargs="*", default=["mp4", "dir"], choices=["mp4", "dir", "webm", "apng", "gif"])
     ap.add_argument("--sequential", action="store_true", help="also time the sequential path")
     ap.add_argument("--memory", type=int, nargs="*", default=[1000, 10000], help="frame counts (none: skip)")
     ap.add_argument("--memory-size", default="160x120")
