@@ -96,14 +96,17 @@ class PairMap:
         wm = w[gs == g]
         inside = d2[mine] <= self.radius ** 2
         support = int(inside.sum())
+        c = 0j
         if len(mine) >= 2:
             c, mx, my = similarity_fit(self.src[mine], self.dst[mine], wm)
+        if 0.5 <= abs(c) <= 2.0:
             pred = apply_similarity(c, mx, my, self.src[mine])
             resid = float(np.sqrt((wm / wm.sum()) @ ((pred - self.dst[mine]) ** 2).sum(axis=1)))
             R = np.array([[c.real, -c.imag], [c.imag, c.real]])
-        else:
+        else:  # one match, or a few bunched ones giving a wild scale: their mean move
             resid = 0.0
-            R, mx, my = np.eye(2), self.src[mine[0]], self.dst[mine[0]]
+            wn = wm / wm.sum()
+            R, mx, my = np.eye(2), wn @ self.src[mine], wn @ self.dst[mine]
         local = np.hstack([R, (my - R @ mx)[:, None]])
         s = self._find(p)
         if s >= 0:

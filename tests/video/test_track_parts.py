@@ -132,3 +132,10 @@ def test_ground_truth_clip_is_deterministic_and_its_truth_on_the_character(tmp_p
     d_jaw = a.joints["jaw"][2] - a.joints["jaw"][0]
     d_hip = a.joints["hip"][2] - a.joints["hip"][0]
     assert np.hypot(*(d_jaw - d_hip)) > 1.0
+
+
+def test_bunched_matches_with_a_wild_scale_move_the_point_by_their_mean():
+    src = np.array([[50.0, 50.0], [51.0, 50.0]])
+    dst = np.array([[60.0, 40.0], [80.0, 40.0]])  # 1 px apart -> 20 px apart: not a real scale
+    c = PairMap(src, dst, np.zeros(2, int)).carry([50.5, 150.0])  # as far from both
+    assert c.how == "local" and c.xy == pytest.approx([50.5 + 19.5, 150 - 10], abs=1e-9)
