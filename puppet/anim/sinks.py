@@ -159,7 +159,7 @@ def mp4_sink(tmp: str, size, fps: float) -> AVSink:
 
 
 def webm_sink(tmp: str, size, fps: float) -> AVSink:
-    return AVSink(tmp, "webm", "libvpx-vp9", "yuva420p", size, fps, WEBM_OPTIONS, alpha=True, pad=True)
+    return AVSink(tmp, "webm", "libvpx-vp9", "yuva420p", size, fps, WEBM_OPTIONS, alpha=True)  # VP9: odd sizes fine
 
 
 def apng_sink(tmp: str, size, fps: float) -> AVSink:

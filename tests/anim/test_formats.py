@@ -200,3 +200,16 @@ def test_sheet_atlas_never_overwrites_the_scene(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "it is a file the scene reads" in err and err.count("\n") == 1
     assert open(scene).read() == before and not os.path.exists(os.path.splitext(scene)[0] + ".png")
+
+
+def test_odd_sizes_keep_their_size_where_the_format_allows(scene, tmp_path):
+    """WebM, APNG and sheets keep 121x41; H.264 (4:2:0) is padded to 122x42."""
+    import av
+
+    for name in ("a.webm", "a.apng", "a.mp4"):
+        assert main(["animate", scene, "-o", str(tmp_path / name), "--size", "121x41", "--to", "0.2"]) == 0
+    assert webm_frames(str(tmp_path / "a.webm"))[0].shape == (41, 121, 4)
+    with Image.open(tmp_path / "a.apng") as im:
+        assert im.size == (121, 41) and im.n_frames == 3
+    with av.open(str(tmp_path / "a.mp4")) as box:
+        assert [f.to_ndarray(format="rgb24").shape for f in box.decode(video=0)] == [(42, 122, 3)] * 3
