@@ -19,6 +19,7 @@ into a temporary output that is being removed).
 """
 from __future__ import annotations
 
+import os
 import queue
 import sys
 import threading
@@ -91,8 +92,12 @@ class Progress:
         if show:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, unit="frame", file=sys.stderr, dynamic_ncols=True, leave=True,
-                            smoothing=0.1)
+            try:  # a terminal that reports no size (a bare pty) gets 80x24, not a hidden bar
+                known = min(os.get_terminal_size(sys.stderr.fileno())) > 0
+            except (OSError, ValueError):
+                known = False
+            self.bar = tqdm(total=total, unit="frame", file=sys.stderr, leave=True, smoothing=0.1,
+                            dynamic_ncols=known, ncols=None if known else 80, nrows=None if known else 24)
 
     def update(self) -> None:
         if self.bar is not None:

@@ -220,3 +220,39 @@ def test_solver_process_error_is_raised(tmp_path):
     finally:
         p.close()
     assert p.proc is None
+
+
+@pytest.mark.parametrize("winsize", [None, (30, 100)])
+def test_cli_shows_the_bar_on_a_terminal(bar, tmp_path, winsize):
+    """On a terminal (a pty, sized or reporting no size) the bar shows frames, rate and ETA."""
+    import fcntl
+    import pty
+    import struct
+    import sys
+    import termios
+
+    from tests.conftest import ROOT
+
+    pid, fd = pty.fork()
+    if pid == 0:  # the child: the real command on the pty
+        try:
+            if winsize:
+                fcntl.ioctl(0, termios.TIOCSWINSZ, struct.pack("HHHH", *winsize, 0, 0))
+            os.chdir(ROOT)
+            os.execv(sys.executable, [sys.executable, "-m", "puppet", "animate", bar, "-o", str(tmp_path / "a.gif")])
+        finally:
+            os._exit(99)
+    out = b""
+    while True:
+        try:
+            chunk = os.read(fd, 4096)
+        except OSError:
+            break
+        if not chunk:
+            break
+        out += chunk
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0, out
+    last = out.decode().replace("\r", "\n").split("\n")
+    shown = [s for s in last if "11/11" in s]
+    assert shown and "100%" in shown[-1] and "frame/s" in shown[-1] and "<00:00" in shown[-1], out
