@@ -32,14 +32,13 @@ targets), the result with the fewest folds is returned, never more than given.
 is 20): every similarity iteration, fold check, Newton step and line-search energy is
 charged by the size it works on (only the fold checks of the given pose are free), and
 a stage that cannot be paid for is cut short or skipped. The result is the one with the fewest folds found within the budget (ties:
-the earliest), so the same pins always give the same shape; the wall-clock cap of
+the earliest), so the same pins always give the same shape; the CPU-time cap of
 :class:`~puppet.deform.budget.Budget` only backs this up. Far drags (pins moved several
 times the layer's size) that tangle most of a mesh come out with fewer folds in bounded
 time instead of minutes (``benchmarks/bench_fardrag.py``).
 """
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -154,12 +153,12 @@ def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5
         ``FLOOR_VERTICES`` = 5000 vertices on, the work of 140 iterations on a
         5000-vertex mesh below.
     time_limit : float, optional
-        Wall-clock cap in seconds; default ``budget.TIME_CAP`` times the expected time
+        CPU-time cap in seconds (this thread); default ``budget.TIME_CAP`` times the expected time
         of the budget (measured on the first fold check). Only a safety net: the budget
         ends the work first unless the machine gets much busier meanwhile.
     info : dict, optional
         Filled with ``"folds_in"``, ``"folds_out"``, ``"units"`` (spent), ``"budget"``,
-        ``"late"`` (the wall-clock cap was reached) and ``"stage"`` (``"none"``,
+        ``"late"`` (the time cap was reached) and ``"stage"`` (``"none"``,
         ``"similarity"``, ``"untangle"`` or ``"given"``: where the result comes from).
 
     Returns
@@ -184,9 +183,9 @@ def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5
     best[lost] = V[lost]  # never hand on a non-finite vertex
     best[data.b] = bc
     best[data.held] = V[data.held]
-    t0 = time.perf_counter()
+    t0 = cost.clock()
     bad = folded_triangles(V, best, F)  # of the given pose, pins on bc: not charged
-    meter.calibrate((time.perf_counter() - t0) / cost.CHECK)
+    meter.calibrate((cost.clock() - t0) / cost.CHECK)
     start, stage = best, "given"
     if data.factor is not None and rounds > 0 and len(bad):
         X, left = _similarity_rounds(data, best, bc, bad, rings, s_min, s_max, iterations, rounds, meter)
