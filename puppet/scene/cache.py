@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import threading
 from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any
@@ -52,6 +53,10 @@ class Memo:
 
     ``builds[kind]`` counts how often a part of that kind was really built (not found),
     which is how tests prove that an edit rebuilt only what it touched.
+
+    Safe to share between threads (the export's solver thread, the app's worker): the
+    stores are changed under a lock; a build runs outside it, so two threads asking for
+    the same missing part at once may both build it (the first one stored is kept).
     """
 
     def __init__(self, capacity: dict[str, int] | None = None, default: int = 64):
@@ -59,21 +64,28 @@ class Memo:
         self.default = default
         self._stores: dict[str, OrderedDict[str, Any]] = {}
         self.builds: dict[str, int] = {}
+        self._lock = threading.Lock()
 
     def get(self, kind: str, key: str, build: Callable[[], Any]) -> Any:
-        store = self._stores.setdefault(kind, OrderedDict())
-        if key in store:
-            store.move_to_end(key)
-            return store[key]
+        with self._lock:
+            store = self._stores.setdefault(kind, OrderedDict())
+            if key in store:
+                store.move_to_end(key)
+                return store[key]
         value = build()
-        self.builds[kind] = self.builds.get(kind, 0) + 1
-        store[key] = value
-        while len(store) > self.capacity.get(kind, self.default):
-            store.popitem(last=False)
+        with self._lock:
+            self.builds[kind] = self.builds.get(kind, 0) + 1
+            if key in store:  # another thread built it meanwhile: keep one
+                store.move_to_end(key)
+                return store[key]
+            store[key] = value
+            while len(store) > self.capacity.get(kind, self.default):
+                store.popitem(last=False)
         return value
 
     def count(self, kind: str) -> int:
         return self.builds.get(kind, 0)
 
     def clear(self) -> None:
-        self._stores.clear()
+        with self._lock:
+            self._stores.clear()
