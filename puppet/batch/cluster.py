@@ -83,18 +83,24 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
                 with contextlib.suppress(Exception):
                     client.close(timeout=10)
             return
+        n = workers or default_workers()
+        # Mesa llvmpipe draws with one thread per core in each worker: as many workers as
+        # cores would oversubscribe them (same pixels with any count; the user's value wins)
+        lp = {"distributed.nanny.pre-spawn-environ.LP_NUM_THREADS": max(1, default_workers() // n)}
         # a free port for the scheduler's HTTP server (Dask's default 8787 may be taken);
         # a dashboard only with bokeh installed
         dash = importlib.util.find_spec("bokeh") is not None
         with tempfile.TemporaryDirectory(prefix="puppet-batch-") as scratch:
             cluster = client = None
+            environ = dict(os.environ)
             try:
-                with _sigint_blocked():  # the cluster's thread, and the workers it spawns, never see Ctrl+C
-                    cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
+                with _sigint_blocked(), dask.config.set(lp):  # the cluster's thread and workers never see Ctrl+C
+                    cluster = LocalCluster(n_workers=n, threads_per_worker=1,
                                            processes=True, dashboard_address=":0", local_directory=scratch,
                                            scheduler_port=0, host="127.0.0.1", silence_logs=logging.CRITICAL,
                                            preload=["puppet.batch.preload"])
                     client = Client(cluster, set_as_default=False)
+                _restore_environ(environ)  # Dask's nannies set their workers' variables in this process too
                 yield client, _dashboard(client) if dash else None
             finally:
                 if client is not None:
@@ -103,6 +109,14 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
                 if cluster is not None:
                     with contextlib.suppress(Exception):
                         cluster.close(timeout=20)
+
+
+def _restore_environ(saved: dict[str, str]) -> None:
+    for k in set(os.environ) - set(saved):
+        os.environ.pop(k, None)
+    for k, v in saved.items():
+        if os.environ.get(k) != v:
+            os.environ[k] = v
 
 
 @contextlib.contextmanager
