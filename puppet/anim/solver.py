@@ -5,7 +5,9 @@ rasteriser), and most of a solve is Python and GIL-holding C (the sparse solver,
 numpy calls): a solver *thread* and the compositing thread take turns rather than run
 side by side (measured: a solver thread solves ~30 % fewer frames per second next to
 the compositor than a solver process does). A :class:`ProcessSolver` loads the same
-scene in a child (``spawn``: no GL state is inherited), solves the frames it is asked
+scene in a child (a fresh ``python``: no GL state is inherited, and unlike
+``multiprocessing``'s spawn, the caller's main script is not imported again there, so a
+script without an ``if __name__ == "__main__"`` guard is safe), solves the frames it is asked
 for, in order, and sends back what changes per frame (every :class:`LayerResult` field
 but ``rest`` and ``triangles``, which are taken from a frame solved here). The first
 frame is solved on both sides and compared: any difference (an edit the scene file does
@@ -15,6 +17,7 @@ thread instead. Results are therefore identical to an in-process solve.
 from __future__ import annotations
 
 import dataclasses
+import os
 import signal
 import time
 from collections.abc import Callable, Iterator
@@ -33,9 +36,22 @@ def _pack(layers) -> list[dict]:
     return [{f.name: getattr(r, f.name) for f in dataclasses.fields(r) if f.name not in STATIC} for r in layers]
 
 
+def child_main(fd: int) -> None:
+    """The child process: ``python -c "...child_main(FD)"`` with one end of a socket pair."""
+    from multiprocessing.connection import Connection
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent decides
+    os.dup2(2, 1)  # nothing may print on stdout
+    conn = Connection(fd)
+    try:
+        doc, file, t0, rate = conn.recv()
+    except (EOFError, OSError):
+        return
+    _child(conn, doc, file, t0, rate)
+
+
 def _child(conn, doc: dict, file: str, t0: float, rate: float) -> None:
     """The child's loop: frame index in, ``("ok", i, packed layers, seconds)`` out."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent decides
     try:
         from puppet.scene.document import Document
 
@@ -83,20 +99,32 @@ class ProcessSolver:
     def start(self, first: int, wait: Callable[[], bool] = lambda: False) -> bool:
         """Start the child and check it solves frame ``first`` exactly as this process
         does; False (child stopped) when it cannot be used."""
-        import multiprocessing as mp
+        import socket
+        import subprocess
+        import sys
+        from multiprocessing.connection import Connection
 
-        ctx = mp.get_context("spawn")
-        self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_child, name="puppet-solver", daemon=True,
-                                args=(child, self.scene.to_dict(), self.scene.file, self.t0, self.rate))
+        import puppet
+
+        mine, theirs = socket.socketpair()
+        env = dict(os.environ)
+        root = os.path.dirname(os.path.dirname(os.path.abspath(puppet.__file__)))
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
+        code = f"from puppet.anim.solver import child_main; child_main({theirs.fileno()})"
         try:
-            self.proc.start()  # refused in a daemonic process (a pool worker): solve on a thread
-        except Exception:  # noqa: BLE001
-            self.proc = None
-            self.conn.close()
+            self.proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=(theirs.fileno(),), env=env,
+                                         stdin=subprocess.DEVNULL, close_fds=True)
+        except OSError:
+            mine.close()
             return False
         finally:
-            child.close()
+            theirs.close()
+        self.conn = Connection(mine.detach())
+        try:
+            self.conn.send((self.scene.to_dict(), self.scene.file, self.t0, self.rate))
+        except OSError:
+            self.close()
+            return False
         self.template = self.scene.layers(time=self.t0 + first / self.rate)  # (meanwhile the child starts)
         try:
             self.conn.send(first)
@@ -115,8 +143,8 @@ class ProcessSolver:
         while not self.conn.poll(0.05):
             if stop():
                 return None
-            if not self.proc.is_alive() and not self.conn.poll():
-                raise RuntimeError(f"the solver process ended (exit status {self.proc.exitcode})")
+            if self.proc.poll() is not None and not self.conn.poll():
+                raise RuntimeError(f"the solver process ended (exit status {self.proc.returncode})")
         msg = self.conn.recv()
         if msg[0] == "ready":
             return self._receive(stop)
@@ -146,13 +174,16 @@ class ProcessSolver:
         """Stop the child (asked first, then terminated) and wait for it."""
         if self.proc is None:
             return
+        import subprocess
+
         try:
             self.conn.send(None)
         except (OSError, ValueError):
             pass
-        self.proc.join(timeout=2.0)
-        if self.proc.is_alive():
-            self.proc.terminate()
-            self.proc.join(timeout=2.0)
+        try:
+            self.proc.wait(timeout=2.0)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
         self.conn.close()
         self.proc = None

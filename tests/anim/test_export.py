@@ -175,7 +175,7 @@ def test_solver_process_is_used_and_stopped(tmp_path, monkeypatch):
     monkeypatch.setattr(solver.ProcessSolver, "close", lambda self: closed.append(self.proc) or real_close(self))
     scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=2.0))
     export.animate_to(scene, str(tmp_path / "f") + "/", solver="process")
-    assert started == [True] and closed and not closed[0].is_alive()
+    assert started == [True] and closed and closed[0].poll() is not None  # the child has ended
 
 
 def test_solver_process_falls_back_when_the_scene_differs_from_its_file(tmp_path):
@@ -256,3 +256,27 @@ def test_cli_shows_the_bar_on_a_terminal(bar, tmp_path, winsize):
     last = out.decode().replace("\r", "\n").split("\n")
     shown = [s for s in last if "11/11" in s]
     assert shown and "100%" in shown[-1] and "frame/s" in shown[-1] and "<00:00" in shown[-1], out
+
+
+def test_solver_process_does_not_rerun_the_callers_script(tmp_path):
+    """A script without a ``__main__`` guard runs once: the solver child does not import it
+    (as multiprocessing's spawn would, exporting the whole animation a second time)."""
+    import subprocess
+    import sys
+
+    from tests.conftest import ROOT
+
+    scene = make_bar(tmp_path / "s", seconds=2.0)
+    log = tmp_path / "runs.txt"
+    script = tmp_path / "export.py"
+    script.write_text(
+        "from puppet.anim import export\nimport puppet\n"
+        f"open({str(log)!r}, 'a').write('run\\n')\n"
+        f"export.animate_to(puppet.load_scene({scene!r}), {str(tmp_path / 'a.mp4')!r}, solver='process')\n"
+        "from puppet.anim import solver\n"
+        f"open({str(log)!r}, 'a').write('done\\n')\n")
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300,
+                       env=dict(os.environ, PYTHONPATH=ROOT))
+    assert r.returncode == 0, r.stderr
+    assert log.read_text() == "run\ndone\n"
+    assert (tmp_path / "a.mp4").stat().st_size > 0
