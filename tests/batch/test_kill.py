@@ -45,3 +45,32 @@ def test_killing_a_worker_mid_run_loses_no_job(cluster2, tmp_path):
     assert sorted(manifest) == sorted(e["output"] for e in entries)
     cluster2.wait_for_workers(2, timeout=120)  # the nanny started a new worker
     assert killed[0][1] not in cluster2.run(os.getpid).values()
+
+
+def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes_on(tmp_path):
+    from puppet.batch.cluster import connect
+
+    scene = os.path.basename(copy_scene("trex-layers.json", tmp_path))
+    entries = [{"scene": scene, "time": round(0.1 * k, 2), "size": [60, 50], "output": f"f{k}.png"} for k in range(16)]
+    out = os.path.realpath(tmp_path / "out")
+    os.mkdir(out)
+    jobs = read_job_list(write_list(tmp_path / "jobs.json", entries), out, {"budget": 120.0})
+    killed = []
+
+    with connect(workers=1, retries=0) as (client, _):
+        def kill_the_worker(batch, recs):
+            busy = {w: keys for w, keys in client.processing().items() if keys}
+            if killed or not busy:
+                return
+            (victim, keys), = busy.items()
+            os.kill(client.run(os.getpid, workers=[victim])[victim], signal.SIGKILL)
+            killed.append(keys)
+
+        summary = run_batch(jobs, out, client=client, retries=0, on_result=kill_the_worker)
+    assert killed
+    report = json.loads(open(summary["report"]).read())
+    died = [j for j in report["jobs"] if j["status"] == "failed"]
+    assert died and all("workers running this job died" in j["error"] for j in died), report["jobs"]
+    assert summary["counts"]["done"] == len(entries) - len(died)  # the batch went on after it
+    assert all(os.path.isfile(os.path.join(out, j["output"])) for j in report["jobs"] if j["status"] == "done")
+    assert temporaries(out) == []
