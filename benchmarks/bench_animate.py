@@ -12,11 +12,13 @@ the key spacing until the animation holds exactly N frames at 24 fps (see
 ``bench_animate_memory.long_animation``). Part 1 runs :func:`puppet.anim.export.animate_to`
 in this process (one BLAS thread, as the ``puppet`` command sets it) after a warm-up
 frame, and prints wall time, frames per second and where the time went: milliseconds per
-frame of each stage's work (``solve``: in-betweens and ARAP on the solver thread;
+frame of each stage's work (``--solvers thread process`` compares solving on a thread
+with solving in a child process; ``solve``: in-betweens and ARAP on the solver thread;
 ``composite``: GL draw and read-back on the main thread; ``encode``: PNG deflate / x264
 on the encoder thread) and of the main thread waiting (``wait``: for a solved frame or
 for room at the encoder). In the pipelined run the stages overlap, so their sum exceeds
-the wall time; each stage slows down when it shares the 2 cores. Part 2 runs ``python -m
+the wall time; each stage slows down when it shares the 2 cores. ``CPU s`` counts this
+process and the solver process. Part 2 runs ``python -m
 puppet animate`` in fresh processes and reads the peak RSS from ``wait4``.
 """
 from __future__ import annotations
@@ -48,7 +50,7 @@ def scene_file(base: dict, frames: int, fps: float, folder: str) -> str:
     return path
 
 
-def speed(path: str, out: str, size: tuple[int, int], threads: bool) -> tuple[int, float, float, dict]:
+def speed(path: str, out: str, size: tuple[int, int], threads: bool, solver: str = "auto") -> tuple[int, float, float, dict]:
     """(frames, wall seconds, CPU seconds, per-stage seconds) of one in-process export."""
     import puppet
     from puppet.anim.export import animate_to
@@ -56,10 +58,16 @@ def speed(path: str, out: str, size: tuple[int, int], threads: bool) -> tuple[in
 
     scene = puppet.load_scene(path)
     scene.render(time=0.0, size=size)  # GL context, textures, solver precomputation
+    import resource
+
+    def cpu_now() -> float:  # this process and its ended children (the solver process)
+        a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
+
     tm = Timings()
-    t0, c0 = time.perf_counter(), time.process_time()
-    n = animate_to(scene, out, size=size, threads=threads, timings=tm)
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    t0, c0 = time.perf_counter(), cpu_now()
+    n = animate_to(scene, out, size=size, threads=threads, solver=solver, timings=tm)
+    wall, cpu = time.perf_counter() - t0, cpu_now() - c0
     scene.close()
     return n, wall, cpu, dict(tm)
 
@@ -72,6 +80,8 @@ def main() -> None:
     ap.add_argument("--size", default="1280x720")
     ap.add_argument("--formats", nargs="*", default=["mp4", "dir"], choices=["mp4", "dir", "webm", "apng", "gif"])
     ap.add_argument("--sequential", action="store_true", help="also time the sequential path")
+    ap.add_argument("--solvers", nargs="+", default=["auto"], choices=["auto", "thread", "process"],
+                    help="pipelined runs: where frames are solved (auto: a process from 200 frames on)")
     ap.add_argument("--memory", type=int, nargs="*", default=[1000, 10000], help="frame counts (none: skip)")
     ap.add_argument("--memory-size", default="160x120")
     ap.add_argument("--memory-format", default="mp4")
@@ -85,14 +95,16 @@ def main() -> None:
               f"LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS', '(unset)')}")
         path = scene_file(base, args.frames, args.fps, work)
         print(f"\n{args.frames} frames of {os.path.relpath(args.scene, ROOT)} at {args.size}")
-        print(f"{'format':>6} {'path':>10} {'seconds':>8} {'frames/s':>8} {'CPU s':>6} | ms/frame:"
+        print(f"{'format':>6} {'path':>12} {'seconds':>8} {'frames/s':>8} {'CPU s':>6} | ms/frame:"
               + " ".join(f"{s:>9}" for s in STAGES))
+        runs = [(True, s) for s in args.solvers] + ([(False, "-")] if args.sequential else [])
         for fmt in args.formats:
-            for threads in ([True, False] if args.sequential else [True]):
+            for threads, solver in runs:
                 out = os.path.join(work, "frames/" if fmt == "dir" else f"out.{fmt}")
-                n, wall, cpu, tm = speed(path, out, size, threads)
+                n, wall, cpu, tm = speed(path, out, size, threads, solver if threads else "auto")
                 stages = " ".join(f"{1e3 * tm.get(s, 0.0) / n:>9.1f}" for s in STAGES)
-                print(f"{fmt:>6} {'pipelined' if threads else 'sequential':>10} {wall:>8.1f} {n / wall:>8.1f} "
+                name = ("pipe/" + solver) if threads else "sequential"
+                print(f"{fmt:>6} {name:>12} {wall:>8.1f} {n / wall:>8.1f} "
                       f"{cpu:>6.1f} | {stages}", flush=True)
                 shutil.rmtree(out, ignore_errors=True) if fmt == "dir" else os.remove(out)
         if args.memory:
