@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from puppet.app import timeline as tl
 from puppet.app.record import Recording
-from puppet.app.tools import _delta, _moved, pose_tool
+from puppet.app.tools import _delta, drag_targets, pose_tool
 
 
 def choose(app, press):
@@ -49,18 +49,8 @@ def key_drag_tool(app, press):
         return
     t = app.timeline.time
     app.timeline.playing = False
-    ev, moved, pos = press, False, dict(start)
-    while ev.type != "release":
-        ev = yield
-        moved = moved or _moved(ev, press)
-        if not moved:
-            continue
-        d = _delta(app, ev, press)
-        pos = {n: (xy[0] + d[0], xy[1] + d[1]) for n, xy in start.items()}
-        app.overrides = dict(pos)
-        if ev.type != "release":
-            app.worker.submit(tl.preview_job(t, pos), key="drag-move", publish=False)
-    if moved:
+    pos = yield from drag_targets(app, press, start, lambda p: tl.preview_job(t, p))
+    if pos is not None:
         label = f"key {', '.join(pos)} at {t:g} s"
         app.hold_markers(pos, app.timeline.key_pins(t, pos, label))
         app.timeline.selected = [t]

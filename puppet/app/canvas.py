@@ -17,7 +17,8 @@ import numpy as np
 
 from puppet.render.layers import DrawLayer, mesh_edges
 
-_QUAD_VS = """
+#: Vertex shader of a textured quad given in window pixels (also the onion skin's ghosts).
+QUAD_VS = """
 #version 330
 uniform vec2 u_screen;
 in vec2 in_pos;
@@ -121,8 +122,8 @@ class CanvasRenderer:
 
         self.ctx = ctx
         self.compositor = compositor or Compositor(ctx)
-        self.tex_prog = ctx.program(vertex_shader=_QUAD_VS, fragment_shader=_TEX_FS)
-        self.checker_prog = ctx.program(vertex_shader=_QUAD_VS, fragment_shader=_CHECKER_FS)
+        self.tex_prog = ctx.program(vertex_shader=QUAD_VS, fragment_shader=_TEX_FS)
+        self.checker_prog = ctx.program(vertex_shader=QUAD_VS, fragment_shader=_CHECKER_FS)
         self.depth_prog = ctx.program(vertex_shader=_MESH_VS, fragment_shader=_DEPTH_FS)
         self.wire_prog = ctx.program(vertex_shader=_WIRE_VS, fragment_shader=_WIRE_FS)
         self.quad_vbo = ctx.buffer(reserve=4 * 4 * 4)

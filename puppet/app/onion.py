@@ -16,6 +16,7 @@ import collections
 import moderngl
 import numpy as np
 
+from puppet.app.canvas import QUAD_VS
 from puppet.render.layers import DrawLayer
 
 #: solved frames kept per scene state (LayerResults are a few arrays per layer: ~0.25 MB
@@ -117,17 +118,6 @@ def frame_of(w, anim: dict | None) -> tuple[float | None, tuple]:
     return t, ghosts
 
 
-_VS = """
-#version 330
-uniform vec2 u_screen;
-in vec2 in_pos;
-in vec2 in_uv;
-out vec2 v_uv;
-void main() {
-    v_uv = in_uv;
-    gl_Position = vec4(in_pos.x / u_screen.x * 2.0 - 1.0, 1.0 - in_pos.y / u_screen.y * 2.0, 0.0, 1.0);
-}
-"""
 _FS = """
 #version 330
 uniform sampler2D u_texture;
@@ -151,7 +141,7 @@ class GhostRenderer:
 
     def __init__(self, ctx: moderngl.Context, compositor):
         self.ctx, self.compositor = ctx, compositor
-        self.prog = ctx.program(vertex_shader=_VS, fragment_shader=_FS)
+        self.prog = ctx.program(vertex_shader=QUAD_VS, fragment_shader=_FS)
         self.vbo = ctx.buffer(reserve=16 * 4)
         self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f 2f", "in_pos", "in_uv")])
         self.textures: dict = {}  # key -> texture, the ghosts of the last frame drawn

@@ -192,8 +192,13 @@ def _end_drag(w, xy):
         raise
 
 
-def _drag_many(app, press, start):
-    """Several pins: the pose with their new targets solved exactly per frame, one undo step."""
+def drag_targets(app, press, start, preview):
+    """Move the pins of ``start`` (name -> where they start) by the pointer until release,
+    showing them at once and asking the worker for ``preview(pos)`` on each move.
+
+    A generator for a tool to ``yield from``; returns the final positions, or None when the
+    pointer never left the press (a click).
+    """
     ev, moved = press, False
     pos = dict(start)
     while ev.type != "release":
@@ -205,8 +210,14 @@ def _drag_many(app, press, start):
         pos = {n: (xy[0] + d[0], xy[1] + d[1]) for n, xy in start.items()}
         app.overrides = dict(pos)
         if ev.type != "release":
-            app.worker.submit(_preview_job(pos), key="drag-move", publish=False)
-    if moved:
+            app.worker.submit(preview(pos), key="drag-move", publish=False)
+    return pos if moved else None
+
+
+def _drag_many(app, press, start):
+    """Several pins: the pose with their new targets solved exactly per frame, one undo step."""
+    pos = yield from drag_targets(app, press, start, _preview_job)
+    if pos is not None:
         app.set_targets(pos)
 
 
