@@ -81,7 +81,7 @@ def main() -> None:
     ap.add_argument("--formats", nargs="*", default=["mp4", "dir"], choices=["mp4", "dir", "webm", "apng", "gif"])
     ap.add_argument("--sequential", action="store_true", help="also time the sequential path")
     ap.add_argument("--solvers", nargs="+", default=["auto"], choices=["auto", "thread", "process"],
-                    help="pipelined runs: where frames are solved (auto: a process from 200 frames on)")
+                    help="pipelined runs: where frames are solved (auto: a thread)")
     ap.add_argument("--memory", type=int, nargs="*", default=[1000, 10000], help="frame counts (none: skip)")
     ap.add_argument("--memory-size", default="160x120")
     ap.add_argument("--memory-format", default="mp4")

@@ -32,8 +32,6 @@ MIN_FPS, MAX_FPS = 0.01, 240.0
 GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
 #: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
 GIF_SAMPLE_CACHE = 64 << 20
-#: Frames from which ``solver="auto"`` solves in a child process (it costs ~1-3 s to start).
-PROCESS_MIN_FRAMES = 200
 
 # kept importable from here (older callers)
 flatten = sinks.flatten
@@ -147,9 +145,10 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     background : None (the scene's), ``"transparent"`` or an RGBA tuple (see :func:`parse_background`).
     progress : draw a progress bar on stderr.
     threads : overlap solve, composite and encode (False: one after the other; same output).
-    solver : where frames are solved when ``threads``: ``"thread"``, ``"process"`` (a child
-        process, see :mod:`puppet.anim.solver`; falls back to a thread if its first frame
-        differs) or ``"auto"`` (a process from :data:`PROCESS_MIN_FRAMES` frames on).
+    solver : where frames are solved when ``threads``: ``"thread"`` (also ``"auto"``) or
+        ``"process"`` (a child process, see :mod:`puppet.anim.solver`; falls back to a thread
+        if its first frame differs). Measured on 1000 T-rex frames at 1280x720 the two are
+        as fast (49.5 and 50.2 s), the process using ~10 % more CPU: threads by default.
     timings : filled with seconds per stage (see :class:`puppet.anim.pipeline.Timings`).
 
     The output is checked (writable, no input of the scene overwritten), the frame count
@@ -217,7 +216,7 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
 
     written = [0]
     try:
-        if threads and todo and (solver == "process" or (solver == "auto" and len(todo) >= PROCESS_MIN_FRAMES)):
+        if threads and todo and solver == "process":
             from puppet.anim.solver import ProcessSolver
 
             remote = ProcessSolver(scene, t0, rate)

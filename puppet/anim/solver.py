@@ -3,8 +3,9 @@
 moderngl holds the GIL through every GL call (a read-back waits there for the
 rasteriser), and most of a solve is Python and GIL-holding C (the sparse solver, small
 numpy calls): a solver *thread* and the compositing thread take turns rather than run
-side by side (measured: a solver thread solves ~30 % fewer frames per second next to
-the compositor than a solver process does). A :class:`ProcessSolver` loads the same
+side by side (measured with the machine busy: a solver thread solved ~30 % fewer frames per second
+next to the compositor than a solver process; with it quiet, a whole export was as fast
+either way, so the export uses a thread unless asked, ``solver="process"``). A :class:`ProcessSolver` loads the same
 scene in a child (a fresh ``python``: no GL state is inherited, and unlike
 ``multiprocessing``'s spawn, the caller's main script is not imported again there, so a
 script without an ``if __name__ == "__main__"`` guard is safe), solves the frames it is asked
