@@ -140,7 +140,8 @@ def _template_scene(job: dict):
 
 
 class _Budgeted:
-    """A scene whose ``render`` solves under the job's budget (for animate_to's frames)."""
+    """A scene whose ``layers`` solve under the job's budget, in whichever thread asks (the
+    export solves frames ahead on a thread of its own; drawing is never budgeted)."""
 
     def __init__(self, scene, seconds):
         self._scene, self._seconds = scene, seconds
@@ -148,10 +149,9 @@ class _Budgeted:
     def __getattr__(self, name):
         return getattr(self._scene, name)
 
-    def render(self, pose=None, time=None, *, size=None, wireframe=False):
+    def layers(self, pose=None, time=None):
         with budget(self._seconds, "the frame's solve"):
-            layers = self._scene.layers(pose, time)
-        return self._scene.draw_layers(layers, size=size, wireframe=wireframe)
+            return self._scene.layers(pose, time)
 
 
 def _make_parent(output: str) -> None:

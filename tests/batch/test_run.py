@@ -84,6 +84,20 @@ def test_a_solve_over_its_budget_fails_alone(cluster2, tmp_path):
     assert ok["status"] == "done" and (out / "ok.png").is_file() and not (out / "slow.png").exists()
 
 
+@pytest.mark.gl
+def test_an_animation_over_its_budget_stops_in_a_frame_solve(tmp_path):
+    # in this process: the export solves frames ahead on a thread, where the budget must reach too
+    from puppet.anim.export import animate_to
+    from puppet.api import Scene
+    from puppet.batch.work import BudgetExceeded, _Budgeted
+
+    scene = Scene.load(copy_scene("trex-layers.json", tmp_path))
+    out = tmp_path / "slow.gif"
+    with pytest.raises(BudgetExceeded, match="the frame's solve ran over the job's budget of 0.01 s"):
+        animate_to(_Budgeted(scene, 0.01), str(out), fps=4)
+    assert not out.exists() and os.listdir(tmp_path) == ["trex-layers.json"]
+
+
 def _stop_after_first(batch, recs):
     raise KeyboardInterrupt
 
