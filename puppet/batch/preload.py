@@ -13,3 +13,11 @@ import threading
 def dask_setup(worker) -> None:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # a worker given one core's share (as many workers as cores) solves on one thread too:
+    # the factorisation's and the two coordinates' second thread would only contend
+    import os
+
+    if os.environ.get("LP_NUM_THREADS") == "1":
+        from puppet.deform import factor
+
+        factor.THREADS = False

@@ -61,21 +61,34 @@ def chunks(jobs: list[dict], workers: int) -> list[list[dict]]:
 
 
 def homes(pieces: list[list[dict]], workers: list[str]) -> list[str | None]:
-    """A preferred worker per chunk: animations in turn, then consecutive chunks (so each
-    scene) to one worker with equal job counts per worker. Dask may still run a chunk
-    elsewhere (work stealing, a worker gone)."""
+    """A preferred worker per chunk, so that a scene is built by as few workers as can share
+    the work evenly: animations in turn, then each scene (largest first) whole to the least
+    loaded worker when it fits in that worker's share of the jobs, else chunk by chunk,
+    filling one worker to its share before the next. Dask may still run a chunk elsewhere
+    (work stealing at the end of the batch, a worker gone)."""
     if len(workers) < 2:
         return [None] * len(pieces)
-    anims = [p for p in pieces if p[0]["kind"] == "animate"]
-    total = sum(len(p) for p in pieces) - len(anims)
-    out, before, turn = [], 0, 0
-    for p in pieces:
+    load = dict.fromkeys(workers, 0)
+    out: list[str | None] = [None] * len(pieces)
+    scenes: dict[str, list[int]] = {}
+    turn = 0
+    for i, p in enumerate(pieces):
         if p[0]["kind"] == "animate":
-            out.append(workers[turn % len(workers)])
+            out[i] = workers[turn % len(workers)]
+            load[out[i]] += 1
             turn += 1
-            continue
-        out.append(workers[min(len(workers) - 1, int(before * len(workers) / max(1, total)))])
-        before += len(p)
+        else:
+            scenes.setdefault(p[0]["scene"], []).append(i)
+    share = sum(len(p) for p in pieces) / len(workers)
+    for idx in sorted(scenes.values(), key=lambda ix: -sum(len(pieces[i]) for i in ix)):
+        n = sum(len(pieces[i]) for i in idx)
+        w = min(workers, key=load.__getitem__)
+        for i in idx:
+            if load[w] + n > share and load[w] >= share:  # split: this worker has its share
+                w = min(workers, key=load.__getitem__)
+            out[i] = w
+            load[w] += len(pieces[i])
+            n -= len(pieces[i])
     return out
 
 

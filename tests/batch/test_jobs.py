@@ -165,3 +165,16 @@ def test_chunks_keep_a_scene_together_and_animations_alone_first():
     assert homes(pieces, ["w1", "w2"]) == ["w1", "w2", "w1", "w1", "w1", "w2", "w2", "w2"]
     assert homes(pieces, ["w1"]) == [None] * len(pieces)
     assert sum(len(p) for p in chunks(jobs, 1)) == len(jobs)
+
+
+def test_homes_give_each_scene_to_one_worker_unless_it_must_be_split():
+    from puppet.batch.runner import chunks, homes
+
+    jobs = [{"id": i, "scene": s, "kind": "pose"} for i, s in enumerate("a" * 6 + "b" * 6 + "c" * 6)]
+    pieces = chunks(jobs, 2)  # chunks of 3: a a b b c c; a share is 9 jobs
+    # a and b whole on one worker each; c fits nowhere whole, so it is split in two
+    assert homes(pieces, ["w1", "w2"]) == ["w1", "w1", "w2", "w2", "w1", "w2"]
+    jobs = [{"id": i, "scene": s, "kind": "pose"} for i, s in enumerate("a" * 2 + "b" * 12 + "c" * 2)]
+    pieces = chunks(jobs, 2)  # a, b b b b b b, c; share 8: b (largest) first, then a and c on the other
+    assert [p[0]["scene"] for p in pieces] == ["a"] + ["b"] * 6 + ["c"]
+    assert homes(pieces, ["w1", "w2"]) == ["w2", "w1", "w1", "w1", "w1", "w2", "w2", "w2"]
