@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.geom.curvature import contour_curvature, curvature_maxima, resample_closed
+from puppet.geom.curvature import contour_curvature, contour_length, curvature_maxima, resample_closed
 from puppet.geom.outline_match import (Similarity, alignment_candidates, oriented, ring_centroid, similarity_fit,
                                        symmetric_mean_distance)
 
@@ -88,7 +88,7 @@ def smooth_ring(P, sigma: float, *, step: float = 0.5) -> np.ndarray:
     pixel or two removes the staircase and keeps the shape. ``sigma`` 0 only resamples.
     """
     P = np.asarray(P, np.float64)
-    L = float(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1).sum())
+    L = contour_length(P)
     n = int(np.clip(np.ceil(L / step), 16, 1 << 18))
     R = resample_closed(P, n)
     if sigma <= 0:
@@ -113,7 +113,7 @@ class LandmarkRing:
     def of(cls, P, *, samples: int = 1024, beta: float = 4.0, smooth: float = 1.0) -> "LandmarkRing":
         """Resample ``P`` (n, 2) after smoothing it (:func:`smooth_ring`, ``smooth`` px)."""
         R = resample_closed(smooth_ring(oriented(P), smooth), samples)
-        L = float(np.linalg.norm(np.roll(R, -1, axis=0) - R, axis=1).sum())
+        L = contour_length(R)
         idx = np.sort(curvature_maxima(R, beta=beta))
         k = np.abs(contour_curvature(R, L / (2.0 * np.pi) / beta))
         n = len(R)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from puppet.geom.contour import ring_area
-from puppet.geom.curvature import resample_closed
+from puppet.geom.curvature import contour_length, resample_closed
 
 __all__ = [
     "Similarity",
@@ -112,7 +112,7 @@ def similarity_fit(A, B) -> Similarity:
 
 
 def _dense(P: np.ndarray, step: float) -> np.ndarray:
-    L = float(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1).sum())
+    L = contour_length(P)
     return resample_closed(P, max(16, int(np.ceil(L / step))))
 
 
