@@ -60,6 +60,11 @@ def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
     return doc
 
 
+def _relative_to(folder: str) -> Callable[[str], str]:
+    """A path as written in a scene saved in ``folder``: relative, with forward slashes."""
+    return lambda p: os.path.relpath(p, folder).replace(os.sep, "/")
+
+
 class Document(Edits, KeyEdits):
     """An editable scene. Load with :meth:`load`; pose with :meth:`layers` / :meth:`mesh`."""
 
@@ -330,7 +335,7 @@ class Document(Edits, KeyEdits):
     # -- files -------------------------------------------------------------------
     def to_json(self, folder: str) -> dict:
         """The scene JSON as it is now, with every file path relative to ``folder``."""
-        return map_paths(self.to_dict(), lambda p: os.path.relpath(p, folder).replace(os.sep, "/"))
+        return map_paths(self.to_dict(), _relative_to(folder))
 
     def save(self, path: str) -> None:
         """Write the scene as it is now, atomically; file paths inside are written relative
@@ -346,8 +351,7 @@ class Document(Edits, KeyEdits):
         moved = self.pending.publish({p for p in used if self.pending.owns(p)}, path, inputs)
         doc = map_paths(self._doc, lambda p: moved.get(p, p))
         folder = os.path.dirname(os.path.realpath(path))
-        text = json.dumps(map_paths(json.loads(json.dumps(doc)), lambda p: os.path.relpath(p, folder)
-                                    .replace(os.sep, "/")), indent=1)
+        text = json.dumps(map_paths(doc, _relative_to(folder)), indent=1)
         write_text(path, text + "\n", inputs=inputs)
         if moved:  # from now on the scene reads the saved copies (same pixels, same keys)
             self._set(doc, self._active)
