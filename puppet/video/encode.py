@@ -2,17 +2,17 @@
 atomically (:mod:`puppet.output`): nothing is left behind when anything fails.
 
 Encoding runs in a helper thread (PyAV releases the GIL while it encodes), so it
-overlaps the work on the next frame; a few frames at most wait in memory.
+overlaps the work on the next frame; a few frames at most wait in memory (the
+export's encoder thread, :func:`puppet.anim.pipeline.run`).
 """
 from __future__ import annotations
 
 import os
-import queue
-import threading
 from collections.abc import Iterable
 
 import numpy as np
 
+from puppet.anim import pipeline
 from puppet.errors import SceneError
 from puppet.output import atomic_write, write_folder
 
@@ -34,42 +34,6 @@ def output_kind(path: str) -> str:
     if ext not in KINDS:
         raise SceneError(f"-o {path!r}: give an .mp4 or .webm file, or a folder (ending in /)")
     return KINDS[ext]
-
-
-def _threaded(consume, frames: Iterable[np.ndarray]) -> int:
-    """Feed ``frames`` to ``consume(frame)`` in a helper thread; returns the number fed.
-    An error on either side stops both and is raised here."""
-    q: queue.Queue = queue.Queue(maxsize=3)
-    failed: list[BaseException] = []
-    end = object()
-
-    def work() -> None:
-        while True:
-            item = q.get()
-            if item is end:
-                return
-            if failed:
-                continue
-            try:
-                consume(item)
-            except BaseException as e:
-                failed.append(e)
-
-    t = threading.Thread(target=work, name="puppet-video-encode", daemon=True)
-    t.start()
-    n = 0
-    try:
-        for f in frames:
-            if failed:
-                break
-            q.put(f)
-            n += 1
-    finally:
-        q.put(end)
-        t.join()
-    if failed:
-        raise failed[0]
-    return n
 
 
 def write_frames(path: str, frames: Iterable[np.ndarray], fps: float, kind: str, *, inputs=()) -> int:
@@ -104,7 +68,7 @@ def write_frames(path: str, frames: Iterable[np.ndarray], fps: float, kind: str,
                     box.mux(pkt)
                 written[0] += 1
 
-            _threaded(add, frames)
+            pipeline.run(frames, add)
             if st is not None:
                 for pkt in st.encode():
                     box.mux(pkt)
@@ -121,6 +85,6 @@ def _write_dir(path: str, frames: Iterable[np.ndarray], *, inputs=()) -> int:
         def save(rgb: np.ndarray) -> None:
             Image.fromarray(rgb).save(os.path.join(tmp, f"frame_{count[0]:05d}.png"), format="PNG", compress_level=1)
             count[0] += 1
-        _threaded(save, frames)
+        pipeline.run(frames, save)
         return count[0]
     return write_folder(path, fill, inputs=inputs)
