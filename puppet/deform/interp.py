@@ -26,6 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from puppet.deform.factor import factorize
+from puppet.geom.geodesic import connected_components
 from puppet.geom.mesh import check_mesh
 
 _CORNERS = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])  # d(edge vectors)/d(corner positions)
@@ -151,8 +152,6 @@ def interp_precompute(V, F, fixed=(), *, solver: str = "qdldl") -> InterpData:
     V : (n, 2) float rest vertices; F : (m, 3) int triangles.
     fixed : (f,) int vertices that stay put between the two keys.
     """
-    from scipy.sparse.csgraph import connected_components
-
     V, F = check_mesh(V, F)
     n, m = len(V), len(F)
     E = _edge_matrices(V, F)
@@ -168,8 +167,7 @@ def interp_precompute(V, F, fixed=(), *, solver: str = "qdldl") -> InterpData:
     GTW = (G.T @ sp.diags(np.repeat(area, 2))).tocsr()
     K = (GTW @ G).tocsr()
     fixed = np.unique(np.asarray(fixed, dtype=np.int64).reshape(-1))
-    adj = sp.coo_matrix((np.ones(3 * m), (F.ravel(), np.roll(F, 1, axis=1).ravel())), shape=(n, n))
-    ncomp, label = connected_components(adj, directed=False)
+    ncomp, label = connected_components(n, F)
     has_fixed = np.zeros(ncomp, bool)
     has_fixed[label[fixed]] = True
     parts = [np.flatnonzero(label == c) for c in range(ncomp) if not has_fixed[c]]
