@@ -37,7 +37,6 @@ class TimelinePanel:
         self._press = None  # (kind "scrub" | "key", press x, press time, key times)
         self._drag_dt = 0.0
         self.fps_field = 24.0
-        self.length_field = 2.0
 
     @property
     def tl(self) -> tl.Timeline:
@@ -129,9 +128,9 @@ class TimelinePanel:
                 t.set_fps(self.fps_field)
         imgui.same_line()
         imgui.set_next_item_width(60)
-        changed, length = imgui.input_float("length", t.length, 0, 0, "%g s")
-        imgui.set_item_tooltip("seconds the timeline shows (the animation ends at its last key: "
-                               f"{t.duration():g} s now)")
+        changed, length = imgui.input_float("view", t.length, 0, 0, "%g s")
+        imgui.set_item_tooltip("seconds the timeline shows at least (it widens past the last key; "
+                               f"the animation ends at its last key: {t.duration():g} s now)")
         if changed and length > 0:
             t.length = min(float(length), 3600.0)
         imgui.same_line()
