@@ -154,27 +154,110 @@ def test_parsing_the_command_loads_no_dask():
     assert out.strip() == "[]"
 
 
-def test_chunks_keep_a_scene_together_and_animations_alone_first():
-    from puppet.batch.runner import chunks, homes
-
-    jobs = [{"id": i, "scene": s, "kind": k} for i, (s, k) in enumerate(
-        [("a", "pose")] * 10 + [("b", "pose")] * 6 + [("a", "animate"), ("b", "animate")])]
-    pieces = chunks(jobs, 2)  # 18 jobs, 2 workers: chunks of ceil(18 / 8) = 3
-    assert [[j["id"] for j in p] for p in pieces] == [[16], [17], [0, 1, 2], [3, 4, 5], [6, 7, 8], [9],
-                                                      [10, 11, 12], [13, 14, 15]]
-    assert homes(pieces, ["w1", "w2"]) == ["w1", "w2", "w1", "w1", "w1", "w2", "w2", "w2"]
-    assert homes(pieces, ["w1"]) == [None] * len(pieces)
-    assert sum(len(p) for p in chunks(jobs, 1)) == len(jobs)
+def _jobs(spec: str, animate: str = "") -> list[dict]:
+    return [{"id": i, "scene": s, "kind": k} for i, (s, k) in enumerate(
+        [(s, "pose") for s in spec] + [(s, "animate") for s in animate])]
 
 
-def test_homes_give_each_scene_to_one_worker_unless_it_must_be_split():
-    from puppet.batch.runner import chunks, homes
+def _ids(piece: list[dict]) -> list[int]:
+    return [j["id"] for j in piece]
 
-    jobs = [{"id": i, "scene": s, "kind": "pose"} for i, s in enumerate("a" * 6 + "b" * 6 + "c" * 6)]
-    pieces = chunks(jobs, 2)  # chunks of 3: a a b b c c; a share is 9 jobs
-    # a and b whole on one worker each; c fits nowhere whole, so it is split in two
-    assert homes(pieces, ["w1", "w2"]) == ["w1", "w1", "w2", "w2", "w1", "w2"]
-    jobs = [{"id": i, "scene": s, "kind": "pose"} for i, s in enumerate("a" * 2 + "b" * 12 + "c" * 2)]
-    pieces = chunks(jobs, 2)  # a, b b b b b b, c; share 8: b (largest) first, then a and c on the other
-    assert [p[0]["scene"] for p in pieces] == ["a"] + ["b"] * 6 + ["c"]
-    assert homes(pieces, ["w1", "w2"]) == ["w2", "w1", "w1", "w1", "w1", "w2", "w2", "w2"]
+
+def test_feeder_gives_animations_first_then_a_worker_keeps_its_scene():
+    from puppet.batch.feed import Feeder
+
+    f = Feeder(_jobs("a" * 10 + "b" * 6, animate="ab"))
+    assert len(f) == 18
+    assert _ids(f.next("w1", 2)) == [16] and _ids(f.next("w2", 2)) == [17]  # animations, one per task
+    # 16 left, 2 workers: pieces of ceil(16 / 8) = 2; w1 starts the larger scene, w2 the other
+    assert _ids(f.next("w1", 2)) == [0, 1]
+    assert _ids(f.next("w2", 2)) == [10, 11]
+    assert _ids(f.next("w1", 2)) == [2, 3]    # its own scene again (built there)
+    assert _ids(f.next("w2", 2)) == [12, 13]
+    assert _ids(f.next("w1", 2)) == [4]       # 8 left: pieces of 1 as the batch ends
+    assert f.built == {"w1": {"a"}, "w2": {"b"}}
+
+
+def test_feeder_shares_a_scene_only_when_a_worker_has_nothing_of_its_own():
+    from puppet.batch.feed import Feeder
+
+    f = Feeder(_jobs("a" * 12 + "b" * 4))  # pieces of 2
+    assert _ids(f.next("w1", 2)) == [0, 1] and _ids(f.next("w2", 2)) == [12, 13]
+    assert _ids(f.next("w2", 2)) == [14, 15]  # finishes b
+    assert _ids(f.next("w2", 2)) == [2, 3]    # nothing unstarted: helps with a (10 left)
+    assert f.built["w2"] == {"a", "b"}
+    while f.next("w1", 2):
+        pass
+    assert len(f) == 0 and f.next("w2", 2) == []
+    # a rest too small to pay a second build is left to the worker that has the scene
+    f = Feeder(_jobs("a" * 2))
+    assert _ids(f.next("w1", 2)) == [0]
+    assert f.next("w2", 2) == []
+    assert _ids(f.next("w1", 2)) == [1]
+
+
+def test_feeder_rest_hands_out_every_job_once():
+    from puppet.batch.feed import Feeder
+
+    jobs = _jobs("abcabcaaab" * 3, animate="c")
+    f = Feeder(jobs)
+    first = f.next("w1", 3)
+    pieces = [first] + f.rest()
+    assert sorted(i for p in pieces for i in _ids(p)) == list(range(len(jobs)))
+    assert all(len({j["scene"] for j in p}) == 1 for p in pieces)
+    assert len(f) == 0 and f.rest() == []
+
+
+def test_feeder_shares_a_scene_only_when_its_build_pays_off():
+    from puppet.batch.feed import Feeder
+
+    def fed(n_left: int, job: float, build: float) -> list[dict]:
+        f = Feeder(_jobs("a" * (n_left + 3)))
+        done = [f.queues["a"].popleft() for _ in range(3)]  # run by w1 already
+        f.built["w1"] = {"a"}
+        f.learn(done, [{"id": j["id"], "status": "done", "seconds": s}
+                       for j, s in zip(done, (job + build, job, job))])
+        return f.next("w2", 2)
+
+    # 20 jobs of 40 ms left, a 250 ms build: balanced when w2 takes (0.8 - 0.25) / 0.08 = 6 jobs,
+    # in pieces of a quarter of a worker's share of the 0.8 s left: 0.1 s, 2 jobs
+    assert len(fed(20, 0.04, 0.25)) == 2
+    assert fed(8, 0.04, 0.25) == []             # 0.32 s left: not worth a 0.25 s build and two jobs
+    assert len(fed(8, 0.04, 0.0)) == 1          # nothing to build: help (pieces of 1 at the end)
+    f = Feeder(_jobs("ab"))
+    f.learn([{"id": 0, "scene": "a"}], [{"id": 0, "status": "failed", "seconds": 9.0}])
+    assert f.times == {}                        # failed jobs teach nothing
+
+
+def test_feeder_sizes_pieces_by_time_once_jobs_are_timed():
+    from puppet.batch.feed import Feeder
+
+    f = Feeder(_jobs("a" * 40 + "b" * 40))
+    assert f.piece_size(2, "a") == 8                   # untimed: ceil(80 / 8) jobs, at most 8
+    assert Feeder(_jobs("a" * 400)).piece_size(2, "a") == 8
+    f.learn([{"id": 0, "scene": "a"}, {"id": 1, "scene": "a"}, {"id": 40, "scene": "b"}],
+            [{"id": 0, "status": "done", "seconds": 0.1}, {"id": 1, "status": "done", "seconds": 0.1},
+             {"id": 40, "status": "done", "seconds": 0.01}])
+    # 40 jobs x 0.1 s + 40 x 0.01 s = 4.4 s left; a quarter of a worker's share is 0.55 s
+    assert f.piece_size(2, "a") == 5 and f.piece_size(2, "b") == 32  # 55 jobs of 10 ms; at most 32
+    for _ in range(36):
+        f.queues["a"].popleft()
+    assert f.piece_size(2, "a") == 1                   # 0.8 s left: pieces of 0.1 s
+
+
+def test_feeder_splits_a_scene_early_when_its_owner_would_end_the_batch_alone():
+    from puppet.batch.feed import Feeder
+
+    def second_piece(spec: str) -> list[dict]:
+        f = Feeder(_jobs(spec))
+        first = f.next("w1", 2)
+        assert {j["scene"] for j in first} == {"a"}
+        f.learn(first, [{"id": j["id"], "status": "done", "seconds": 0.15 if i == 0 else 0.1}
+                        for i, j in enumerate(first)])
+        return f.next("w2", 2)
+
+    # a: 34 jobs x 0.1 s left, b and c 0.4 s each: a is 3.4 of 4.2 s, far over a worker's share
+    piece = second_piece("a" * 40 + "b" * 4 + "c" * 4)
+    assert {j["scene"] for j in piece} == {"a"} and len(piece) == 5
+    # b and c as large as a: a new scene instead (no second build of a)
+    assert {j["scene"] for j in second_piece("a" * 40 + "b" * 40 + "c" * 40)} == {"b"}

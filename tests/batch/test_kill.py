@@ -74,3 +74,36 @@ def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes
     assert summary["counts"]["done"] == len(entries) - len(died)  # the batch went on after it
     assert all(os.path.isfile(os.path.join(out, j["output"])) for j in report["jobs"] if j["status"] == "done")
     assert temporaries(out) == []
+
+
+def test_the_only_worker_killed_its_queued_pieces_run_on_its_replacement(tmp_path):
+    """Pieces are given to a worker ahead of time: when the only one dies, Dask has no other
+    worker for them and leaves them waiting for the dead one; the batch gives them again."""
+    from puppet.batch.cluster import connect
+    from puppet.batch import runner
+
+    scene = os.path.basename(copy_scene("trex-layers.json", tmp_path))
+    entries = [{"scene": scene, "time": round(0.1 * k, 2), "size": [60, 50], "output": f"f{k:02d}.png"}
+               for k in range(16)]
+    out = os.path.realpath(tmp_path / "out")
+    os.mkdir(out)
+    jobs = read_job_list(write_list(tmp_path / "jobs.json", entries), out, {"budget": 120.0})
+    killed = []
+    with connect(workers=1, retries=2) as (client, _):
+        def kill_the_worker(batch, recs):
+            busy = {w: keys for w, keys in client.processing().items() if keys}
+            if killed or not busy:
+                return
+            (victim, keys), = busy.items()
+            os.kill(client.run(os.getpid, workers=[victim])[victim], signal.SIGKILL)
+            killed.append(keys)
+
+        old, runner.RESCUE_AFTER = runner.RESCUE_AFTER, 1.0
+        try:
+            summary = run_batch(jobs, out, client=client, retries=2, on_result=kill_the_worker)
+        finally:
+            runner.RESCUE_AFTER = old
+    assert killed
+    report = json.loads(open(summary["report"]).read())
+    assert summary["counts"]["done"] == len(entries), [j["error"] for j in report["jobs"] if j["error"]]
+    assert all(os.path.isfile(os.path.join(out, e["output"])) for e in entries)
