@@ -17,7 +17,7 @@ def dask_setup(worker) -> None:
     # the factorisation's and the two coordinates' second thread would only contend
     import os
 
-    if os.environ.get("LP_NUM_THREADS") == "1":
+    if os.environ.get("LP_NUM_THREADS") in ("0", "1"):
         from puppet.deform import factor
 
         factor.THREADS = False
