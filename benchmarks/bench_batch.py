@@ -8,9 +8,10 @@ a cached solve of another), at SIZExSIZE.
 
 Rows:
 
-* **in-process**: ``puppet.batch.work.run_job`` for every job in order, in this process,
-  warm (modules imported, GL context made), scene cache empty at the start: the same
-  loading, solving, drawing and writing a worker does, without Dask;
+* **in-process**: ``puppet.batch.work.run_job`` for every job in order, in one plain
+  process, warm (modules imported, GL context made), scene cache empty at the start: the
+  same loading, solving, drawing and writing a worker does, without Dask (not in this
+  process, which must stay what the CLI's is: Dask's client and scheduler, no GL);
 * **batch, N workers**: ``run_batch`` on an embedded LocalCluster that is already up, its
   workers warm (GL context made, scene caches empty): the steady throughput;
 * **CLI, N workers**: ``puppet batch LIST -o OUT --workers N`` from the shell, cluster
@@ -25,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -65,16 +67,29 @@ def load() -> str:
     return open("/proc/loadavg").read().split()[0] if os.path.exists("/proc/loadavg") else "?"
 
 
-def in_process(jobs: list[dict]) -> float:
-    from puppet.batch import work
+_IN_PROCESS = """
+import json, sys, time
+from puppet.batch import work
+jobs = json.load(open(sys.argv[1]))
+work.warm()
+t0, c0 = time.perf_counter(), time.process_time()
+for j in jobs:
+    rec = work.run_job(j)
+    assert rec["status"] == "done", rec
+print(time.perf_counter() - t0, time.process_time() - c0)
+"""
 
-    work.warm()
-    work._scenes.clear()
-    t0, c0 = time.perf_counter(), time.process_time()
-    for j in jobs:
-        rec = work.run_job(j)
-        assert rec["status"] == "done", rec
-    return time.perf_counter() - t0, time.process_time() - c0
+
+def in_process(jobs: list[dict], tmp: str) -> tuple[float, float]:
+    """The jobs in order by ``run_job`` in a process of their own (warm: modules imported,
+    GL context made, no scene loaded), so that this process stays what the CLI's is: a
+    client and a scheduler, no GL context and no scenes."""
+    path = os.path.join(tmp, "in-process-jobs.json")
+    with open(path, "w") as f:
+        json.dump(jobs, f)
+    out = subprocess.run([sys.executable, "-c", _IN_PROCESS, path], check=True, capture_output=True,
+                         text=True, cwd=ROOT).stdout.split()
+    return float(out[0]), float(out[1])
 
 
 def batch(jobs: list[dict], out: str, workers: int) -> float:
@@ -129,7 +144,7 @@ def main() -> None:
         rows = []
         print(f"{len(entries)} jobs at {a.size}x{a.size}; load before: {load()}", flush=True)
         for r in range(a.rounds):
-            rows.append(("in-process", 1, *in_process(jobs_in(os.path.join(tmp, f"in{r}"))), load()))
+            rows.append(("in-process", 1, *in_process(jobs_in(os.path.join(tmp, f"in{r}")), tmp), load()))
             for w in (1, 2):
                 out = os.path.join(tmp, f"b{w}{r}")
                 rows.append(("batch", w, *batch(jobs_in(out), out, w), load()))
@@ -151,6 +166,18 @@ def main() -> None:
           f"({1000 * (b1_c - base_c) / n:+.2f} ms/job)")
     print(f"scaling (batch 2 workers vs 1): {b1 / b2:.2f}x (target >= 1.7x on 2 free cores); "
           f"CPU with 2 workers vs 1: {b2_c / b1_c:.2f}x (scenes loaded by both)")
+    # this machine's speed drifts by 10-40 % within a minute (shared host): each round's
+    # 1- and 2-worker runs are back to back, so their ratio is the fairer figure
+    def paired(first, second):
+        return sorted(t1 / t2 for (m1, w1, t1, _, _), (m2, w2, t2, _, _) in zip(rows, rows[1:])
+                      if (m1, w1) == first and (m2, w2) == second)
+
+    over = sorted(100 * (1 / x - 1) for x in paired(("in-process", 1), ("batch", 1)))
+    print(f"overhead per round (batch 1 worker vs the in-process run just before): "
+          f"{', '.join(f'{o:+.1f} %' for o in over)}; median {statistics.median(over):+.1f} %")
+    ratios = paired(("batch", 1), ("batch", 2))
+    print(f"scaling per round (2 workers vs the 1-worker run just before): "
+          f"{', '.join(f'{r:.2f}x' for r in ratios)}; median {statistics.median(ratios):.2f}x")
     if ("CLI", 1) in best:
         c1, c2 = best[("CLI", 1)][0], best[("CLI", 2)][0]
         print(f"CLI end to end: 1 worker {n / c1:.1f} jobs/s, 2 workers {n / c2:.1f} jobs/s ({c1 / c2:.2f}x)")
