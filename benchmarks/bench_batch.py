@@ -14,6 +14,9 @@ Rows:
   process, which must stay what the CLI's is: Dask's client and scheduler, no GL);
 * **batch, N workers**: ``run_batch`` on an embedded LocalCluster that is already up, its
   workers warm (GL context made, scene caches empty): the steady throughput;
+* **plain, 2**: the floor of the 2-worker row: the jobs each of its workers ran, in two
+  plain processes started together, set up as the workers are (``LP_NUM_THREADS=0``, one
+  solver thread), no Dask: what the split costs without a scheduler, messages or nannies;
 * **CLI, N workers**: ``puppet batch LIST -o OUT --workers N`` from the shell, cluster
   start-up and shutdown included.
 
@@ -68,28 +71,46 @@ def load() -> str:
 
 
 _IN_PROCESS = """
-import json, sys, time
+import json, os, sys, time
 from puppet.batch import work
+if os.environ.get("LP_NUM_THREADS") in ("0", "1"):  # as a batch worker with one core's share
+    from puppet.deform import factor
+    factor.THREADS = False
 jobs = json.load(open(sys.argv[1]))
 work.warm()
+print("ready", flush=True)
+sys.stdin.readline()
 t0, c0 = time.perf_counter(), time.process_time()
 for j in jobs:
     rec = work.run_job(j)
     assert rec["status"] == "done", rec
-print(time.perf_counter() - t0, time.process_time() - c0)
+print(time.perf_counter() - t0, time.process_time() - c0, flush=True)
 """
 
 
-def in_process(jobs: list[dict], tmp: str) -> tuple[float, float]:
-    """The jobs in order by ``run_job`` in a process of their own (warm: modules imported,
-    GL context made, no scene loaded), so that this process stays what the CLI's is: a
-    client and a scheduler, no GL context and no scenes."""
-    path = os.path.join(tmp, "in-process-jobs.json")
-    with open(path, "w") as f:
-        json.dump(jobs, f)
-    out = subprocess.run([sys.executable, "-c", _IN_PROCESS, path], check=True, capture_output=True,
-                         text=True, cwd=ROOT).stdout.split()
-    return float(out[0]), float(out[1])
+def in_process(lists: list[list[dict]], tmp: str, env: dict | None = None) -> tuple[float, float]:
+    """Each job list in order by ``run_job`` in a plain process of its own, all started
+    together once warm (modules imported, GL context made, no scene loaded); wall time of
+    the slowest and the CPU time of all. Not in this process, which stays what the CLI's
+    is: a client and a scheduler, no GL context and no scenes."""
+    procs = []
+    for i, jobs in enumerate(lists):
+        path = os.path.join(tmp, f"plain-{i}.json")
+        with open(path, "w") as f:
+            json.dump(jobs, f)
+        procs.append(subprocess.Popen([sys.executable, "-c", _IN_PROCESS, path], stdin=subprocess.PIPE,
+                                      stdout=subprocess.PIPE, text=True, cwd=ROOT, env={**os.environ, **(env or {})}))
+    for p in procs:
+        assert p.stdout.readline().strip() == "ready"
+    t0 = time.perf_counter()
+    for p in procs:
+        p.stdin.write("go\n")
+        p.stdin.flush()
+    cpu = sum(float(p.stdout.readline().split()[1]) for p in procs)
+    wall = time.perf_counter() - t0
+    for p in procs:
+        p.wait()
+    return wall, cpu
 
 
 def batch(jobs: list[dict], out: str, workers: int) -> float:
@@ -107,10 +128,18 @@ def batch(jobs: list[dict], out: str, workers: int) -> float:
         t, c = time.perf_counter() - t0, time.process_time() - c0
         w1 = client.run(time.process_time)
         cpu = c + sum(w1[k] - w0[k] for k in w1 if k in w0)
+    rep = json.load(open(s["report"]))
     if s["counts"]["done"] != len(jobs):
-        rep = json.load(open(s["report"]))
         raise SystemExit(f"{s['counts']}: {[j['error'] for j in rep['jobs'] if j['error']][:3]}")
+    split: dict[str, list[dict]] = {}
+    for j, r in zip(jobs, rep["jobs"]):
+        split.setdefault(r["worker"], []).append(j)
+    LAST_SPLIT[workers] = list(split.values())
     return t, cpu
+
+
+#: Jobs each worker ran in the last batch with N workers: the plain-process floor reruns them.
+LAST_SPLIT: dict[int, list[list[dict]]] = {}
 
 
 def cli(listfile: str, out: str, workers: int) -> float:
@@ -144,10 +173,13 @@ def main() -> None:
         rows = []
         print(f"{len(entries)} jobs at {a.size}x{a.size}; load before: {load()}", flush=True)
         for r in range(a.rounds):
-            rows.append(("in-process", 1, *in_process(jobs_in(os.path.join(tmp, f"in{r}")), tmp), load()))
+            rows.append(("in-process", 1, *in_process([jobs_in(os.path.join(tmp, f"in{r}"))], tmp), load()))
             for w in (1, 2):
                 out = os.path.join(tmp, f"b{w}{r}")
                 rows.append(("batch", w, *batch(jobs_in(out), out, w), load()))
+            # the floor of the 2-worker row: the same jobs each worker ran, in plain processes
+            # started together, set up as the workers are (no Dask: no scheduler, no messages)
+            rows.append(("plain", 2, *in_process(LAST_SPLIT[2], tmp, {"LP_NUM_THREADS": "0"}), load()))
             if not a.no_cli:
                 for w in (1, 2):
                     rows.append(("CLI", w, *cli(listfile, os.path.join(tmp, f"c{w}{r}"), w), load()))
@@ -178,6 +210,10 @@ def main() -> None:
     ratios = paired(("batch", 1), ("batch", 2))
     print(f"scaling per round (2 workers vs the 1-worker run just before): "
           f"{', '.join(f'{r:.2f}x' for r in ratios)}; median {statistics.median(ratios):.2f}x")
+    floor = paired(("batch", 2), ("plain", 2))
+    print(f"2 workers' time over its floor (the same split in 2 plain processes, run just after): "
+          f"{', '.join(f'{r:.2f}' for r in floor)}; median {statistics.median(floor):.2f}; "
+          f"best plain 2 vs batch 1: {b1 / best[('plain', 2)][0]:.2f}x")
     if ("CLI", 1) in best:
         c1, c2 = best[("CLI", 1)][0], best[("CLI", 2)][0]
         print(f"CLI end to end: 1 worker {n / c1:.1f} jobs/s, 2 workers {n / c2:.1f} jobs/s ({c1 / c2:.2f}x)")
