@@ -1,8 +1,10 @@
 """``puppet batch`` throughput: 200 small jobs with 1 and 2 Dask workers, beside the same
 jobs run in one process.
 
-Run: ``python benchmarks/bench_batch.py [--jobs 200] [--size 160] [--rounds 2] [--no-cli]`` from the
-repository root. The jobs are small renders of the bundled scenes: every pose of the
+Run: ``python benchmarks/bench_batch.py [--jobs 200] [--size 160] [--rounds 2] [--no-cli]
+[--template N]`` from the repository root. ``--template N``: the template mode's catalogue
+instead (N generated t-shirt pictures, each segmented, matched to the bundled t-shirt
+template, built and posed: ~0.2 s a job, every job its own scene; no CLI rows). The jobs are small renders of the bundled scenes: every pose of the
 scenes without animation and frames at distinct times of the animated ones (so no job is
 a cached solve of another), at SIZExSIZE.
 
@@ -64,6 +66,29 @@ def job_list(n: int, size: int) -> list[dict]:
         jobs.append({"scene": os.path.join(SCENES, name), "time": t, "size": [size, size],
                      "output": f"{name[:-5]}/t{i:04d}.png"})
     return jobs[:n]
+
+
+def garment_pictures(n: int, folder: str) -> str:
+    """``n`` pictures of the bundled t-shirt, each turned, scaled and moved differently (the
+    template mode's catalogue: one picture per job, each segmented, matched and built)."""
+    import numpy as np
+
+    sys.path.insert(0, ROOT)
+    from tests.batch import garments
+
+    from PIL import Image
+
+    w, h = Image.open(garments.TSHIRT).size
+    rng = np.random.default_rng(7)
+    os.makedirs(folder, exist_ok=True)
+    for i in range(n):
+        size = int(rng.integers(300, 520))
+        a = size / max(w, h) * rng.uniform(0.6, 0.8) * np.exp(1j * np.radians(rng.uniform(-20, 20)))
+        centre = complex(*(size * rng.uniform(0.45, 0.55, 2)))
+        b = centre - a * complex(w / 2, h / 2)  # the garment's centre at about the picture's
+        garments.similar_copy(garments.TSHIRT, os.path.join(folder, f"shirt{i:04d}.png"), scale=abs(a),
+                              angle=float(np.degrees(np.angle(a))), shift=(b.real, b.imag), size=(size, size))
+    return folder
 
 
 def load() -> str:
@@ -155,6 +180,8 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=160)
     ap.add_argument("--rounds", type=int, default=2, help="repeat every row, keep the best (default 2)")
     ap.add_argument("--no-cli", action="store_true", help="skip the rows timed from the shell")
+    ap.add_argument("--template", type=int, default=0, metavar="N",
+                    help="instead: N t-shirt pictures posed by the bundled t-shirt template (template mode)")
     a = ap.parse_args()
     sys.path.insert(0, ROOT)
     from puppet.batch.jobs import job_from_entry, number
@@ -170,8 +197,21 @@ def main() -> None:
             return number([job_from_entry(e, tmp, os.path.realpath(out), {}, listfile, f"[{i}]")
                            for i, e in enumerate(entries)], listfile)
 
+        if a.template:
+            from puppet.batch.jobs import template_jobs
+
+            images = garment_pictures(a.template, os.path.join(tmp, "pictures"))
+            entries = [None] * a.template
+            a.no_cli = True
+
+            def jobs_in(out):  # noqa: F811 - the template mode's jobs instead
+                os.makedirs(out, exist_ok=True)
+                return template_jobs(os.path.join(SCENES, "tshirt-garment.json"), images, "lift",
+                                     os.path.realpath(out), {"size": [a.size, a.size]}, tolerance=None)
+
         rows = []
-        print(f"{len(entries)} jobs at {a.size}x{a.size}; load before: {load()}", flush=True)
+        what = f"template mode, {a.template} t-shirt pictures" if a.template else "jobs"
+        print(f"{len(entries)} {what} at {a.size}x{a.size}; load before: {load()}", flush=True)
         for r in range(a.rounds):
             rows.append(("in-process", 1, *in_process([jobs_in(os.path.join(tmp, f"in{r}"))], tmp), load()))
             for w in (1, 2):
