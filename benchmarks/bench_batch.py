@@ -2,11 +2,12 @@
 jobs run in one process.
 
 Run: ``python benchmarks/bench_batch.py [--jobs 200] [--size 160] [--rounds 2] [--no-cli]
-[--template N]`` from the repository root. ``--template N``: the template mode's catalogue
-instead (N generated t-shirt pictures, each segmented, matched to the bundled t-shirt
-template, built and posed: ~0.2 s a job, every job its own scene; no CLI rows). The jobs are small renders of the bundled scenes: every pose of the
-scenes without animation and frames at distinct times of the animated ones (so no job is
-a cached solve of another), at SIZExSIZE.
+[--template N]`` from the repository root. The jobs are small renders of the bundled
+scenes: every pose of the scenes without animation and frames at distinct times of the
+animated ones (so no job is a cached solve of another), at SIZExSIZE. ``--template N``:
+the template mode's catalogue instead (N generated t-shirt pictures, each segmented,
+matched to the bundled t-shirt template, built and posed: ~0.2 s a job, every job its own
+scene; no CLI rows).
 
 Rows:
 

@@ -1,17 +1,17 @@
 """Which jobs a worker runs next: handed out as workers free up, not planned in advance.
 
 Jobs differ in cost by 10x and more (a frame of the 7.7k-vertex T-rex against a pose of a
-small cut-out), and a worker builds each scene it renders once. The client keeps every worker :data:`DEPTH` tasks ahead and, each time one finishes, gives that worker
-its next piece:
+small cut-out), and a worker builds each scene it renders once. The client keeps every
+worker a piece ahead (:data:`DEPTH`) and, each time a piece comes back, gives that worker
+its next one:
 
 1. an animation (each its own task; all of them first, so none ends the batch alone);
 2. more jobs of a scene this worker has built already (its cache holds it: no second build);
 3. else a share of a scene another worker has started, when that scene's work left (its
    jobs not handed out and those still running or queued) exceeds a worker's share of all
    the work left by more than a build, so its owner would end the batch alone, and a
-   second build pays for itself
-   (times learnt from the jobs done so far: a scene's typical job, and its slowest one,
-   which includes the build);
+   second build pays for itself (times learnt from the jobs done so far: a scene's mean
+   job, and its slowest one, which includes the build);
 4. else a scene nobody has started, the one with the most jobs first;
 5. else a share of the scene with the most work left, when a second build pays (before
    any job is timed: when two pieces' worth are left).

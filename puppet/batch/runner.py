@@ -1,6 +1,7 @@
 """The client side of a batch: skip what --resume finds up to date, hand out pieces of jobs
-to the Dask workers as they free up, record each result as it arrives (manifest, report, progress bar), and
-leave OUT_DIR consistent however the run ends (done, failed jobs, Ctrl+C, SIGTERM)."""
+to the Dask workers as they free up, record each result as it arrives (manifest, report,
+progress bar), and leave OUT_DIR consistent however the run ends (done, failed jobs,
+Ctrl+C, SIGTERM)."""
 from __future__ import annotations
 
 import collections
