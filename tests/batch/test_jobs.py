@@ -211,22 +211,24 @@ def test_feeder_rest_hands_out_every_job_once():
 def test_feeder_shares_a_scene_only_when_its_build_pays_off():
     from puppet.batch.feed import Feeder
 
-    def fed(n_left: int, job: float, build: float) -> list[dict]:
-        f = Feeder(_jobs("a" * (n_left + 3)))
-        done = [f.queues["a"].popleft() for _ in range(3)]  # run by w1 already
-        f.built["w1"] = {"a"}
-        f.learn(done, [{"id": j["id"], "status": "done", "seconds": s}
-                       for j, s in zip(done, (job + build, job, job))])
+    def fed(n: int, job: float, build: float) -> list[dict]:
+        """w1 took the first piece of n jobs of one scene and sent back its times (the first
+        job built the scene); what does w2 get?"""
+        f = Feeder(_jobs("a" * n))
+        done = f.next("w1", 2)
+        f.learn(done, [{"id": j["id"], "status": "done", "seconds": job + build if i == 0 else job}
+                       for i, j in enumerate(done)])
         return f.next("w2", 2)
 
-    # 20 jobs of 40 ms left, a 250 ms build: balanced when w2 takes (0.8 - 0.25) / 0.08 = 6 jobs,
-    # in pieces of a quarter of a worker's share of the 0.8 s left: 0.1 s, 2 jobs
-    assert len(fed(20, 0.04, 0.25)) == 2
-    assert fed(8, 0.04, 0.25) == []             # 0.32 s left: not worth a 0.25 s build and two jobs
-    assert len(fed(8, 0.04, 0.0)) == 1          # nothing to build: help (pieces of 1 at the end)
+    # 23 jobs, first piece ceil(23 / 8) = 3: 20 jobs of 40 ms left, a 250 ms build: balanced
+    # when w2 takes (0.8 - 0.25) / 0.08 = 6 jobs, in pieces of a quarter of a worker's share
+    # of the 0.8 s left: 0.1 s, 2 jobs
+    assert len(fed(23, 0.04, 0.25)) == 2
+    assert fed(10, 0.04, 0.25) == []            # 8 left, 0.32 s: not worth a 0.25 s build and two jobs
+    assert len(fed(10, 0.04, 0.0)) == 1         # nothing to build: help (pieces of 1 at the end)
     f = Feeder(_jobs("ab"))
     f.learn([{"id": 0, "scene": "a"}], [{"id": 0, "status": "failed", "seconds": 9.0}])
-    assert f.times == {}                        # failed jobs teach nothing
+    assert f.stats == {}                        # failed jobs teach nothing
 
 
 def test_feeder_sizes_pieces_by_time_once_jobs_are_timed():
@@ -234,15 +236,20 @@ def test_feeder_sizes_pieces_by_time_once_jobs_are_timed():
 
     f = Feeder(_jobs("a" * 40 + "b" * 40))
     assert f.piece_size(2, "a") == 8                   # untimed: ceil(80 / 8) jobs, at most 8
-    assert Feeder(_jobs("a" * 400)).piece_size(2, "a") == 8
-    f.learn([{"id": 0, "scene": "a"}, {"id": 1, "scene": "a"}, {"id": 40, "scene": "b"}],
-            [{"id": 0, "status": "done", "seconds": 0.1}, {"id": 1, "status": "done", "seconds": 0.1},
-             {"id": 40, "status": "done", "seconds": 0.01}])
-    # 40 jobs x 0.1 s + 40 x 0.01 s = 4.4 s left; a quarter of a worker's share is 0.55 s
-    assert f.piece_size(2, "a") == 5 and f.piece_size(2, "b") == 32  # 55 jobs of 10 ms; at most 32
-    for _ in range(36):
-        f.queues["a"].popleft()
-    assert f.piece_size(2, "a") == 1                   # 0.8 s left: pieces of 0.1 s
+    assert Feeder(_jobs("a" * 20)).piece_size(2, "a") == 3
+    pa, pb = f.next("w1", 2), f.next("w2", 2)
+    assert [len(pa), len(pb), pa[0]["scene"], pb[0]["scene"]] == [8, 8, "a", "b"]
+    f.learn(pa, [{"id": j["id"], "status": "done", "seconds": 0.1} for j in pa])
+    f.learn(pb, [{"id": j["id"], "status": "done", "seconds": 0.01} for j in pb])
+    # 32 jobs x 0.1 s + 32 x 0.01 s = 3.52 s left; a quarter of a worker's share is 0.44 s
+    assert f.piece_size(2, "a") == 4 and f.piece_size(2, "b") == 8  # 44 jobs of 10 ms: at most 8
+    while "b" in f.queues:
+        assert f.next("w2", 2)[0]["scene"] == "b"
+    sizes = []
+    while "a" in f.queues:
+        sizes.append(len(f.next("w1", 2)))
+    assert sizes[0] == 4 and sizes[-1] == 1 and sizes == sorted(sizes, reverse=True)  # shrinking
+    assert sum(sizes) == 32 and len(f) == 0
 
 
 def test_feeder_splits_a_scene_early_when_its_owner_would_end_the_batch_alone():
