@@ -15,27 +15,33 @@ from tests.batch.conftest import copy_scene, temporaries, write_list
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
 
-def test_killing_a_worker_mid_run_loses_no_job(cluster2, tmp_path):
+def _trex_frames(tmp_path, n: int, size: list[int]):
+    """(entries, OUT_DIR, jobs): ``n`` T-rex frames 0.1 s apart."""
     scene = os.path.basename(copy_scene("trex-layers.json", tmp_path))
-    entries = [{"scene": scene, "time": round(0.1 * k, 2), "size": [90, 75], "output": f"f{k:02d}.png"}
-               for k in range(24)]
+    entries = [{"scene": scene, "time": round(0.1 * k, 2), "size": size, "output": f"f{k:02d}.png"}
+               for k in range(n)]
     out = os.path.realpath(tmp_path / "out")
     os.mkdir(out)
-    jobs = read_job_list(write_list(tmp_path / "jobs.json", entries), out, {"budget": 120.0})
-    killed = []
+    return entries, out, read_job_list(write_list(tmp_path / "jobs.json", entries), out, {"budget": 120.0})
 
-    def kill_a_busy_worker(batch, recs):
-        if killed:
-            return
-        busy = {w: keys for w, keys in cluster2.processing().items() if keys}
-        if not busy:
+
+def _kill_once(client, killed: list):
+    """An ``on_result`` that SIGKILLs the first busy worker once, recording (address, pid, keys)."""
+    def kill(batch, recs):
+        busy = {w: keys for w, keys in client.processing().items() if keys}
+        if killed or not busy:
             return
         victim = sorted(busy)[0]
-        pid = cluster2.run(os.getpid, workers=[victim])[victim]
+        pid = client.run(os.getpid, workers=[victim])[victim]
         os.kill(pid, signal.SIGKILL)
         killed.append((victim, pid, list(busy[victim])))
+    return kill
 
-    summary = run_batch(jobs, out, client=cluster2, retries=2, on_result=kill_a_busy_worker)
+
+def test_killing_a_worker_mid_run_loses_no_job(cluster2, tmp_path):
+    entries, out, jobs = _trex_frames(tmp_path, 24, [90, 75])
+    killed = []
+    summary = run_batch(jobs, out, client=cluster2, retries=2, on_result=_kill_once(cluster2, killed))
     assert killed and killed[0][2], "no worker was busy when results came in"
     report = json.loads(open(summary["report"]).read())
     assert summary["counts"]["done"] == len(entries), [j["error"] for j in report["jobs"] if j["error"]]
@@ -50,23 +56,10 @@ def test_killing_a_worker_mid_run_loses_no_job(cluster2, tmp_path):
 def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes_on(tmp_path):
     from puppet.batch.cluster import connect
 
-    scene = os.path.basename(copy_scene("trex-layers.json", tmp_path))
-    entries = [{"scene": scene, "time": round(0.1 * k, 2), "size": [60, 50], "output": f"f{k}.png"} for k in range(16)]
-    out = os.path.realpath(tmp_path / "out")
-    os.mkdir(out)
-    jobs = read_job_list(write_list(tmp_path / "jobs.json", entries), out, {"budget": 120.0})
+    entries, out, jobs = _trex_frames(tmp_path, 16, [60, 50])
     killed = []
-
     with connect(workers=1, retries=0) as (client, _):
-        def kill_the_worker(batch, recs):
-            busy = {w: keys for w, keys in client.processing().items() if keys}
-            if killed or not busy:
-                return
-            (victim, keys), = busy.items()
-            os.kill(client.run(os.getpid, workers=[victim])[victim], signal.SIGKILL)
-            killed.append(keys)
-
-        summary = run_batch(jobs, out, client=client, retries=0, on_result=kill_the_worker)
+        summary = run_batch(jobs, out, client=client, retries=0, on_result=_kill_once(client, killed))
     assert killed
     report = json.loads(open(summary["report"]).read())
     died = [j for j in report["jobs"] if j["status"] == "failed"]
@@ -76,33 +69,17 @@ def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes
     assert temporaries(out) == []
 
 
-def test_the_only_worker_killed_its_queued_pieces_run_on_its_replacement(tmp_path):
+def test_the_only_worker_killed_its_queued_pieces_run_on_its_replacement(tmp_path, monkeypatch):
     """Pieces are given to a worker ahead of time: when the only one dies, Dask has no other
     worker for them and leaves them waiting for the dead one; the batch gives them again."""
-    from puppet.batch.cluster import connect
     from puppet.batch import runner
+    from puppet.batch.cluster import connect
 
-    scene = os.path.basename(copy_scene("trex-layers.json", tmp_path))
-    entries = [{"scene": scene, "time": round(0.1 * k, 2), "size": [60, 50], "output": f"f{k:02d}.png"}
-               for k in range(16)]
-    out = os.path.realpath(tmp_path / "out")
-    os.mkdir(out)
-    jobs = read_job_list(write_list(tmp_path / "jobs.json", entries), out, {"budget": 120.0})
+    entries, out, jobs = _trex_frames(tmp_path, 16, [60, 50])
     killed = []
+    monkeypatch.setattr(runner, "RESCUE_AFTER", 1.0)
     with connect(workers=1, retries=2) as (client, _):
-        def kill_the_worker(batch, recs):
-            busy = {w: keys for w, keys in client.processing().items() if keys}
-            if killed or not busy:
-                return
-            (victim, keys), = busy.items()
-            os.kill(client.run(os.getpid, workers=[victim])[victim], signal.SIGKILL)
-            killed.append(keys)
-
-        old, runner.RESCUE_AFTER = runner.RESCUE_AFTER, 1.0
-        try:
-            summary = run_batch(jobs, out, client=client, retries=2, on_result=kill_the_worker)
-        finally:
-            runner.RESCUE_AFTER = old
+        summary = run_batch(jobs, out, client=client, retries=2, on_result=_kill_once(client, killed))
     assert killed
     report = json.loads(open(summary["report"]).read())
     assert summary["counts"]["done"] == len(entries), [j["error"] for j in report["jobs"] if j["error"]]
