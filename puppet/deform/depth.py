@@ -40,7 +40,7 @@ def depth_field(D: np.ndarray, pin_depth, *, alpha: float = 1.0) -> np.ndarray:
     if D.ndim != 2 or D.shape[0] != len(z_pin):
         raise ValueError(f"D must have shape (k, n) with k = {len(z_pin)}, got {D.shape}")
     n = D.shape[1]
-    if len(z_pin) == 0:
+    if not z_pin.any():  # no pins, or all at depth 0 (the common case): no weights needed
         return np.zeros(n)
     W, exact, reachable = inverse_distance_weights(D, alpha=alpha)
     z = np.zeros(n)

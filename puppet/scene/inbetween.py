@@ -52,8 +52,6 @@ def _depth(built: Built, gi: int, depth: np.ndarray, U: np.ndarray) -> np.ndarra
     g = built.groups[gi]
     if not len(g.pins):
         return np.zeros(len(U))
-    if not np.any(depth[g.pins]):  # the common case: the field of zero depths is zero
-        return np.zeros(len(U))
     return depth_field(built.pre[gi].D, depth[g.pins], alpha=built.data.deformer.alpha)
 
 
