@@ -100,7 +100,9 @@ def unwrap_angles(F: np.ndarray, delta: np.ndarray, *, half_turn: float = HALF_T
     way even where a twisted joint would wind it round the long way. Deterministic:
     depends only on ``F`` and ``delta``.
     """
-    from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
+    # (SciPy's components of a graph; the module's connected_components is a mesh's)
+    from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
+    from scipy.sparse.csgraph import connected_components as graph_components
 
     m = len(F)
     d = _wrap(delta)
@@ -111,14 +113,15 @@ def unwrap_angles(F: np.ndarray, delta: np.ndarray, *, half_turn: float = HALF_T
     A = sp.coo_matrix((w, (P[:, 0], P[:, 1])), shape=(m, m)).tocsr()
     T = minimum_spanning_tree(A)
     T = T + T.T
-    ncomp, label = connected_components(T, directed=False)
+    ncomp, label = graph_components(T, directed=False)
     parent = np.arange(m)
     for c in range(ncomp):
         members = np.flatnonzero(label == c)
         root = int(members[np.argmin(np.abs(d[members]))])
         order, pred = breadth_first_order(T, root, directed=False, return_predecessors=True)
         parent[order[1:]] = pred[order[1:]]
-    parent[np.abs(d) <= half_turn] = np.flatnonzero(np.abs(d) <= half_turn)  # short way: own root
+    short = np.flatnonzero(np.abs(d) <= half_turn)
+    parent[short] = short  # the short way: each its own root
     # k_j = k_parent - round((d_j - d_parent) / 2 pi), summed down from each root by pointer jumping
     k = -np.rint((d - d[parent]) / (2 * np.pi)).astype(np.int64)
     p = parent.copy()
