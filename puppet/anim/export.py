@@ -19,6 +19,7 @@ import numpy as np
 from puppet.anim import pipeline, sinks
 from puppet.errors import SceneError
 from puppet.output import atomic_write, check_file, check_folder, write_folder
+from puppet.scene import timeline
 from puppet.scene.inputs import input_files
 
 KINDS = {".gif": "gif", ".mp4": "mp4", ".webm": "webm", ".apng": "apng", ".png": "sheet"}
@@ -87,7 +88,7 @@ def frame_count(start: float, end: float, fps: float) -> int:
     if not math.isfinite(span) or span + 1 > MAX_FRAMES:
         raise SceneError(f"{end - start:g} s at {fps:g} fps is more than {MAX_FRAMES} frames; "
                          "export it in parts with --from/--to or lower --fps")
-    return int(math.floor(span + 1e-9)) + 1
+    return timeline.frame_count(start, end, fps)
 
 
 def _background(scene, kind: str, output: str, background) -> tuple[object, bool]:

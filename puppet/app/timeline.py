@@ -15,6 +15,7 @@ import time as _time
 from puppet.app import onion
 from puppet.app.record import SPEEDS, Recording
 from puppet.errors import SceneError
+from puppet.scene.timeline import frame_count
 
 EASES = ("linear", "smooth", "step", "bezier")
 #: a new bezier ease starts as CSS's "ease"
@@ -179,7 +180,7 @@ class Timeline:
         if not ks:
             return []
         t0, t1, f = float(ks[0]["time"]), self.duration(), self.fps
-        return [round(t0 + i / f, 6) for i in range(int((t1 - t0) * f + 1e-6) + 1)]
+        return [round(t0 + i / f, 6) for i in range(frame_count(t0, t1, f))]
 
     def _prefetch(self, show) -> None:
         """Solve the animation's frames in the background (once per scene state) while the

@@ -8,6 +8,7 @@ against time (x); cx in [0, 1] keeps it a function of time, cy may overshoot.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -100,11 +101,17 @@ def duration(anim: Animation) -> float:
     return anim.keys[-1].time
 
 
+def frame_count(t0: float, t1: float, fps: float) -> int:
+    """Frames from ``t0`` to ``t1`` inclusive at ``fps`` (frame i at ``t0 + i / fps``; a
+    span short of a whole number of frames by rounding only, ``0.3 * 10``, counts it); at
+    least 1. The one count of the export, the app's timeline and :func:`frame_times`."""
+    return max(int(math.floor((t1 - t0) * fps + 1e-9)) + 1, 1)
+
+
 def frame_times(anim: Animation, *, fps: float | None = None, start: float | None = None,
                 end: float | None = None) -> np.ndarray:
     """Times of every frame from ``start`` to ``end`` inclusive (defaults: whole animation)."""
     fps = fps or anim.fps
     t0 = anim.keys[0].time if start is None else start
     t1 = duration(anim) if end is None else end
-    n = int(np.floor((t1 - t0) * fps + 1e-9)) + 1
-    return t0 + np.arange(max(n, 1)) / fps
+    return t0 + np.arange(frame_count(t0, t1, fps)) / fps
