@@ -174,13 +174,16 @@ class Timeline:
             w.show_time, w.onion = show, settings
         self.app.worker.submit(job, key="timeline-time")
 
+    def frame_total(self) -> int:
+        """Frames of the animation, from the first key to the last (0: no keys)."""
+        ks = self.keys()
+        return frame_count(float(ks[0]["time"]), self.duration(), self.fps) if ks else 0
+
     def frame_times(self) -> list[float]:
         """Every frame of the animation, from the first key to the last."""
         ks = self.keys()
-        if not ks:
-            return []
-        t0, t1, f = float(ks[0]["time"]), self.duration(), self.fps
-        return [round(t0 + i / f, 6) for i in range(frame_count(t0, t1, f))]
+        t0, f = (float(ks[0]["time"]), self.fps) if ks else (0.0, 1.0)
+        return [round(t0 + i / f, 6) for i in range(self.frame_total())]
 
     def _prefetch(self, show) -> None:
         """Solve the animation's frames in the background (once per scene state) while the

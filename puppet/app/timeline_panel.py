@@ -170,7 +170,7 @@ class TimelinePanel:
         imgui.text_disabled("(showing the animation)" if t.showing and self.app.mode == "pose" else
                             "(showing the pose)")
         keys = [k for k in t.keys() if any(tl.same(k["time"], s) for s in t.selected)]
-        n = len(t.frame_times())
+        n = t.frame_total()  # (drawn every frame: no list of times)
         if t.showing and t.prefetch and n:
             done = min(onion.cached(self.app.worker), n)
             if done < n:
