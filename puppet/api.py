@@ -47,7 +47,7 @@ class Scene(Document):
         ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's)."""
         from puppet.render.layers import DrawLayer
 
-        draw = [DrawLayer(key=r.name, image=im.rgba, offset=im.offset, rest=r.rest, deformed=r.deformed,
+        draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]
         return self.compositor.render(draw, self.canvas, size=size,

@@ -272,7 +272,7 @@ class CanvasRenderer:
         size = (max(1, int(round(w * f))), max(1, int(round(h * f))))
         fx, fy = size[0] / w, size[1] / h
         origin = np.asarray(view.origin, float) - (x0, y0)
-        draw = [DrawLayer(key=r.name, image=im.rgba, offset=im.offset, rest=r.rest,
+        draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest,
                           deformed=(np.asarray(r.deformed, float) * view.scale + origin) * (fx, fy),
                           triangles=r.triangles, depth=r.depth) for r, im in shown]
         if self.frame_tex is None or self.frame_tex.size != size:

@@ -155,7 +155,7 @@ class GhostRenderer:
             return key, entry[1]
         size = (max(1, int(x1 - x0)), max(1, int(y1 - y0)))
         origin = np.asarray(view.origin, float) - (x0, y0)
-        draw = [DrawLayer(key=r.name, image=im.rgba, offset=im.offset, rest=r.rest,
+        draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest,
                           deformed=np.asarray(r.deformed, float) * view.scale + origin,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, images) if r.name not in hidden]

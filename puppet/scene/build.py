@@ -2,6 +2,7 @@
 meshes, linked groups. Built once per scene (not per pose)."""
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +36,23 @@ class LayerImage:
         i = int(np.floor(xy[1] - self.offset[1]))
         h, w = self.mask.shape
         return 0 <= i < h and 0 <= j < w and bool(self.mask[i, j])
+
+    @functools.cached_property
+    def drawn(self) -> tuple[np.ndarray, tuple[float, float]]:
+        """The part of ``rgba`` a texture needs, and its canvas offset: the box of the
+        pixels of nonzero alpha with one transparent pixel around it. Sampling clamped to
+        the edge reads the same zeros beyond that border as the whole image holds there,
+        so the same pixels are drawn from a smaller upload (a T-rex part covers 0.4-10 %
+        of its 600x500 image). The same array object on every call (textures are cached
+        by it)."""
+        import cv2
+
+        x, y, w, h = cv2.boundingRect((self.rgba[..., 3] > 0).view(np.uint8))
+        if w == 0:
+            return self.rgba, self.offset
+        H, W = self.rgba.shape[:2]
+        x0, y0, x1, y1 = max(x - 1, 0), max(y - 1, 0), min(x + w + 1, W), min(y + h + 1, H)
+        return self.rgba[y0:y1, x0:x1], (self.offset[0] + x0, self.offset[1] + y0)
 
 
 @dataclass
