@@ -12,7 +12,7 @@ from puppet.render.layers import ALPHA_MIN, ALPHA_OPAQUE, classify_triangles  # 
 from puppet.render.programs import (glsl_literal, load_program, set_uniform,  # noqa: E402
                                     shader_dir, shader_source, split_stages)
 from tests.render import reference  # noqa: E402
-from tests.render.scenes import (CANVAS, crossing_scene, grid_mesh, rect_image,  # noqa: E402
+from tests.render.scenes import (CANVAS, crossing_scene, grid_mesh, rect_image, rotate,  # noqa: E402
                                  translucent_stack)
 from tests.render.test_compositor import assert_matches  # noqa: E402
 
@@ -230,3 +230,28 @@ def test_split_stages_inserts_defines_after_version():
         "#version 330 core", "#define VERTEX_SHADER", "#line 2"]
     with pytest.raises(ValueError):
         split_stages("void main() {}\n")
+
+
+@pytest.mark.gl
+def test_a_layer_drawn_from_its_box_looks_as_drawn_from_its_whole_image(comp):
+    """LayerImage.drawn (the box of nonzero alpha with a transparent border) gives the
+    same frame as the whole image: clamped sampling reads the same zeros beyond the box."""
+    from puppet.scene.build import LayerImage
+    from tests.render.scenes import disc_image
+
+    whole = np.zeros((48, 64, 4), np.uint8)
+    whole[9:39, 20:50] = disc_image(30, 11, (40, 160, 220))
+    im = LayerImage(rgba=whole, offset=(0.5, -1.0), mask=whole[..., 3] > 0, from_source=False)
+    box, offset = im.drawn
+    assert im.drawn[0] is box  # cached: the compositor keeps the texture
+    # the disc covers columns 24-45 and rows 13-34 of the whole image: one pixel more a side
+    assert box.shape == (24, 24, 4) and offset == (0.5 + 23, -1.0 + 12)
+    assert (box[0, :, 3] == 0).all() and (box[-1, :, 3] == 0).all() and (box[:, 0, 3] == 0).all()
+    assert whole[..., 3].sum() == box[..., 3].astype(int).sum()
+    rest, tri = grid_mesh(0.5, -1.0, 64.5, 47.0, 8, 6)
+    deformed = rotate(rest, 12, (32, 24)) + (1.3, 0.4)
+    frames = [comp.render([DrawLayer(key, image, off, rest, deformed, tri, np.zeros(len(rest)))], CANVAS,
+                          size=(96, 72), background=WHITE)
+              for key, image, off in (("whole", whole, im.offset), ("box", box, offset))]
+    assert (frames[0] != 255).any()
+    assert np.abs(frames[0].astype(int) - frames[1]).max() <= 1
