@@ -2,7 +2,7 @@
 jobs run in one process.
 
 Run: ``python benchmarks/bench_batch.py [--jobs 200] [--size 160] [--rounds 2] [--no-cli]
-[--template N]`` from the repository root. The jobs are small renders of the bundled
+[--template N | --contention]`` from the repository root. The jobs are small renders of the bundled
 scenes: every pose of the scenes without animation and frames at distinct times of the
 animated ones (so no job is a cached solve of another), at SIZExSIZE. ``--template N``:
 the template mode's catalogue instead (N generated t-shirt pictures, each segmented,
@@ -168,6 +168,29 @@ def batch(jobs: list[dict], out: str, workers: int) -> float:
 LAST_SPLIT: dict[int, list[list[dict]]] = {}
 
 
+def contention(entries: list[dict], jobs_in, tmp: str, rounds: int, name: str) -> None:
+    """What two workers cost each other without Dask: the jobs of one scene (file ``name``),
+    in plain processes, as the single worker runs them (llvmpipe's own threads, the
+    factorisation on a second thread), as one of two workers runs them (LP_NUM_THREADS=0,
+    one solver thread) alone, and two copies of that at once."""
+    scene = os.path.join(SCENES, name)
+    keep = {i for i, e in enumerate(entries) if e["scene"] == scene}
+    if not keep:
+        raise SystemExit(f"no job of {name} in the list")
+
+    def jobs(tag):
+        return [j for i, j in enumerate(jobs_in(os.path.join(tmp, tag))) if i in keep]
+
+    one = {"LP_NUM_THREADS": "0"}
+    print(f"{len(keep)} jobs of {os.path.basename(scene)}; load before: {load()}")
+    print(f"{'round':>5}{'as 1 worker':>13}{'as 1 of 2, alone':>18}{'2 at once':>11}{'slowdown':>10}{'load':>7}")
+    for r in range(rounds):
+        single = in_process([jobs(f"s{r}")], tmp)[0]
+        alone = in_process([jobs(f"a{r}")], tmp, one)[0]
+        both = in_process([jobs(f"b{r}"), jobs(f"c{r}")], tmp, one)[0]
+        print(f"{r:>5}{single:>13.2f}{alone:>18.2f}{both:>11.2f}{both / alone:>9.2f}x{load():>7}")
+
+
 def cli(listfile: str, out: str, workers: int) -> float:
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "puppet", "batch", listfile, "-o", out, "--workers", str(workers)],
@@ -181,6 +204,9 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=160)
     ap.add_argument("--rounds", type=int, default=2, help="repeat every row, keep the best (default 2)")
     ap.add_argument("--no-cli", action="store_true", help="skip the rows timed from the shell")
+    ap.add_argument("--contention", nargs="?", const="trex-layers.json", metavar="SCENE",
+                    help="instead: one scene's jobs (default the T-rex's, ~60%% of the work) alone and two "
+                         "copies at once, in plain processes")
     ap.add_argument("--template", type=int, default=0, metavar="N",
                     help="instead: N t-shirt pictures posed by the bundled t-shirt template (template mode)")
     a = ap.parse_args()
@@ -198,6 +224,9 @@ def main() -> None:
             return number([job_from_entry(e, tmp, os.path.realpath(out), {}, listfile, f"[{i}]")
                            for i, e in enumerate(entries)], listfile)
 
+        if a.contention:
+            contention(entries, jobs_in, tmp, a.rounds, a.contention)
+            return
         if a.template:
             from puppet.batch.jobs import template_jobs
 
