@@ -17,6 +17,7 @@ class Scene(Document):
     def __init__(self, doc: dict, file: str):
         super().__init__(doc, file)
         self._compositor = None
+        self._own_compositor = False
 
     @property
     def compositor(self):
@@ -25,11 +26,13 @@ class Scene(Document):
             from puppet.render.compositor import Compositor
 
             self._compositor = Compositor()
+            self._own_compositor = True
         return self._compositor
 
     @compositor.setter
     def compositor(self, value) -> None:
         self._compositor = value
+        self._own_compositor = False
 
     def render(self, pose: PoseLike = None, time: float | None = None, *, size: tuple[int, int] | None = None,
                wireframe: bool = False) -> np.ndarray:
@@ -50,6 +53,8 @@ class Scene(Document):
         draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]
+        if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
+            self._compositor.retain(L.name for L in self.data.layers)
         return self.compositor.render(draw, self.canvas, size=size,
                                       background=self.background() if background is None else background,
                                       wireframe=wireframe)
@@ -62,9 +67,9 @@ class Scene(Document):
 
     def close(self) -> None:
         """Release the scene's compositor (and its GL context), if it made one."""
-        if self._compositor is not None:
+        if self._compositor is not None and self._own_compositor:
             self._compositor.release()
-            self._compositor = None
+        self._compositor, self._own_compositor = None, False
 
 
 def new_scene(image: str, **options) -> Scene:

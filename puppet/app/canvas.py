@@ -136,6 +136,7 @@ class CanvasRenderer:
         self.frame_tex: moderngl.Texture | None = None
         self._frame_key = None
         self._frame_rect = None
+        self._names: tuple[str, ...] = ()  # the layer names the compositor's caches were last trimmed to
         self.composite_ms = 0.0
         self.composites = 0
         self.preview_pixels = PREVIEW_PIXELS
@@ -280,6 +281,10 @@ class CanvasRenderer:
                 self.frame_tex.release()
             self.frame_tex = self.ctx.texture(size, 4)
         self.frame_tex.filter = (moderngl.NEAREST, moderngl.NEAREST) if f == 1.0 else (moderngl.LINEAR, moderngl.LINEAR)
+        names = tuple(r.name for r in snap.layers)
+        if names != self._names:  # a layer renamed or removed: its texture and buffers go
+            self.compositor.retain(names)
+            self._names = names
         # the compositor's window path: into the texture, no read-back, premultiplied RGBA
         self.compositor.draw(draw, size, target=self.frame_tex, background=background)
         self.ctx.error  # noqa: B018 - clear a flag the compositor left

@@ -121,6 +121,9 @@ def _scene(path: str):
     _scenes[path] = entry
     while len(_scenes) > SCENE_CACHE:
         _scenes.popitem(last=False)
+        comp = _compositors.get(threading.get_ident())
+        if comp is not None:  # the dropped scene's layer textures go too (a catalogue's names may all differ)
+            comp.retain({L.name for _, _, sc in _scenes.values() for L in sc.data.layers})
     return entry
 
 

@@ -60,6 +60,8 @@ from .passes import K, MAX_FRAGMENTS, WIRE_COLOR, Draw, Passes  # noqa: F401
 KEEP_TARGETS = 3
 METHODS = ("auto", "kbuffer", "abuffer")
 FETCH = "GL_EXT_shader_framebuffer_fetch"
+#: Texture cache key of a background image (NUL-prefixed: not a layer name).
+BACKGROUND = "\0background"
 
 
 class Compositor:
@@ -227,6 +229,16 @@ class Compositor:
                 if mesh is not None:
                     mesh.release()
 
+    def retain(self, keys) -> int:
+        """Forget every cached layer whose key is not in ``keys`` (renamed or removed
+        layers, scenes no longer drawn): their textures and buffers would otherwise stay
+        for the compositor's life. Returns how many were forgotten."""
+        keep = set(keys)
+        stale = [k for k in self._textures.keys() | self._meshes.keys() if k not in keep and k != BACKGROUND]
+        for k in stale:
+            self.invalidate(k)
+        return len(stale)
+
     def release(self) -> None:
         """Release every GL object (and the context when the compositor created it).
 
@@ -292,7 +304,7 @@ class Compositor:
 
     def _frame(self, draws: list[Draw], canvas, targets: FrameTargets, background,
                wireframe: bool, method: str, flip: bool) -> str:
-        texture = None if background.shape[:2] == (1, 1) else self._texture("\0background",
+        texture = None if background.shape[:2] == (1, 1) else self._texture(BACKGROUND,
                                                                             background)
         method = self._passes.frame(draws, canvas, targets, background, texture,
                                     method=method, wireframe=wireframe, flip=flip)

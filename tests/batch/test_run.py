@@ -99,6 +99,34 @@ def test_an_animation_over_its_budget_stops_in_a_frame_solve(tmp_path):
     assert not out.exists() and os.listdir(tmp_path) == ["trex-layers.json"]
 
 
+@pytest.mark.gl
+def test_a_worker_lets_go_of_the_textures_of_scenes_it_dropped(tmp_path, monkeypatch):
+    # in this process, as a worker runs jobs: scenes whose layer names all differ
+    from puppet.batch import work
+
+    monkeypatch.setattr(work, "SCENE_CACHE", 2)
+    monkeypatch.setattr(work, "_scenes", type(work._scenes)())
+    monkeypatch.setattr(work, "_compositors", {})
+    try:
+        for i in range(4):
+            path = write_bar(tmp_path / f"s{i}")
+            with open(path) as f:
+                scene = json.load(f)
+            scene["layers"][0]["name"] = f"part{i}"
+            for pin in scene["pins"]:
+                pin["layer"] = f"part{i}"
+            with open(path, "w") as f:
+                json.dump(scene, f)
+            rec = work.run_job({"id": i, "scene": path, "kind": "pose", "pose": "bend", "size": [30, 10],
+                                "output": str(tmp_path / f"o{i}.png"), "rel": f"o{i}.png"})
+            assert rec["status"] == "done", rec
+            comp = work.compositor()
+            assert set(comp._meshes) == {f"part{k}" for k in range(max(0, i - 1), i + 1)}  # the 2 scenes kept
+    finally:
+        for comp in work._compositors.values():
+            comp.release()
+
+
 def _until(condition, *, timeout: float) -> None:
     end = time.monotonic() + timeout
     while not condition():

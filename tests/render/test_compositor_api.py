@@ -120,6 +120,26 @@ def test_textures_and_index_buffers_are_cached(comp):
 
 
 @pytest.mark.gl
+def test_retain_forgets_the_layers_not_named():
+    c = Compositor()
+    try:
+        layers = crossing_scene()
+        keys = [layer.key for layer in layers]
+        background = np.zeros((60, 80, 4), np.uint8)
+        c.render(layers, CANVAS, background=background)  # a background image: cached too, never forgotten
+        assert set(c._textures) == set(keys) | {"\0background"} and set(c._meshes) == set(keys)
+        assert c.retain(keys) == 0
+        assert c.retain(keys[:1]) == len(keys) - 1
+        assert set(c._textures) == {keys[0], "\0background"} and set(c._meshes) == {keys[0]}
+        with pytest.raises(KeyError):
+            c.render(keys[1:], CANVAS)
+        want = c.render(layers, CANVAS)  # uploaded again
+        assert set(c._meshes) == set(keys) and want.shape == (48, 64, 4)
+    finally:
+        c.release()
+
+
+@pytest.mark.gl
 def test_more_translucent_fragments_than_k_fall_back_to_the_abuffer(comp):
     layers = translucent_stack(K + 2)
     want = reference.reference_composite(layers, CANVAS, background=WHITE)

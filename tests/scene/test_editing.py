@@ -327,3 +327,30 @@ def test_new_scene_from_a_picture(tmp_path):
     assert json.loads((tmp_path / "pic.json").read_text())["source"] == "pic.png"
     with pytest.raises(puppet.SceneError):
         Document.from_image(str(tmp_path / "missing.png"))
+
+
+@pytest.mark.gl
+def test_renamed_and_removed_layers_leave_the_scenes_own_compositor(bars):
+    """A scene drawing with its own compositor drops a renamed or removed layer's texture
+    and buffers on its next render; a compositor given to it is the caller's to manage."""
+    from puppet.render.compositor import Compositor
+
+    scene = puppet.load_scene(bars)
+    try:
+        scene.render(size=(40, 20))
+        assert set(scene.compositor._meshes) == {"a", "b", "c"}
+        assert scene.rename_layer("a", "top") and scene.remove_layer("c")
+        scene.render(size=(40, 20))
+        assert set(scene.compositor._meshes) == {"top", "b"} and set(scene.compositor._textures) == {"top", "b"}
+        shared = Compositor()
+        other = puppet.load_scene(bars)
+        other.compositor = shared
+        other.render(size=(40, 20))
+        scene.compositor = shared
+        scene.render(size=(40, 20))
+        assert set(shared._meshes) == {"a", "b", "c", "top"}  # the other scene's stay
+        scene.close()
+        assert shared._passes is not None  # not released by a scene that did not make it
+        shared.release()
+    finally:
+        scene.close()
