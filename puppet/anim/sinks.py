@@ -35,8 +35,9 @@ WEBM_OPTIONS = {"crf": "30", "b": "0", "cpu-used": "4", "row-mt": "1", "deadline
 
 def flatten(rgba: np.ndarray, over=(255, 255, 255)) -> np.ndarray:
     """Composite straight-alpha RGBA over an opaque colour (white by default), for formats
-    without alpha: (h, w, 4) -> (h, w, 3) uint8. Opaque frames are only sliced."""
-    if rgba[..., 3].min() == 255:
+    without alpha: (h, w, 4) -> (h, w, 3) uint8. Opaque frames are only sliced; RGB
+    frames (h, w, 3) pass as they are."""
+    if rgba.shape[2] == 3 or rgba[..., 3].min() == 255:
         return rgba[..., :3]
     a = rgba[..., 3:4].astype(np.float32) / 255.0
     rgb = rgba[..., :3].astype(np.float32) * a + np.asarray(over, np.float32) * (1.0 - a)
@@ -74,6 +75,8 @@ class DirSink(Sink):
     def add(self, rgba: np.ndarray) -> None:
         from puppet.anim.sheet import write_png
 
+        if rgba.shape[2] == 3:  # RGB frames (puppet video): opaque RGBA
+            rgba = np.concatenate([rgba, np.full(rgba.shape[:2] + (1,), 255, np.uint8)], axis=2)
         with open(os.path.join(self.tmp, f"frame_{self.frames:05d}.png"), "wb") as f:
             write_png(f, rgba, self.level)
         self.frames += 1
@@ -106,12 +109,14 @@ class GifSink(Sink):
 
 
 class AVSink(Sink):
-    """A video through PyAV: ``codec`` into ``container``, frames given as ``rgba`` and
-    converted by FFmpeg to ``pix_fmt``; ``pad`` makes odd sizes even (edge pixels)."""
+    """A video through PyAV: ``codec`` into ``container``, frames given as RGBA (or RGB
+    when ``alpha`` is False) and converted by FFmpeg to ``pix_fmt``; ``pad`` makes odd
+    sizes even (edge pixels); ``threads`` is the codec's thread type (e.g. ``"AUTO"``:
+    frame and slice threads), FFmpeg's default when None."""
 
     def __init__(self, tmp: str, container: str, codec: str, pix_fmt: str, size: tuple[int, int],
                  fps: float, options: dict[str, str], *, alpha: bool, pad: bool = False,
-                 container_options: dict[str, str] | None = None):
+                 container_options: dict[str, str] | None = None, threads: str | None = None):
         import av
 
         super().__init__()
@@ -124,6 +129,8 @@ class AVSink(Sink):
             self.stream.width, self.stream.height = w + self.pad[1], h + self.pad[0]
             self.stream.pix_fmt = pix_fmt
             self.stream.options = dict(options)
+            if threads is not None:
+                self.stream.thread_type = threads
         except BaseException:
             self.box.close()
             raise
