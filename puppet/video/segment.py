@@ -141,8 +141,11 @@ def _grabcut_from(rgba: np.ndarray, prev: np.ndarray, iterations: int = 2) -> np
     bgr = np.ascontiguousarray(rgba[y0:y1, x0:x1, 2::-1])
     half = 2 if (x1 - x0) * (y1 - y0) > HALF_AREA else 1
     sw, sh = max(2, (x1 - x0) // half), max(2, (y1 - y0) // half)
-    small = cv2.resize(bgr, (sw, sh), interpolation=cv2.INTER_AREA)
-    s_seed = cv2.resize(seed, (sw, sh), interpolation=cv2.INTER_NEAREST)
+    if (sw, sh) == (x1 - x0, y1 - y0):  # small enough: GrabCut at full size
+        small, s_seed = bgr, seed
+    else:
+        small = cv2.resize(bgr, (sw, sh), interpolation=cv2.INTER_AREA)
+        s_seed = cv2.resize(seed, (sw, sh), interpolation=cv2.INTER_NEAREST)
     if not ((s_seed == cv2.GC_PR_FGD).any() and (s_seed != cv2.GC_PR_FGD).any()):
         return prev.copy()
     bgd, fgd = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
@@ -153,5 +156,7 @@ def _grabcut_from(rgba: np.ndarray, prev: np.ndarray, iterations: int = 2) -> np
         return prev.copy()
     fg = ((s_seed == cv2.GC_FGD) | (s_seed == cv2.GC_PR_FGD)).astype(np.uint8)
     out = np.zeros((H, W), bool)
-    out[y0:y1, x0:x1] = cv2.resize(fg, (x1 - x0, y1 - y0), interpolation=cv2.INTER_NEAREST) > 0
+    if fg.shape != (y1 - y0, x1 - x0):
+        fg = cv2.resize(fg, (x1 - x0, y1 - y0), interpolation=cv2.INTER_NEAREST)
+    out[y0:y1, x0:x1] = fg > 0
     return out
