@@ -146,8 +146,9 @@ def batch(jobs: list[dict], out: str, workers: int) -> float:
 
     with connect(workers=workers) as (client, _):
         client.wait_for_workers(workers)
-        for addr in client.scheduler_info()["workers"]:  # GL context made in the task thread
-            client.submit(work.warm, workers=[addr], pure=False).result()
+        with client.as_current():  # GL context made in the thread the jobs run in (the actors')
+            for addr in client.scheduler_info()["workers"]:
+                client.submit(work.Runner, workers=[addr], actor=True, pure=False).result().warm().result()
         w0 = client.run(time.process_time)  # each worker process's CPU time
         t0, c0 = time.perf_counter(), time.process_time()  # this process: client, scheduler, nannies
         s = run_batch(jobs, out, client=client)

@@ -53,8 +53,8 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
     import dask
     from distributed import Client, LocalCluster
 
-    # a task whose worker dies is retried on another one up to `retries` times (embedded
-    # scheduler; an existing scheduler keeps its own distributed.scheduler.allowed-failures)
+    # Dask's own tasks (the job runners' creation) whose worker dies are retried up to
+    # `retries` times; the jobs' retries are counted by the client (puppet/batch/dispatch.py)
     settings = {"distributed.scheduler.allowed-failures": int(retries),
                 "distributed.worker.multiprocessing-method": "spawn",
                 "distributed.worker.daemon": False,

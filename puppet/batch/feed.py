@@ -5,7 +5,7 @@ small cut-out), and a worker builds each scene it renders once. The client keeps
 worker a piece ahead (:data:`DEPTH`) and, each time a piece comes back, gives that worker
 its next one:
 
-1. an animation (each its own task; all of them first, so none ends the batch alone);
+1. an animation (each its own piece; all of them first, so none ends the batch alone);
 2. more jobs of a scene this worker has built already (its cache holds it: no second build);
 3. else a share of a scene another worker has started, when that scene's work left (its
    jobs not handed out and those still running or queued) exceeds a worker's share of all
@@ -28,14 +28,15 @@ import heapq
 import math
 from collections import deque
 
-#: Most jobs in one Dask task (a piece shares the worker's loaded scene). Larger pieces
-#: (32) took ~0.08 s of CPU off the client's process per 200 bench jobs, but let a scene
+#: Most jobs in one piece (it shares the worker's loaded scene). Larger pieces
+#: (32) took ~0.08 s of CPU off the client's process per 200 bench jobs (when each piece
+#: was a Dask task), but let a scene
 #: whose jobs vary in cost take most of its jobs early (the T-rex's first frames timed were
 #: cheaper than its average: 17 of its 61 frames fold and are relaxed, 44 ms more each),
 #: leaving the other worker idle at the end.
 MAX_PIECE = 8
-#: Tasks kept queued on a worker per thread, plus one: the next one is already there when
-#: a task ends, so a worker never waits for the client's round trip.
+#: Pieces kept waiting on a worker besides the one it runs: the next one is already there
+#: when a piece ends, so a worker never waits for the client's round trip.
 DEPTH = 1
 
 
@@ -217,6 +218,37 @@ class Feeder:
             for w in self._owners.get(scene, ()):
                 self._mine[w].discard(scene)
         return piece
+
+    def put_back(self, piece: list[dict]) -> None:
+        """Take back a piece handed out but not done (its worker died): its jobs are the
+        next of their scene (an animation, the next animation), for any worker."""
+        for j in reversed(piece):
+            if j["kind"] == "animate":
+                self.alone.appendleft(j)
+                continue
+            s = j["scene"]
+            if self.out.get(s, 0) > 1:
+                self.out[s] -= 1
+            else:
+                self.out.pop(s, None)
+            q = self.queues.get(s)
+            if q is None:  # every job of the scene had been handed out: under way again
+                q = self.queues[s] = deque()
+                self.active.add(s)
+                if s in self.stats:
+                    self._timed_left.add(s)
+                for w in self._owners.get(s, ()):
+                    self._mine.setdefault(w, set()).add(s)
+            q.appendleft(j)
+            self.n_left += 1
+
+    def forget(self, worker: str) -> None:
+        """``worker`` is gone: the scenes it built count for no one else."""
+        for s in self.built.pop(worker, set()):
+            owners = self._owners.get(s)
+            if owners is not None:
+                owners.discard(worker)
+        self._mine.pop(worker, None)
 
     def rest(self) -> list[list[dict]]:
         """Everything not handed out, in pieces (for workers that are all gone, or a cluster

@@ -1,31 +1,23 @@
 """The client side of a batch: skip what --resume finds up to date, hand out pieces of jobs
-to the Dask workers as they free up, record each result as it arrives (manifest, report,
+to the Dask workers as they free up (:mod:`puppet.batch.dispatch`), record each result as it arrives (manifest, report,
 progress bar), and leave OUT_DIR consistent however the run ends (done, failed jobs,
 Ctrl+C, SIGTERM)."""
 from __future__ import annotations
 
-import collections
 import contextlib
-import itertools
-import math
 import os
 import shutil
 import sys
-import threading
 import time
-import uuid
 from collections.abc import Callable
 
-from puppet.batch.feed import DEPTH, Feeder
+from puppet.batch.dispatch import Dispatch
+from puppet.batch.feed import Feeder
 from puppet.batch.jobs import describe, spec
 from puppet.batch.state import Manifest, inputs_digest, now, write_report
 
 #: Exit status when the batch ran to its end but some jobs failed (0: every job done).
 SOME_FAILED = 3
-#: Seconds between two reads of the cluster's worker list while a batch runs.
-WORKERS_EVERY = 1.0
-#: Seconds without a result after which pieces given to workers that are gone are checked.
-RESCUE_AFTER = 5.0
 #: Seconds between two rewrites of the manifest while jobs finish (and once at the end).
 MANIFEST_EVERY = 1.0
 
@@ -90,6 +82,7 @@ class Batch:
         self.cluster = ""
         self._saved = 0.0
         self.bar = None
+        self.dispatch: Dispatch | None = None
 
     # -- before -------------------------------------------------------------------
     def plan(self) -> list[dict]:
@@ -109,82 +102,22 @@ class Batch:
 
     # -- while --------------------------------------------------------------------
     def run(self, client, todo: list[dict], *, retries: int, on_result: Callable | None = None) -> None:
-        """Hand out ``todo`` in pieces as workers free up (see :mod:`puppet.batch.feed`)
-        and record each piece's results as they arrive."""
-        from distributed import as_completed
-
-        from puppet.batch.work import run_chunk
-
-        feeder = Feeder(todo)
-        token, count = uuid.uuid4().hex[:8], itertools.count()
-        futures: dict = {}  # future -> (piece, the worker it was given to, or None)
-        done = as_completed(loop=client.loop)
-        slots = _Slots(client)
-        ready = threading.Event()  # set when any piece's future ends
-
-        def submit(piece: list[dict], worker: str | None) -> None:
-            where = {"workers": [worker], "allow_other_workers": True} if worker else {}
-            fut = client.submit(run_chunk, piece, key=f"puppet-batch-{token}-{next(count)}", retries=retries,
-                                pure=False, **where)
-            futures[fut] = (piece, worker)
-            done.add(fut)
-            fut.add_done_callback(lambda _: ready.set())
-
-        def fill() -> None:
-            workers = slots.get()
-            queued = collections.Counter(w for _, w in futures.values())
-            for w, n in workers.items():
-                while queued[w] < n + DEPTH and (piece := feeder.next(w, len(workers))):
-                    submit(piece, w)
-                    queued[w] += 1
-            if not futures:  # no worker known, or the scenes' workers are gone: Dask places the rest
-                for piece in feeder.rest():
-                    submit(piece, None)
-
-        def rescue() -> None:
-            """Pieces given to a worker that is gone, and that Dask left waiting for it ("no-worker":
-            it died, with no other worker up at that moment), go again to any worker."""
-            slots.stale()
-            alive = slots.get()
-            lost = {f.key: f for f, (_, w) in futures.items() if w is not None and w not in alive}
-            if not lost:
-                return
-            states = client.run_on_scheduler(_task_states, keys=list(lost))
-            for key, fut in lost.items():
-                if states.get(key) == "no-worker":
-                    piece, _ = futures.pop(fut)
-                    client.cancel([fut])
-                    submit(piece, None)
-
+        """Hand out ``todo`` in pieces to a job runner on each worker as the workers free
+        up (see :mod:`puppet.batch.dispatch` and :mod:`puppet.batch.feed`) and record
+        each piece's results as they arrive."""
+        self.dispatch = Dispatch(client, Feeder(todo), retries)
         self._open_bar(len(todo))
         try:
-            fill()
-            while futures:
-                ready.clear()
-                if not any(f.done() for f in futures) and not ready.wait(RESCUE_AFTER):
-                    rescue()
-                    continue
-                fut = next(done)
-                if fut not in futures:  # a rescued piece's old future, cancelled
-                    continue
-                piece, worker = futures.pop(fut)
-                try:
-                    recs = fut.result()
-                except Exception as e:  # noqa: BLE001 - a task that could not run (workers died, bug)
-                    recs = [{"id": j["id"], "status": "failed", "error": _task_error(e), "inputs": None}
-                            for j in piece]
-                    slots.stale()  # its worker may be gone: never hand a piece to a dead address
-                slots.finished(worker)
-                feeder.learn(piece, recs)
-                fill()  # first: the worker's next piece is on its way while the results are recorded
+            for _, recs in self.dispatch:
                 self._take(recs)
                 if on_result is not None:
                     on_result(self, recs)
         except BaseException:
             self.interrupted = True
-            client.cancel(list(futures), force=True)
+            self.dispatch.stop()
             raise
         finally:
+            self.dispatch.stop()
             if self.bar is not None:
                 self.bar.close()
 
@@ -233,46 +166,6 @@ class Batch:
         path = write_report(self.out_dir, report)
         ran = counts["done"] + counts["failed"] + counts["no-match"]
         return {"counts": counts, "seconds": seconds, "report": path, "jobs_per_s": ran / seconds if seconds else 0.0}
-
-
-class _Slots:
-    """The cluster's workers and their threads, read again every :data:`WORKERS_EVERY`
-    seconds or when a piece comes back from a worker that is gone (a round trip to the
-    scheduler: not on every result)."""
-
-    def __init__(self, client):
-        self.client, self.t = client, -math.inf
-        self.workers: dict[str, int] = {}
-
-    def get(self) -> dict[str, int]:
-        if time.perf_counter() - self.t > WORKERS_EVERY:
-            info = self.client.scheduler_info()["workers"]
-            self.workers = {a: max(1, int(w.get("nthreads", 1))) for a, w in sorted(info.items())}
-            self.t = time.perf_counter()
-        return self.workers
-
-    def finished(self, worker: str | None) -> None:
-        if worker is not None and worker not in self.workers:
-            self.stale()
-
-    def stale(self) -> None:
-        """Read the list again before the next use."""
-        self.t = -math.inf
-
-
-def _task_states(dask_scheduler, keys: list[str]) -> dict[str, str]:
-    """On the scheduler: the state of each task still known ("no-worker", "processing", ...)."""
-    return {k: dask_scheduler.tasks[k].state for k in keys if k in dask_scheduler.tasks}
-
-
-def _task_error(e: BaseException) -> str:
-    name = type(e).__name__
-    if name == "KilledWorker":
-        return "the workers running this job died (it was retried, then given up)"
-    if name == "CancelledError":
-        return "cancelled"
-    text = str(e).strip().splitlines()
-    return f"internal error: {name}: {text[0] if text else ''}".rstrip(": ")
 
 
 def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, scheduler: str | None = None,

@@ -222,6 +222,18 @@ def run_job(job: dict) -> dict:
     return rec
 
 
+class Runner:
+    """The job runner a batch keeps on each worker (a Dask actor, see
+    :mod:`puppet.batch.dispatch`): it runs pieces of jobs in the worker's actor thread,
+    which holds the worker's GL context and loaded scenes like a task thread would."""
+
+    def run(self, jobs: list[dict]) -> list[dict]:
+        return run_chunk(jobs)
+
+    def warm(self) -> int:
+        return warm()
+
+
 def run_chunk(jobs: list[dict]) -> list[dict]:
     """Run jobs one after the other (a chunk shares the worker's loaded scene); their records."""
     return [run_job(j) for j in jobs]

@@ -268,3 +268,27 @@ def test_feeder_splits_a_scene_early_when_its_owner_would_end_the_batch_alone():
     assert {j["scene"] for j in piece} == {"a"} and len(piece) == 5
     # b and c as large as a: a new scene instead (no second build of a)
     assert {j["scene"] for j in second_piece("a" * 40 + "b" * 40 + "c" * 40)} == {"b"}
+
+
+def test_feeder_takes_back_the_pieces_of_a_worker_that_died():
+    from puppet.batch.feed import Feeder
+
+    f = Feeder(_jobs("a" * 6 + "b" * 2, animate="c"))
+    anim = f.next("w1", 2)
+    assert _ids(anim) == [8]
+    p1, p2 = f.next("w1", 2), f.next("w2", 2)
+    assert {j["scene"] for j in p1} == {"a"} and {j["scene"] for j in p2} == {"b"}
+    rest_a = []
+    while "a" in f.queues:  # w1 keeps to its scene
+        rest_a.append(f.next("w1", 2))
+    assert all(j["scene"] == "a" for p in rest_a for j in p) and f.out["a"] == 6  # none back
+    f.forget("w1")
+    for piece in reversed([anim, p1] + rest_a):  # the last first, as the dispatch does
+        f.put_back(piece)
+    assert len(f) == 1 + 6 + (2 - len(p2)) and f.out == {"b": len(p2)}
+    assert "w1" not in f.built and f.queues["a"][0]["id"] == _ids(p1)[0]  # in their order again
+    assert _ids(f.next("w2", 1)) == [8]  # the animation first, as before
+    got = []
+    while piece := f.next("w2", 1):
+        got += _ids(piece)
+    assert sorted(got) == sorted(list(range(6)) + [7] * (2 - len(p2))) and len(f) == 0

@@ -1,5 +1,6 @@
 """A worker process killed in the middle of a job loses no job: its nanny starts a new
-worker and Dask runs the job again (up to --retries); no temporary file is left."""
+worker, which gets a job runner, and the job runs again (up to --retries); no temporary
+file is left."""
 from __future__ import annotations
 
 import json
@@ -26,15 +27,16 @@ def _trex_frames(tmp_path, n: int, size: list[int]):
 
 
 def _kill_once(client, killed: list):
-    """An ``on_result`` that SIGKILLs the first busy worker once, recording (address, pid, keys)."""
+    """An ``on_result`` that SIGKILLs the first busy worker once, recording (address, pid,
+    pieces it had)."""
     def kill(batch, recs):
-        busy = {w: keys for w, keys in client.processing().items() if keys}
+        busy = batch.dispatch.busy()
         if killed or not busy:
             return
         victim = sorted(busy)[0]
         pid = client.run(os.getpid, workers=[victim])[victim]
         os.kill(pid, signal.SIGKILL)
-        killed.append((victim, pid, list(busy[victim])))
+        killed.append((victim, pid, busy[victim]))
     return kill
 
 
@@ -69,15 +71,13 @@ def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes
     assert temporaries(out) == []
 
 
-def test_the_only_worker_killed_its_queued_pieces_run_on_its_replacement(tmp_path, monkeypatch):
-    """Pieces are given to a worker ahead of time: when the only one dies, Dask has no other
-    worker for them and leaves them waiting for the dead one; the batch gives them again."""
-    from puppet.batch import runner
+def test_the_only_worker_killed_its_queued_pieces_run_on_its_replacement(tmp_path):
+    """Pieces are given to a worker ahead of time: when the only one dies, they wait for the
+    worker its nanny starts, which gets a job runner of its own."""
     from puppet.batch.cluster import connect
 
     entries, out, jobs = _trex_frames(tmp_path, 16, [60, 50])
     killed = []
-    monkeypatch.setattr(runner, "RESCUE_AFTER", 1.0)
     with connect(workers=1, retries=2) as (client, _):
         summary = run_batch(jobs, out, client=client, retries=2, on_result=_kill_once(client, killed))
     assert killed
