@@ -249,13 +249,3 @@ class Feeder:
             if owners is not None:
                 owners.discard(worker)
         self._mine.pop(worker, None)
-
-    def rest(self) -> list[list[dict]]:
-        """Everything not handed out, in pieces (for workers that are all gone, or a cluster
-        with no worker known yet: Dask places them)."""
-        out = [[self.alone.popleft()] for _ in range(len(self.alone))]
-        while True:
-            piece = self.next(None, 1)
-            if not piece:
-                return out
-            out.append(piece)

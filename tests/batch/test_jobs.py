@@ -196,18 +196,6 @@ def test_feeder_shares_a_scene_only_when_a_worker_has_nothing_of_its_own():
     assert _ids(f.next("w1", 2)) == [1]
 
 
-def test_feeder_rest_hands_out_every_job_once():
-    from puppet.batch.feed import Feeder
-
-    jobs = _jobs("abcabcaaab" * 3, animate="c")
-    f = Feeder(jobs)
-    first = f.next("w1", 3)
-    pieces = [first] + f.rest()
-    assert sorted(i for p in pieces for i in _ids(p)) == list(range(len(jobs)))
-    assert all(len({j["scene"] for j in p}) == 1 for p in pieces)
-    assert len(f) == 0 and f.rest() == []
-
-
 def test_feeder_shares_a_scene_only_when_its_build_pays_off():
     from puppet.batch.feed import Feeder
 
