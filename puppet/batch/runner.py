@@ -168,6 +168,17 @@ class Batch:
         return {"counts": counts, "seconds": seconds, "report": path, "jobs_per_s": ran / seconds if seconds else 0.0}
 
 
+def threads_warning(workers: dict) -> str | None:
+    """A line for the user when workers have more than one thread (``scheduler_info()``'s
+    workers): a worker runs one job at a time, in its job runner's thread."""
+    wide = sorted(a for a, w in workers.items() if int(w.get("nthreads", 1)) > 1)
+    if not wide:
+        return None
+    n = max(int(workers[a]["nthreads"]) for a in wide)
+    return (f"puppet batch: {len(wide)} of {len(workers)} workers have up to {n} threads, but a worker runs one "
+            "job at a time: start one worker process per core (dask worker --nthreads 1 --nworkers N)")
+
+
 def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, scheduler: str | None = None,
               retries: int = 2, resume: bool = False, progress: bool = False, client=None,
               say: Callable[[str], None] = lambda s: None, on_result: Callable | None = None) -> dict:
@@ -203,6 +214,9 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
                                                   f"local, {len(c.scheduler_info()['workers'])} workers")
                     if dashboard:
                         say(f"puppet batch: Dask dashboard at {dashboard}")
+                    warning = threads_warning(c.scheduler_info()["workers"])
+                    if warning:
+                        say(warning)
                     batch.run(c, todo, retries=retries, on_result=on_result)
             except BaseException:
                 batch.interrupted = True

@@ -280,3 +280,11 @@ def test_feeder_takes_back_the_pieces_of_a_worker_that_died():
     while piece := f.next("w2", 1):
         got += _ids(piece)
     assert sorted(got) == sorted(list(range(6)) + [7] * (2 - len(p2))) and len(f) == 0
+
+
+def test_workers_with_several_threads_get_a_warning():
+    from puppet.batch.runner import threads_warning
+
+    assert threads_warning({"tcp://a:1": {"nthreads": 1}, "tcp://b:1": {"nthreads": 1}}) is None
+    line = threads_warning({"tcp://a:1": {"nthreads": 4}, "tcp://b:1": {"nthreads": 1}})
+    assert line.startswith("puppet batch: 1 of 2 workers have up to 4 threads") and "--nthreads 1" in line
