@@ -55,15 +55,21 @@ def test_killing_a_worker_mid_run_loses_no_job(cluster2, tmp_path):
     assert killed[0][1] not in cluster2.run(os.getpid).values()
 
 
-def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes_on(tmp_path):
+def _only_worker_killed(tmp_path, retries: int):
+    """16 T-rex frames on a cluster of one worker, killed once mid-run: (entries, OUT_DIR,
+    summary, report)."""
     from puppet.batch.cluster import connect
 
     entries, out, jobs = _trex_frames(tmp_path, 16, [60, 50])
     killed = []
-    with connect(workers=1, retries=0) as (client, _):
-        summary = run_batch(jobs, out, client=client, retries=0, on_result=_kill_once(client, killed))
+    with connect(workers=1, retries=retries) as (client, _):
+        summary = run_batch(jobs, out, client=client, retries=retries, on_result=_kill_once(client, killed))
     assert killed
-    report = json.loads(open(summary["report"]).read())
+    return entries, out, summary, json.loads(open(summary["report"]).read())
+
+
+def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes_on(tmp_path):
+    entries, out, summary, report = _only_worker_killed(tmp_path, retries=0)
     died = [j for j in report["jobs"] if j["status"] == "failed"]
     assert died and all("workers running this job died" in j["error"] for j in died), report["jobs"]
     assert summary["counts"]["done"] == len(entries) - len(died)  # the batch went on after it
@@ -74,13 +80,6 @@ def test_a_job_whose_worker_dies_past_the_retries_is_reported_and_the_batch_goes
 def test_the_only_worker_killed_its_queued_pieces_run_on_its_replacement(tmp_path):
     """Pieces are given to a worker ahead of time: when the only one dies, they wait for the
     worker its nanny starts, which gets a job runner of its own."""
-    from puppet.batch.cluster import connect
-
-    entries, out, jobs = _trex_frames(tmp_path, 16, [60, 50])
-    killed = []
-    with connect(workers=1, retries=2) as (client, _):
-        summary = run_batch(jobs, out, client=client, retries=2, on_result=_kill_once(client, killed))
-    assert killed
-    report = json.loads(open(summary["report"]).read())
+    entries, out, summary, report = _only_worker_killed(tmp_path, retries=2)
     assert summary["counts"]["done"] == len(entries), [j["error"] for j in report["jobs"] if j["error"]]
     assert all(os.path.isfile(os.path.join(out, e["output"])) for e in entries)
