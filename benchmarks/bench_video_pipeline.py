@@ -99,10 +99,10 @@ def run_once(scene_path: str, out: str, tracker=None) -> dict:
             yield res.rgb
 
     w0, c0 = time.perf_counter(), time.process_time()
-    n = write_frames(out, frames(), plan.fps, "mp4")
+    n = write_frames(out, frames(), plan.fps, "mp4", plan.size)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     t = time.perf_counter()
-    write_frames(out, iter(kept), plan.fps, "mp4")  # the encoder alone, on the same frames
+    write_frames(out, iter(kept), plan.fps, "mp4", plan.size)  # the encoder alone, on the same frames
     timer["encode"] = time.perf_counter() - t
     return {"frames": n, "fps": n / wall, "cpu_ms": 1e3 * cpu / n,
             **{k: 1e3 * v / n for k, v in timer.items()}}

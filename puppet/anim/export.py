@@ -207,13 +207,7 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
             drawn.close()
 
     def stream(sink) -> int:
-        try:
-            count = pipeline.run(frames(), sink.add, threads=threads, progress=bar, timings=timings)
-        except BaseException:
-            sink.abort()
-            raise
-        sink.close()
-        return count
+        return sinks.stream(sink, frames(), threads=threads, progress=bar, timings=timings)
 
     written = [0]
     try:

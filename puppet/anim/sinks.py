@@ -49,6 +49,21 @@ def rate(fps: float) -> Fraction:
     return Fraction(fps).limit_denominator(1001)
 
 
+def stream(sink: "Sink", frames, **run) -> int:
+    """Feed ``frames`` to ``sink`` on the encoder's thread (:func:`puppet.anim.pipeline.run`,
+    ``run`` its options) and finish it; on any failure let go of it (the caller removes
+    the temporary). The frames written."""
+    from puppet.anim import pipeline
+
+    try:
+        count = pipeline.run(frames, sink.add, **run)
+    except BaseException:
+        sink.abort()
+        raise
+    sink.close()
+    return count
+
+
 class Sink:
     """Base of every sink: counts frames."""
 

@@ -56,7 +56,7 @@ class Dispatch:
     def __iter__(self):
         while True:
             with self.lock:  # (a piece's results are queued before it stops counting as out)
-                finished = not len(self.feeder) and not sum(self.out.values())
+                finished = self._finished()
             if finished:
                 while True:
                     try:
@@ -101,6 +101,10 @@ class Dispatch:
             self.threads[w] = t
             t.start()
 
+    def _finished(self) -> bool:
+        """Every job handed out and back (call with the lock held)."""
+        return not len(self.feeder) and not sum(self.out.values())
+
     def _live(self) -> int:
         return max(1, sum(t.is_alive() for w, t in self.threads.items() if w not in self.gone))
 
@@ -112,7 +116,7 @@ class Dispatch:
                     pending.append((actor.run(piece), piece))
                     self.out[w] = self.out.get(w, 0) + 1
                 if not pending:
-                    if not len(self.feeder) and not sum(self.out.values()):
+                    if self._finished():
                         return
                     self.lock.wait(POLL)  # nothing for this worker now: a piece may come back
                     continue

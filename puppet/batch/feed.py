@@ -154,22 +154,19 @@ class Feeder:
         return max(0, min(size, k, left)) if total * job > build + 2 * job else 0
 
     # -- handing out --------------------------------------------------------------
-    def next(self, worker: str | None, workers: int) -> list[dict]:
-        """The next piece for ``worker`` (None: any worker) among ``workers``; [] when
-        nothing is left that this worker should take now."""
+    def next(self, worker: str, workers: int) -> list[dict]:
+        """The next piece for ``worker`` among ``workers``; [] when nothing is left that
+        this worker should take now."""
         if self.alone:
             return [self.alone.popleft()]
         if not self.queues:
             return []
-        mine = self._mine.get(worker, ()) if worker is not None else ()
-        scene = max(mine, key=lambda s: len(self.queues[s]), default=None)
+        scene = max(self._mine.get(worker, ()), key=lambda s: len(self.queues[s]), default=None)
         size = 0
-        if scene is None and worker is not None:
+        if scene is None:
             size, scene = self._help(workers)
         if scene is None:
             scene = self._largest_unstarted()
-        if scene is None and worker is None:
-            scene = max(self.active, key=lambda s: len(self.queues[s]))
         if scene is None:
             return []
         return self._take(scene, worker, size or self.piece_size(workers, scene))
@@ -199,7 +196,7 @@ class Feeder:
         k = self._share(big, self.piece_size(workers, big))
         return (k, big) if k else (0, None)
 
-    def _take(self, scene: str, worker: str | None, size: int) -> list[dict]:
+    def _take(self, scene: str, worker: str, size: int) -> list[dict]:
         q = self.queues[scene]
         if scene not in self.started:
             self.started.add(scene)
@@ -207,10 +204,9 @@ class Feeder:
         piece = [q.popleft() for _ in range(min(size, len(q)))]
         self.n_left -= len(piece)
         self.out[scene] = self.out.get(scene, 0) + len(piece)
-        if worker is not None:
-            self.built.setdefault(worker, set()).add(scene)
-            self._mine.setdefault(worker, set()).add(scene)
-            self._owners.setdefault(scene, set()).add(worker)
+        self.built.setdefault(worker, set()).add(scene)
+        self._mine.setdefault(worker, set()).add(scene)
+        self._owners.setdefault(scene, set()).add(worker)
         if not q:
             del self.queues[scene]
             self.active.discard(scene)

@@ -114,10 +114,9 @@ class Batch:
                     on_result(self, recs)
         except BaseException:
             self.interrupted = True
-            self.dispatch.stop()
             raise
         finally:
-            self.dispatch.stop()
+            self.dispatch.stop()  # on an interruption: nothing more is handed out
             if self.bar is not None:
                 self.bar.close()
 

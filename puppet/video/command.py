@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
             if bar is not None:
                 bar.close()
 
-    written = write_frames(args.output, frames(), plan.fps, kind, inputs=inputs)
+    written = write_frames(args.output, frames(), plan.fps, kind, plan.size, inputs=inputs)
     if args.tracks:
         from puppet.video.track import Tracks
 

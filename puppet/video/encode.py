@@ -12,7 +12,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from puppet.anim import pipeline, sinks
+from puppet.anim import sinks
 from puppet.errors import SceneError
 from puppet.output import atomic_write, write_folder
 
@@ -36,43 +36,22 @@ def output_kind(path: str) -> str:
     return KINDS[ext]
 
 
-def write_frames(path: str, frames: Iterable[np.ndarray], fps: float, kind: str, *, inputs=()) -> int:
-    """Write (H, W, 3) uint8 RGB frames to ``path`` as ``kind`` (``mp4``, ``webm``, ``dir``),
-    through the animation export's sinks (:mod:`puppet.anim.sinks`) with this tool's
-    codec settings (:data:`CODECS`: faster than the export's, for a stream of camera frames).
+def write_frames(path: str, frames: Iterable[np.ndarray], fps: float, kind: str, size: tuple[int, int], *,
+                 inputs=()) -> int:
+    """Write (H, W, 3) uint8 RGB frames of ``size`` (W, H) to ``path`` as ``kind`` (``mp4``,
+    ``webm``, ``dir``), through the animation export's sinks (:mod:`puppet.anim.sinks`) with
+    this tool's codec settings (:data:`CODECS`: faster than the export's, for a stream of
+    camera frames).
 
     Returns the number of frames written. Odd sizes are padded to even for the video codecs.
     """
     if kind == "dir":
-        return write_folder(path, lambda tmp: _stream(frames, lambda size: sinks.DirSink(tmp)), inputs=inputs)
+        return write_folder(path, lambda tmp: sinks.stream(sinks.DirSink(tmp), frames), inputs=inputs)
     fmt, codec, pix, options = CODECS[kind]
     written = [0]
 
     def write(tmp: str) -> None:
-        written[0] = _stream(frames, lambda size: sinks.AVSink(tmp, fmt, codec, pix, size, fps, options,
-                                                               alpha=False, pad=True, threads="AUTO"))
+        sink = sinks.AVSink(tmp, fmt, codec, pix, size, fps, options, alpha=False, pad=True, threads="AUTO")
+        written[0] = sinks.stream(sink, frames)
     atomic_write(path, write, inputs=inputs)
     return written[0]
-
-
-def _stream(frames: Iterable[np.ndarray], open_sink) -> int:
-    """Feed ``frames`` (on the encoder's thread, :func:`puppet.anim.pipeline.run`) to the
-    sink ``open_sink((width, height))`` opens at the first frame; the frames written."""
-    sink = None
-
-    def add(rgb: np.ndarray) -> None:
-        nonlocal sink
-        if sink is None:
-            sink = open_sink((rgb.shape[1], rgb.shape[0]))
-        sink.add(rgb)
-
-    try:
-        pipeline.run(frames, add)
-    except BaseException:
-        if sink is not None:
-            sink.abort()
-        raise
-    if sink is None:
-        return 0
-    sink.close()
-    return sink.frames
