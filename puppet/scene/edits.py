@@ -212,6 +212,15 @@ class Edits:
             self._layer(doc, name)["image"] = path
         return self._edit(Event("layer", name, "mesh", f"paint layer {name}"), m)
 
+    def split_layer(self, layer: str, region, name: str, *, cut: bool = True) -> bool:
+        """Layer via Cut (or, ``cut=False``, via Copy): the pixels of ``layer`` inside
+        ``region`` (a polygon, list of [x, y] canvas points, or an (H, W) bool mask of the
+        canvas) become a new layer ``name`` in front of it; a cut takes them out of
+        ``layer``, refilling it where the part covered its body (:mod:`puppet.scene.split`)."""
+        from puppet.scene.split import split_layer
+
+        return split_layer(self, layer, region, name, cut)
+
     # links --------------------------------------------------------------------------
     def add_link(self, a: str, b: str, segment) -> bool:
         """A link segment ``[[x0, y0], [x1, y1]]`` between layers ``a`` and ``b``."""

@@ -1,0 +1,167 @@
+"""What is left of a layer when a part is cut out of it: the layer's outline completed
+smoothly across the part (Photoshop's Layer via Cut, with the body refilled behind).
+
+The outline a layer "would have without the part" is found on the layer's own outline:
+each run of outline pixels that lies inside the part (where the part stuck out of the
+body, or covered its edge) is replaced by a cubic Bezier from the last outline pixel
+before the run to the first one after it, leaving and arriving along the outline's own
+tangents there, with the handle length that makes a cubic reproduce a circular arc
+(``4/3 tan(theta/4) R`` for an arc turning by ``theta`` over radius ``R``). So a disc with
+a bar stuck on it gets its round edge back, a straight edge stays straight, and a band
+cut right through a body is bridged from one side to the other (both edges of the band
+are runs). Outline pieces wholly inside the part go (an enclosed hole of the layer that
+lies inside the part is filled: the body is refilled under it).
+
+The tangent at a run's end is that of the least-squares circle through the last
+16 outline pixels before it (of their line when they are straight): exact on a circle
+and on a straight line, and not tilted by the pixel staircase as a two-point difference is.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: a run's end tangent is fitted to at most this many outline points before it
+FIT = 16
+
+
+def fit_tangent(Q: np.ndarray) -> np.ndarray | None:
+    """Unit tangent at the last of the points ``Q`` (k, 2), travelling along them: of the
+    least-squares circle through them (an algebraic fit), or of their principal line when
+    they are (nearly) straight. None for fewer than two distinct points."""
+    Q = np.asarray(Q, float)
+    travel = Q[-1] - Q[0]
+    if len(Q) < 2 or not travel.any():
+        return None
+    m = Q.mean(axis=0)
+    X = Q - m
+    _, sv, vt = np.linalg.svd(X, full_matrices=False)
+    t, scale = vt[0], np.abs(X).max()
+    if len(Q) >= 3 and sv[-1] > 1e-9 * sv[0]:  # not collinear: the algebraic circle fit
+        A = np.column_stack([X, np.ones(len(X))])
+        sol, *_ = np.linalg.lstsq(A, (X ** 2).sum(axis=1), rcond=None)
+        centre = sol[:2] / 2.0
+        r2 = sol[2] + centre @ centre
+        if 0 < r2 < (1e3 * max(scale, 1.0)) ** 2:
+            rad = Q[-1] - (centre + m)
+            t = np.array([-rad[1], rad[0]])
+    t = t / np.linalg.norm(t)
+    return t if t @ travel >= 0 else -t
+
+
+def arc_bezier(a, ta, b, tb, samples: int | None = None) -> np.ndarray:
+    """A cubic Bezier from ``a`` (leaving along unit ``ta``) to ``b`` (arriving along unit
+    ``tb``), with handles of the length that fits a circular arc turning by the angle
+    between the tangents: (samples, 2) points, both ends included.
+
+    Hand-checked: a = (1, 0), ta = (0, 1), b = (0, 1), tb = (-1, 0) (a quarter of the unit
+    circle) keeps the curve within 3e-4 of radius 1.
+    """
+    a, b, ta, tb = (np.asarray(v, float) for v in (a, b, ta, tb))
+    c = float(np.linalg.norm(b - a))
+    theta = abs(float(np.arctan2(ta[0] * tb[1] - ta[1] * tb[0], ta @ tb)))
+    theta = min(theta, np.pi * 0.999)
+    if theta < 1e-6:
+        h = c / 3.0
+    else:
+        h = 4.0 / 3.0 * np.tan(theta / 4.0) * c / (2.0 * np.sin(theta / 2.0))
+    n = samples or max(int(np.ceil(c)) + 2, 4)
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    p1, p2 = a + h * ta, b - h * tb
+    return (1 - s) ** 3 * a + 3 * (1 - s) ** 2 * s * p1 + 3 * (1 - s) * s ** 2 * p2 + s ** 3 * b
+
+
+def _kept_run(cut: np.ndarray, i: int, step: int) -> np.ndarray:
+    """Indices of the uncut points from ``i`` going ``step`` (+1 / -1) round the contour,
+    at most FIT of them, ``i`` first."""
+    n = len(cut)
+    idx = (i + step * np.arange(min(FIT, n))) % n
+    stop = np.flatnonzero(cut[idx])
+    return idx[:stop[0]] if stop.size else idx
+
+
+def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
+    """One closed pixel outline with its runs of ``cut`` points bridged by arcs.
+
+    Parameters
+    ----------
+    P : (n, 2) float
+        Outline points (x, y) in order (a closed contour).
+    cut : (n,) bool
+        Points that lie inside the part being cut out.
+
+    Returns
+    -------
+    (m, 2) float, the completed closed outline, or None when every point is cut.
+    """
+    n = len(P)
+    if cut.all():
+        return None
+    P = np.asarray(P, float)
+    if not cut.any():
+        return P
+    start = int(np.flatnonzero(~cut)[0])  # begin on an outline point, so no run wraps
+    P, cut = np.roll(P, -start, axis=0), np.roll(cut, -start)
+    out: list[np.ndarray] = []
+    i = 0
+    while i < n:
+        if not cut[i]:
+            out.append(P[i:i + 1])
+            i += 1
+            continue
+        j = i
+        while j < n and cut[j]:
+            j += 1
+        a, b = i - 1, j % n  # the outline points either side of the run
+        chord = P[b] - P[a]
+        dflt = chord / (np.linalg.norm(chord) or 1.0)
+        ta = fit_tangent(P[_kept_run(cut, a, -1)[::-1]])
+        tb = fit_tangent(P[_kept_run(cut, b, +1)[::-1]])  # travelling backwards from b
+        out.append(arc_bezier(P[a], dflt if ta is None else ta, P[b], dflt if tb is None else -tb)[1:-1])
+        i = j
+    return np.concatenate(out)
+
+
+def completed_body(mask: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """The region a layer's outline encloses once completed across ``part``: (h, w) bool.
+
+    Parameters
+    ----------
+    mask : (h, w) bool
+        The layer's pixels.
+    part : (h, w) bool
+        The pixels being cut out (inside ``mask``).
+
+    Returns
+    -------
+    (h, w) bool: inside the completed outer outlines and outside the completed holes
+    (even-odd over all of them). Only its pixels inside ``part`` matter to a cut.
+    """
+    import cv2
+
+    m8 = np.ascontiguousarray(mask, np.uint8)
+    contours, _ = cv2.findContours(m8, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    rings = []
+    for c in contours:
+        P = c.reshape(-1, 2)
+        R = complete_ring(P, part[P[:, 1], P[:, 0]])
+        if R is not None and len(R) >= 3:
+            rings.append(np.round(R * 16).astype(np.int32))
+    out = np.zeros(mask.shape, np.uint8)
+    if rings:
+        cv2.fillPoly(out, rings, 1, lineType=cv2.LINE_8, shift=4)
+    return out.astype(bool)
+
+
+def body_after_cut(mask: np.ndarray, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A layer's mask after cutting ``part`` out, and the pixels to refill.
+
+    Returns
+    -------
+    new_mask : (h, w) bool
+        ``mask`` without ``part``, plus the part's pixels inside the completed outline.
+    refill : (h, w) bool
+        The part's pixels the layer keeps (they need new colours: the part took its own).
+    """
+    part = part & mask
+    refill = completed_body(mask, part) & part
+    return (mask & ~part) | refill, refill

@@ -1,0 +1,182 @@
+"""Layer via Cut / Layer via Copy (``scene.split_layer``): a disc with a bar stuck on it."""
+import json
+import os
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import puppet
+from puppet.imaging.cutout import arc_bezier, body_after_cut, fit_tangent
+
+W, H = 200, 170
+DISC, BAR, WHITE = (200, 60, 40), (40, 90, 200), (255, 255, 255)
+#: a polygon around all of the bar (its part inside the disc too)
+AROUND_BAR = [[106, 69], [189, 69], [189, 92], [106, 92]]
+
+
+def shapes():
+    yy, xx = np.mgrid[:H, :W]
+    disc = (xx - 90) ** 2 + (yy - 80) ** 2 <= 50 ** 2
+    bar = (np.abs(yy - 80) <= 8) & (xx >= 110) & (xx <= 185)
+    return disc, bar
+
+
+def picture():
+    disc, bar = shapes()
+    a = np.full((H, W, 4), 255, np.uint8)
+    a[disc, :3] = DISC
+    a[bar, :3] = BAR
+    return a
+
+
+@pytest.fixture
+def flat(make_scene):
+    """One layer over a flat picture, the way `puppet init` / the app start."""
+    s = {"puppet": 1, "source": "pic.png", "background": [255, 255, 255, 255],
+         "layers": [{"name": "body"}]}
+    return make_scene(s, {"pic.png": picture()})
+
+
+def swing_bar_away(sc):
+    """Pin the bar at its middle and move it down, clear of where it was."""
+    sc.add_pin("grip", "bar", [150, 80])
+    sc.set_target("grip", [150, 145])
+    return sc.render()
+
+
+def near(img, colour, tol):
+    return np.linalg.norm(img[..., :3].astype(float) - colour, axis=-1) < tol
+
+
+# -- the outline completion ------------------------------------------------------------------
+def test_arc_bezier_reproduces_a_quarter_circle():
+    b = arc_bezier([1, 0], [0, 1], [0, 1], [-1, 0], 64)
+    assert np.abs(np.hypot(*b.T) - 1).max() < 3e-4
+    line = arc_bezier([0, 0], [1, 0], [9, 0], [1, 0], 10)
+    np.testing.assert_allclose(line[:, 1], 0, atol=1e-12)
+    np.testing.assert_allclose(line[:, 0], np.linspace(0, 9, 10), atol=1e-12)  # h = c/3: uniform speed
+
+
+def test_fit_tangent_on_a_circle_and_a_line():
+    th = np.linspace(0, 0.6, 12)
+    Q = np.column_stack([30 * np.cos(th), 30 * np.sin(th)])
+    t = fit_tangent(Q)
+    np.testing.assert_allclose(t, [-np.sin(0.6), np.cos(0.6)], atol=1e-9)
+    np.testing.assert_allclose(fit_tangent([[0, 0], [1, 1], [2, 2], [3, 3]]), [2 ** -0.5, 2 ** -0.5], atol=1e-9)
+
+
+def test_completion_gives_the_disc_back():
+    disc, bar = shapes()
+    mask = disc | bar
+    region = np.zeros_like(mask)
+    region[69:92, 106:189] = True
+    keep, refill = body_after_cut(mask, region & mask)
+    assert not (keep & bar & ~disc).any()  # what stuck out is gone
+    assert (keep ^ disc).sum() <= 0.01 * disc.sum()  # the round edge is back
+    assert (refill == (keep & region)).all()
+    # a part wholly inside the body is refilled wholly; a band across it is bridged
+    eye = disc & ((np.mgrid[:H, :W][1] - 80) ** 2 + (np.mgrid[:H, :W][0] - 70) ** 2 <= 64)
+    keep, refill = body_after_cut(disc, eye)
+    assert (keep == disc).all() and (refill == eye).all()
+    band = disc & (np.abs(np.mgrid[:H, :W][0] - 80) <= 6)
+    keep, _ = body_after_cut(disc, band)
+    assert (keep ^ disc).sum() <= 0.02 * band.sum()
+
+
+# -- the document edit -----------------------------------------------------------------------
+@pytest.mark.gl
+def test_cut_bar_leaves_background_and_refilled_body(flat):
+    disc, bar = shapes()
+    sc = puppet.load_scene(flat)
+    assert sc.split_layer("body", AROUND_BAR, "bar") is True
+    assert [L.name for L in sc.data.layers] == ["body", "bar"]
+    img = swing_bar_away(sc)
+    out = bar & ~disc  # where the bar stuck out
+    differs = ~near(img, WHITE, 12)
+    assert differs[out].mean() <= 0.02, differs[out].mean()
+    inside = disc & ~bar | (disc & bar)
+    assert not near(img, BAR, 60)[inside].any()  # no pixel of the bar's colour left in the disc
+    rim = disc & ~ndimage.binary_erosion(disc, iterations=2)  # soft edge, arc within a pixel
+    assert near(img, DISC, 60)[disc & bar & ~rim].all()  # refilled with the body's colour
+    moved = np.roll(bar, 65, axis=0)
+    assert near(img, BAR, 30)[moved].mean() > 0.9  # the bar is where it went
+
+
+@pytest.mark.gl
+def test_copy_keeps_the_layer_behind(flat):
+    disc, bar = shapes()
+    sc = puppet.load_scene(flat)
+    before = sc.built.images[0]
+    rgba, mask = before.rgba.copy(), before.mask.copy()
+    sc.split_layer("body", AROUND_BAR, "bar", cut=False)
+    body = sc.built.images[0]
+    assert (body.mask == mask).all() and (body.rgba == rgba).all()
+    img = swing_bar_away(sc)
+    assert near(img, BAR, 30)[bar & ~disc].mean() > 0.95  # today's behaviour: the copy stays behind
+
+
+def test_split_from_a_mask_equals_from_the_polygon(flat):
+    a, b = puppet.load_scene(flat), puppet.load_scene(flat)
+    a.split_layer("body", AROUND_BAR, "bar")
+    region = np.zeros((H, W), bool)
+    region[69:92, 106:189] = True  # the polygon's pixel centres
+    b.split_layer("body", region, "bar")
+    for x, y in zip(a.built.images, b.built.images):
+        assert (x.mask == y.mask).all() and (x.rgba == y.rgba).all()
+
+
+def test_one_undo_step_and_exact_redo(flat):
+    sc = puppet.load_scene(flat)
+    doc0, img0 = sc.to_dict(), [im.rgba.copy() for im in sc.built.images]
+    n = len(sc.history.undo_stack)
+    sc.split_layer("body", AROUND_BAR, "bar")
+    doc1, img1 = sc.to_dict(), [im.rgba.copy() for im in sc.built.images]
+    assert len(sc.history.undo_stack) == n + 1
+    assert sc.history.undo_stack[-1].label == "cut bar from body"
+    assert sc.undo()
+    assert sc.to_dict() == doc0 and all((a == b.rgba).all() for a, b in zip(img0, sc.built.images))
+    assert sc.redo()
+    assert sc.to_dict() == doc1 and all((a == b.rgba).all() for a, b in zip(img1, sc.built.images))
+
+
+def test_save_and_load_round_trip(flat, tmp_path):
+    sc = puppet.load_scene(flat)
+    sc.split_layer("body", AROUND_BAR, "bar")
+    sc.add_pin("grip", "bar", [150, 80])
+    out = str(tmp_path / "out" / "cut.json")
+    os.makedirs(os.path.dirname(out))
+    sc.save(out)
+    saved = json.load(open(out))
+    files = [L["mask"]["file"] for L in saved["layers"]] + [saved["layers"][0]["image"]]
+    assert all(f.startswith("cut.files/") and os.path.exists(os.path.join(tmp_path, "out", f)) for f in files)
+    back = puppet.load_scene(out)
+    for x, y in zip(sc.built.images, back.built.images):
+        assert (x.mask == y.mask).all() and (x.rgba == y.rgba).all()
+    assert back.mesh()["layers"] == sc.mesh()["layers"]
+
+
+def test_pins_on_the_part_go_with_it(flat):
+    sc = puppet.load_scene(flat)
+    sc.add_pin("tip", "body", [170, 80])
+    sc.add_pin("hip", "body", [60, 80])
+    sc.split_layer("body", AROUND_BAR, "bar")
+    assert {p.name: p.layer for p in sc.data.pins} == {"tip": "bar", "hip": "body"}
+
+
+@pytest.mark.parametrize("args, message", [
+    (("body", [[0, 0], [5, 0], [5, 5], [0, 5]], "bar"), "selects no pixels of layer 'body'"),
+    (("body", [[0, 0], [5, 5]], "bar"), "at least 3"),
+    (("body", np.zeros((H, W), bool), "bar"), "selects no pixels"),
+    (("body", np.ones((10, 10), bool), "bar"), "canvas's size 200x170"),
+    (("body", AROUND_BAR, "body"), "a layer named 'body' exists already"),
+    (("legs", AROUND_BAR, "bar"), "no layer named 'legs'"),
+    (("body", [[0, 0], [W, 0], [W, H], [0, H]], "bar"), "takes all of layer 'body'"),
+])
+def test_bad_input_is_a_scene_error(flat, args, message):
+    sc = puppet.load_scene(flat)
+    doc = sc.to_dict()
+    with pytest.raises(puppet.SceneError, match=message.replace("(", r"\(").replace(")", r"\)")) as e:
+        sc.split_layer(*args)
+    assert os.path.basename(flat) in str(e.value)
+    assert sc.to_dict() == doc and not sc.history.undo_stack
