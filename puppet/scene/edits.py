@@ -361,9 +361,9 @@ class Edits:
 
 def _pin_tables(doc: dict) -> list[tuple[dict, str]]:
     """Every table of pin targets in the scene JSON as (owner, key): each pose, and the
-    ``pins`` of each animation key."""
+    ``pins`` or ``overrides`` of each animation key."""
     out = [(doc["poses"], name) for name in doc.get("poses", {})]
-    return out + [(k, "pins") for k in doc.get("animation", {}).get("keys", []) if "pins" in k]
+    return out + [(k, f) for k in doc.get("animation", {}).get("keys", []) for f in ("pins", "overrides") if f in k]
 
 
 def _ext_layer(name: str) -> str | None:

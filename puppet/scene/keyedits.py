@@ -3,9 +3,11 @@ the frame rate, the in-between and depth modes; and reading the keys back.
 
 Each edit goes through ``Document._edit`` (validated like a loaded file, one undo step,
 one ``"animation"`` event, only on a real change). Keys are written in the file form of
-the scene format: ``{"time": s, "pose": NAME}`` or ``{"time": s, "pins": {PIN: [x, y] |
-{"to": [x, y], "angle": deg, "depth": d}}}``, with ``"ease"`` when not ``linear`` and
-``"curve"`` for ``bezier``.
+the scene format: ``{"time": s, "pose": NAME}`` (with ``"overrides": {PIN: target |
+null}`` when some pins differ from the pose or are left out) or ``{"time": s, "pins":
+{PIN: [x, y] | {"to": [x, y], "angle": deg, "depth": d}}}``, with ``"ease"`` when not
+``linear`` and ``"curve"`` for ``bezier``. :meth:`KeyEdits.record_motion` writes a
+recorded motion over a span of keys and keeps their poses.
 """
 from __future__ import annotations
 
@@ -19,10 +21,13 @@ SAME_TIME = 1e-9
 
 
 def _pins_json(pins: dict) -> dict:
-    """A pins table in file form, numbers as floats (``[x, y]`` or ``{"to", "angle", "depth"}``)."""
+    """A pins table in file form, numbers as floats (``[x, y]`` or ``{"to", "angle", "depth"}``;
+    None, an override that leaves the pin out, stays None)."""
     out = {}
     for name, t in pins.items():
-        if isinstance(t, dict):
+        if t is None:
+            out[name] = None
+        elif isinstance(t, dict):
             v = {k: ([float(t[k][0]), float(t[k][1])] if k == "to" else float(t[k]))
                  for k in ("to", "angle", "depth") if k in t and t[k] is not None}
             for k in t:
@@ -75,17 +80,22 @@ class KeyEdits:
 
     # edits --------------------------------------------------------------------------
     def set_key(self, time: float, pose: str | None = None, *, pins: dict | None = None, ease: str = "linear",
-                curve=None) -> bool:
+                curve=None, overrides: dict | None = None) -> bool:
         """A key at ``time`` seconds showing pose ``pose`` (a name, ``"rest"`` included) or
         the pin targets ``pins`` (file form; only the pins named), replacing a key at that
         time. ``ease`` shapes the segment ending at this key; ``curve`` = (cx1, cy1, cx2,
-        cy2) for ``"bezier"``."""
+        cy2) for ``"bezier"``. With a pose, ``overrides`` (file form; None for a pin the
+        key leaves out) replace the pose's targets of the pins they name."""
         if (pose is None) == (pins is None):
             raise self._fail("a key shows a pose name or pin targets (give one of pose= and pins=)")
+        if overrides is not None and pose is None:
+            raise self._fail("overrides go with a pose key (pose=); a pins key names its pins itself")
         self._check_ease(ease, curve)
         key: dict = {"time": float(time)}
         if pose is not None:
             key["pose"] = pose
+            if overrides:
+                key["overrides"] = _pins_json(overrides)
         else:
             key["pins"] = _pins_json(pins)
         _ease_fields(key, ease, curve)
@@ -93,6 +103,35 @@ class KeyEdits:
         def m(doc):
             self._put_key(doc, key)
         return self._edit(Event("animation", pose or "", "none", f"key at {float(time):g} s"), m)
+
+    def record_motion(self, keys: dict, *, start: float | None = None, end: float | None = None) -> bool:
+        """Write recorded keys of some pins over the span ``start``..``end`` (default: the
+        first to the last recorded time), keeping every other pin's keys and the keys' poses;
+        one undo step. What the app's record mode writes.
+
+        ``keys`` is ``{time: {pin: [x, y] | {"to", "angle", "depth"}}}`` (what
+        :meth:`puppet.app.record.Recording.keys` returns). Inside the span the recorded pins
+        follow only the recorded keys: a pose key there keeps its pose and gets an override
+        leaving those pins out (or, at a recorded time, giving their recorded targets); a
+        pins key there loses them (and goes when it names nothing else). At a recorded
+        time with no key, a pins key is added. A recorded ``[x, y]`` keeps the angle and
+        depth the pin has at that time in the animation (only its position is recorded).
+        """
+        from puppet.scene.recordkeys import recorded, write_motion
+
+        if not keys:
+            raise self._fail("nothing recorded (no keys)")
+        times = sorted(float(t) for t in keys)
+        t0 = times[0] if start is None else float(start)
+        t1 = times[-1] if end is None else float(end)
+        if not (np.isfinite(t0) and np.isfinite(t1) and 0 <= t0 <= times[0] and times[-1] <= t1):
+            raise self._fail(f"the span {t0:g}..{t1:g} s must hold every recorded time ({times[0]:g}..{times[-1]:g} s)")
+        table = recorded(self, keys)
+
+        def m(doc):
+            write_motion(doc, table, t0 - SAME_TIME, t1 + SAME_TIME)
+        names = sorted({n for pins in table.values() for n in pins})
+        return self._edit(Event("animation", "", "none", f"record {', '.join(names)} {t0:g}-{t1:g} s"), m)
 
     def remove_key(self, time: float) -> bool:
         """Remove the key at ``time`` (the animation goes with its last key)."""

@@ -1,5 +1,5 @@
-"""The scene file's ``animation`` section: keys of named poses or of inline pin targets,
-eases (``bezier`` with Spine-style control points), the in-between and depth modes.
+"""The scene file's ``animation`` section: keys of named poses (with pin ``overrides``)
+or of inline pin targets, eases (``bezier`` with Spine-style control points), the in-between and depth modes.
 
 A compatible extension of format v1: a v1 animation (``fps`` and ``keys`` of ``time``,
 ``pose``, ``ease``) reads as before.
@@ -13,7 +13,7 @@ from puppet.scene.schema import Ctx, expect_list, expect_number, expect_object, 
 
 #: Largest |y| of a bezier ease's control points (overshoot beyond the keys is allowed).
 MAX_CURVE_Y = 10.0
-KEY_FIELDS = ("time", "pose", "pins", "ease", "curve")
+KEY_FIELDS = ("time", "pose", "pins", "overrides", "ease", "curve")
 
 
 def parse_animation(c: Ctx, v, p: str, poses: dict, parse_pins: Callable[[object, str], dict]) -> m.Animation:
@@ -43,17 +43,21 @@ def parse_animation(c: Ctx, v, p: str, poses: dict, parse_pins: Callable[[object
 
 
 def parse_key(c: Ctx, k, q: str, poses: dict, parse_pins: Callable[[object, str], dict]) -> m.Key:
-    """One key: ``{"time", "pose" | "pins", "ease"?, "curve"?}``."""
+    """One key: ``{"time", "pose" | "pins", "overrides"? (with "pose"), "ease"?, "curve"?}``."""
     expect_object(c, k, q, required=("time",), optional=KEY_FIELDS)
     t = expect_number(c, k["time"], join(q, "time"), lo=0, hi=1e6)
     if ("pose" in k) == ("pins" in k):
         raise c.fail(q, "a key has exactly one of 'pose' (a pose name) and 'pins' (pin targets)")
-    pose, pins = None, None
+    pose, pins, overrides = None, None, None
     if "pose" in k:
         pose = expect_string(c, k["pose"], join(q, "pose"))
         if pose != "rest" and pose not in poses:
             raise c.fail(join(q, "pose"), f"no pose named {short(pose)}")
+        if "overrides" in k:
+            overrides = parse_overrides(c, k["overrides"], join(q, "overrides"), parse_pins)
     else:
+        if "overrides" in k:
+            raise c.fail(join(q, "overrides"), "'overrides' go with a 'pose' key (a 'pins' key names its pins itself)")
         pins = parse_pins(k["pins"], join(q, "pins"))
     ease = expect_string(c, k.get("ease", "linear"), join(q, "ease"), choices=m.EASES)
     curve = None
@@ -67,4 +71,15 @@ def parse_key(c: Ctx, k, q: str, poses: dict, parse_pins: Callable[[object, str]
                       for j, x in enumerate(k["curve"]))
     elif "curve" in k:
         raise c.fail(join(q, "curve"), f"'curve' belongs to the 'bezier' ease (this key's ease is {ease!r})")
-    return m.Key(time=t, pose=pose, ease=ease, pins=pins, curve=curve)
+    return m.Key(time=t, pose=pose, ease=ease, pins=pins, curve=curve, overrides=overrides)
+
+
+def parse_overrides(c: Ctx, v, q: str, parse_pins: Callable[[object, str], dict]) -> dict:
+    """A pose key's ``overrides``: pin name -> a target (as in a pose) that replaces the
+    pose's for that pin, or ``null``: the key does not set that pin. ``{name: Target | None}``."""
+    expect_object(c, v, q, optional=v.keys() if isinstance(v, dict) else ())
+    free = [n for n, t in v.items() if t is None]
+    out: dict = parse_pins({n: t for n, t in v.items() if t is not None}, q)
+    parse_pins({n: [0, 0] for n in free}, q)  # the names of left-out pins are checked like any
+    out.update({n: None for n in free})
+    return out

@@ -94,13 +94,16 @@ class Target:
 class Key:
     """One animation key: a named pose (every pin) or its own pin targets (``pins``,
     only the pins it names). ``ease`` shapes the segment that ends at this key;
-    ``curve`` is the ``bezier`` ease's ``(cx1, cy1, cx2, cy2)``."""
+    ``curve`` is the ``bezier`` ease's ``(cx1, cy1, cx2, cy2)``. A pose key's
+    ``overrides`` replace the pose's target of the pins they name (a Target), or leave a
+    pin out of the key (None)."""
 
     time: float
     pose: str | None = None
     ease: str = "linear"
     pins: dict[str, Target] | None = None
     curve: tuple[float, float, float, float] | None = None
+    overrides: dict[str, Target | None] | None = None
 
 
 @dataclass

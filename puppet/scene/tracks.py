@@ -1,8 +1,9 @@
 """Per-pin tracks: the animation's keys as arrays, and the pin state at any time.
 
 A key of a named pose mentions every pin and every exterior point (those the pose does
-not name at rest, exterior points riding along); a key of inline ``pins`` mentions only
-the pins it names. A pin's value at time t comes from the keys that mention it: held
+not name at rest, exterior points riding along) but the ones its ``overrides`` leave out
+(``null``), and its overrides' targets replace the pose's; a key of inline ``pins``
+mentions only the pins it names. A pin's value at time t comes from the keys that mention it: held
 before the first and after the last, in between interpolated with the ease of the later
 key. Depth steps (the value of the last key at or before t that sets it) unless the
 animation's ``depth`` is ``"interpolate"``. Trajectory-invariant: a state depends only
@@ -46,9 +47,18 @@ def build_tracks(data: SceneData, exterior: list[GroupExterior]) -> Tracks:
     states, pin_set, ext_set = [], np.zeros((len(anim.keys), k), bool), np.zeros((len(anim.keys), j), bool)
     for n, key in enumerate(anim.keys):
         if key.pins is None:
-            table = data.poses.get(key.pose, {}) if key.pose != "rest" else {}
+            table = dict(data.poses.get(key.pose, {}) if key.pose != "rest" else {})
             pin_set[n] = [p.kind == "interior" for p in data.pins]
             ext_set[n] = True
+            for name, t in (key.overrides or {}).items():  # pose plus pin overrides
+                if t is not None:
+                    table[name] = t
+                    continue
+                table.pop(name, None)
+                if name in ext_index:
+                    ext_set[n, ext_index[name]] = False
+                elif name in pin_index:
+                    pin_set[n, pin_index[name]] = False
         else:
             table = key.pins
             for name in table:
