@@ -116,6 +116,19 @@ def polygon_mask(shape: tuple[int, int], polygon: np.ndarray, offset=(0.0, 0.0))
     return (np.cumsum(toggles[:, :w], axis=1, dtype=np.uint8) & 1).astype(bool)  # mod 256 keeps parity
 
 
+def canvas_to_image(canvas_mask: np.ndarray, offset, shape: tuple[int, int]) -> np.ndarray:
+    """A canvas-grid mask (H, W) moved into the grid of a layer image of ``shape`` (h, w)
+    placed at canvas ``offset`` (rounded to whole pixels): (h, w) bool, False off the canvas."""
+    H, W = canvas_mask.shape
+    out = np.zeros(shape, bool)
+    ox, oy = int(round(offset[0])), int(round(offset[1]))
+    h, w = shape
+    y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
+    if y1 > y0 and x1 > x0:
+        out[y0 - oy:y1 - oy, x0 - ox:x1 - ox] = canvas_mask[y0:y1, x0:x1]
+    return out
+
+
 def rect_mask(shape: tuple[int, int], rect, offset=(0.0, 0.0)) -> np.ndarray:
     """Pixels whose centre lies inside ``[x, y, w, h]`` (canvas coordinates)."""
     h, w = shape

@@ -35,28 +35,31 @@ def region_mask(region, canvas: tuple[int, int], offset, shape: tuple[int, int],
     canvas : (W, H). offset : the layer image's canvas position. shape : its (h, w).
     fail : ``fail(message) -> SceneError``.
     """
-    from puppet.imaging.masks import polygon_mask
+    from puppet.imaging.masks import canvas_to_image, polygon_mask
 
     W, H = canvas
-    arr = np.asarray(region)
+    try:
+        arr = np.asarray(region)
+    except (TypeError, ValueError):  # ragged lists
+        arr = np.asarray([], float)
     if arr.dtype == bool:
         if arr.shape != (H, W):
             raise fail(f"a region mask must be the canvas's size {W}x{H} (as (H, W) = ({H}, {W})), "
                        f"not {arr.shape}")
-        out = np.zeros(shape, bool)
-        ox, oy = int(round(offset[0])), int(round(offset[1]))
-        h, w = shape
-        y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
-        if y1 > y0 and x1 > x0:
-            out[y0 - oy:y1 - oy, x0 - ox:x1 - ox] = arr[y0:y1, x0:x1]
-        return out
+        return canvas_to_image(arr, offset, shape)
     try:
-        P = np.asarray(region, float).reshape(-1, 2)
+        P = arr.astype(float)
     except (TypeError, ValueError):
-        raise fail("a region is a polygon (a list of [x, y] canvas points) or a boolean mask of the canvas") from None
-    if arr.ndim != 2 or arr.shape[1:] != (2,) or len(P) < 3 or not np.isfinite(P).all():
-        raise fail(f"a region polygon needs at least 3 finite [x, y] points (got {len(P)} point(s))")
+        P = np.zeros((0, 0))
+    if P.ndim != 2 or P.shape[1] != 2 or len(P) < 3 or not np.isfinite(P).all():
+        raise fail("a region is a polygon of at least 3 finite [x, y] canvas points or a boolean mask of the "
+                   f"canvas, not {_short(region)}")
     return polygon_mask(shape, P, offset)
+
+
+def _short(v) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _raw_pixels(s, k: int) -> np.ndarray:

@@ -167,10 +167,14 @@ def test_pins_on_the_part_go_with_it(flat):
 @pytest.mark.parametrize("args, message", [
     (("body", [[0, 0], [5, 0], [5, 5], [0, 5]], "bar"), "selects no pixels of layer 'body'"),
     (("body", [[0, 0], [5, 5]], "bar"), "at least 3"),
+    (("body", [[0, 0], [5, 5], [7]], "bar"), "at least 3"),
+    (("body", "all", "bar"), "at least 3"),
+    (("body", [[0, 0], [5, float("nan")], [7, 1]], "bar"), "at least 3"),
     (("body", np.zeros((H, W), bool), "bar"), "selects no pixels"),
     (("body", np.ones((10, 10), bool), "bar"), "canvas's size 200x170"),
     (("body", AROUND_BAR, "body"), "a layer named 'body' exists already"),
     (("legs", AROUND_BAR, "bar"), "no layer named 'legs'"),
+    (("body", AROUND_BAR, ""), "needs a name"),
     (("body", [[0, 0], [W, 0], [W, H], [0, H]], "bar"), "takes all of layer 'body'"),
 ])
 def test_bad_input_is_a_scene_error(flat, args, message):
@@ -180,3 +184,59 @@ def test_bad_input_is_a_scene_error(flat, args, message):
         sc.split_layer(*args)
     assert os.path.basename(flat) in str(e.value)
     assert sc.to_dict() == doc and not sc.history.undo_stack
+
+
+def transparent_picture():
+    """The disc and bar on a transparent background (a layer with its own image)."""
+    a = picture()
+    a[(a[..., :3] == 255).all(-1), 3] = 0
+    return a
+
+
+@pytest.mark.gl
+def test_cut_from_a_layer_with_its_own_image(make_scene):
+    disc, bar = shapes()
+    off = [7, 4]
+    s = {"puppet": 1, "canvas": [W + 10, H + 10], "background": [255, 255, 255, 255],
+         "layers": [{"name": "body", "image": "own.png", "offset": off, "inpaint": "pyramid", "order": 3}]}
+    sc = puppet.load_scene(make_scene(s, {"own.png": transparent_picture()}))
+    poly = [[x + off[0], y + off[1]] for x, y in AROUND_BAR]
+    sc.split_layer("body", poly, "bar")
+    body, part = sc.to_dict()["layers"]
+    assert part["image"].endswith("own.png") and part["offset"] == off and part["order"] == 3
+    assert body["image"] != part["image"] and body["offset"] == off
+    assert sc.rank == [0, 1]  # the part in front, the same order ties by list position
+    sc.add_pin("grip", "bar", [150 + off[0], 80 + off[1]])
+    sc.set_target("grip", [150 + off[0], 145 + off[1]])
+    img = sc.render()[off[1]:off[1] + H, off[0]:off[0] + W]
+    assert (~near(img, WHITE, 12))[bar & ~disc].mean() <= 0.02
+    assert not near(img, BAR, 60)[disc].any()
+
+
+def test_link_segments_on_the_part_go_with_it(make_scene):
+    tag = np.zeros((H, W, 4), np.uint8)
+    tag[70:90, 160:190] = (10, 200, 10, 255)
+    s = {"puppet": 1, "source": "pic.png", "background": [255, 255, 255, 255],
+         "layers": [{"name": "body"}, {"name": "tag", "image": "tag.png"}],
+         "links": [{"layers": ["body", "tag"], "segments": [[[170, 78], [170, 84]]]}]}
+    sc = puppet.load_scene(make_scene(s, {"pic.png": picture(), "tag.png": tag}))
+    sc.split_layer("body", AROUND_BAR, "bar")
+    assert sc.to_dict()["links"] == [{"layers": ["tag", "bar"], "segments": [[[170, 78], [170, 84]]]}]
+    assert [L.name for L in sc.data.layers] == ["body", "bar", "tag"]
+
+
+def test_cut_flag_must_be_a_bool(flat):
+    sc = puppet.load_scene(flat)
+    with pytest.raises(puppet.SceneError, match="cut is True"):
+        sc.split_layer("body", AROUND_BAR, "bar", cut="no")
+
+
+def test_canvas_to_image_hand_checked():
+    from puppet.imaging.masks import canvas_to_image
+
+    c = np.zeros((4, 5), bool)
+    c[1, 2] = c[3, 4] = c[0, 0] = True
+    out = canvas_to_image(c, (2, 1), (3, 3))  # image pixel (i, j) is canvas (i + 1, j + 2)
+    assert out.tolist() == [[True, False, False], [False, False, False], [False, False, True]]
+    assert not canvas_to_image(c, (-10, 0), (3, 3)).any()
+    assert canvas_to_image(c, (-1, -1), (3, 3)).tolist() == [[False] * 3, [False, True, False], [False] * 3]
