@@ -6,11 +6,14 @@ A copy adds the new layer and leaves the layer behind as it was. A cut also take
 part out of the layer behind: its mask loses the part's pixels except where the part
 covered the layer's own body, found by completing the layer's outline smoothly across
 the part (:mod:`puppet.imaging.cutout`); those pixels are refilled by the layer's inpaint
-method (``telea`` when it has none) from the layer's own pixels, and the refilled
-picture becomes the layer's own image. Both new pixels and masks are stored as the app
-stores painted pixels (:class:`~puppet.scene.files.PendingFiles`, written beside the
-scene on save). Pins of the layer left on the part go with it, and so do link segments
-that lie on the part only.
+method from the layer's own pixels. A layer that takes its pixels from the scene's
+source stays so (the new layer, from the same source and in front of it, is what its
+``inpaint`` refills, as for any such layer; ``none`` becomes ``telea``), so the layers
+behind it keep refilling under it too; a layer with its own image gets the refilled
+picture as its new own image. New pixels and masks are stored as the app stores
+painted pixels (:class:`~puppet.scene.files.PendingFiles`, written beside the scene on
+save). Pins of the layer left on the part go with it, and so do link segments that lie
+on the part only.
 """
 from __future__ import annotations
 
@@ -62,21 +65,13 @@ def _short(v) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _raw_pixels(s, k: int) -> np.ndarray:
-    """Layer ``k``'s pixels as read from its file (or the source), before masks and refills."""
-    from puppet.scene.build import layer_image, load_source
-
-    L = s.data.layers[k]
-    return layer_image(s.data, L, load_source(s.data) if L.image is None else None).rgba
-
-
 def _refilled(s, k: int, part: np.ndarray) -> np.ndarray:
-    """Layer ``k``'s own pixels with ``part`` refilled from the rest of the layer: (h, w, 4)."""
+    """Layer ``k``'s own image with ``part`` refilled from the rest of the layer: (h, w, 4)."""
     from puppet.imaging.inpaint import inpaint_layer
+    from puppet.imaging.io import load_rgba
 
     im, L = s.built.images[k], s.data.layers[k]
-    base = _raw_pixels(s, k).copy()
-    base[im.mask, :3] = im.rgba[im.mask, :3]  # keep refills the layer already shows
+    base = load_rgba(L.image, scene_file=s.file, json_path=f"layers[{k}].image")
     return inpaint_layer(base, im.mask, part, L.inpaint if L.inpaint != "none" else DEFAULT_REFILL)
 
 
@@ -137,7 +132,8 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
     part_file = s.pending.add(mask_rgba(part), f"{name}-mask")
     if cut:
         keep_file = s.pending.add(mask_rgba(keep), f"{layer}-mask")
-        image_file = s.pending.add(_refilled(s, k, part), layer) if refill.any() else None
+        own = L.image is not None and refill.any()  # refilled once here; a source layer refills itself
+        image_file = s.pending.add(_refilled(s, k, part), layer) if own else None
     raw = s._layer(s._doc, layer)
 
     def m(doc):
@@ -155,6 +151,8 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
         behind["mask"] = {"file": keep_file}
         if image_file is not None:
             behind["image"] = image_file
+        elif L.image is None and behind.get("inpaint", "none") == "none":
+            behind["inpaint"] = DEFAULT_REFILL
         for p in doc.get("pins", []):
             if p["layer"] == layer and p.get("kind", "interior") == "interior" \
                     and not _on(keep, im.offset, [p["at"], p["at"]]) and _on(part, im.offset, [p["at"], p["at"]]):
@@ -163,4 +161,3 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
             _move_links(doc, layer, name, keep, part, im.offset)
     verb = "cut" if cut else "copy"
     return s._edit(Event("layer", name, "mesh", f"{verb} {name} from {layer}"), m)
-

@@ -3,8 +3,8 @@
 A key of a named pose mentions every pin and every exterior point (those the pose does
 not name at rest, exterior points riding along) but the ones its ``overrides`` leave out
 (``null``), and its overrides' targets replace the pose's; a key of inline ``pins``
-mentions only the pins it names. A pin's value at time t comes from the keys that mention it: held
-before the first and after the last, in between interpolated with the ease of the later
+mentions only the pins it names. A pin's value at time t comes from the keys that
+mention it: held before the first and after the last, in between interpolated with the ease of the later
 key. Depth steps (the value of the last key at or before t that sets it) unless the
 animation's ``depth`` is ``"interpolate"``. Trajectory-invariant: a state depends only
 on the keys and t.

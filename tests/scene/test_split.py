@@ -148,7 +148,8 @@ def test_save_and_load_round_trip(flat, tmp_path):
     os.makedirs(os.path.dirname(out))
     sc.save(out)
     saved = json.load(open(out))
-    files = [L["mask"]["file"] for L in saved["layers"]] + [saved["layers"][0]["image"]]
+    assert saved["layers"][0]["inpaint"] == "telea" and "image" not in saved["layers"][0]  # still the source's
+    files = [L["mask"]["file"] for L in saved["layers"]]
     assert all(f.startswith("cut.files/") and os.path.exists(os.path.join(tmp_path, "out", f)) for f in files)
     back = puppet.load_scene(out)
     for x, y in zip(sc.built.images, back.built.images):
@@ -240,3 +241,25 @@ def test_canvas_to_image_hand_checked():
     assert out.tolist() == [[True, False, False], [False, False, False], [False, False, True]]
     assert not canvas_to_image(c, (-10, 0), (3, 3)).any()
     assert canvas_to_image(c, (-1, -1), (3, 3)).tolist() == [[False] * 3, [False, True, False], [False] * 3]
+
+
+def test_cut_from_a_front_source_layer_keeps_the_refill_behind_it(make_scene):
+    """Cutting the hand off an arm that is taken from the same picture as the body: the
+    body still refills under the arm and under the hand (both are source layers in front)."""
+    pic = np.full((100, 160, 4), 255, np.uint8)
+    pic[20:80, 20:140, :3] = (40, 160, 60)
+    pic[45:55, 30:110, :3] = (200, 30, 30)
+    s = {"puppet": 1, "source": "pic.png", "background": [255, 255, 255, 255],
+         "layers": [{"name": "body", "mask": {"threshold": 250}, "inpaint": "telea"},
+                    {"name": "arm", "mask": {"rect": [30, 45, 80, 10]}}]}
+    sc = puppet.load_scene(make_scene(s, {"pic.png": pic}))
+    body_before = sc.built.images[0].rgba.copy()
+    sc.split_layer("arm", [[28, 43], [50, 43], [50, 57], [28, 57]], "hand")
+    assert [L.name for L in sc.data.layers] == ["body", "arm", "hand"]
+    assert sc.data.layers[1].image is None and sc.data.layers[2].image is None
+    assert (sc.built.images[0].rgba == body_before).all()
+    assert not near(sc.built.images[0].rgba, (200, 30, 30), 60)[45:55, 30:110].any()
+    arm = sc.built.images[1]
+    # the cut end of the arm (a U-turn of its outline) is closed by a half disc of the arm's width
+    assert arm.mask[45:55, 50:110].all() and not arm.mask[:, :44].any()
+    assert 0 < arm.mask[:, 44:50].sum() <= np.pi * 5 ** 2 / 2 + 6
