@@ -101,23 +101,20 @@ def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
         return P
     start = int(np.flatnonzero(~cut)[0])  # begin on an outline point, so no run wraps
     P, cut = np.roll(P, -start, axis=0), np.roll(cut, -start)
+    edges = np.diff(np.r_[0, cut.astype(np.int8), 0])
+    runs = zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1))  # [i, j) of cut points
     out: list[np.ndarray] = []
-    i = 0
-    while i < n:
-        if not cut[i]:
-            out.append(P[i:i + 1])
-            i += 1
-            continue
-        j = i
-        while j < n and cut[j]:
-            j += 1
+    kept_from = 0
+    for i, j in runs:
+        out.append(P[kept_from:i])
         a, b = i - 1, j % n  # the outline points either side of the run
         chord = P[b] - P[a]
         dflt = chord / (np.linalg.norm(chord) or 1.0)
         ta = fit_tangent(P[_kept_run(cut, a, -1)[::-1]])
         tb = fit_tangent(P[_kept_run(cut, b, +1)[::-1]])  # travelling backwards from b
         out.append(arc_bezier(P[a], dflt if ta is None else ta, P[b], dflt if tb is None else -tb)[1:-1])
-        i = j
+        kept_from = j
+    out.append(P[kept_from:])
     return np.concatenate(out)
 
 

@@ -263,3 +263,23 @@ def test_cut_from_a_front_source_layer_keeps_the_refill_behind_it(make_scene):
     # the cut end of the arm (a U-turn of its outline) is closed by a half disc of the arm's width
     assert arm.mask[45:55, 50:110].all() and not arm.mask[:, :44].any()
     assert 0 < arm.mask[:, 44:50].sum() <= np.pi * 5 ** 2 / 2 + 6
+
+
+def test_complete_ring_bridges_a_straight_edge_straight():
+    from puppet.imaging.cutout import complete_ring
+
+    top = [[x, 0] for x in range(80)]
+    right = [[80, y] for y in range(80)]
+    bottom = [[x, 80] for x in range(80, 0, -1)]
+    left = [[0, y] for y in range(80, 0, -1)]
+    P = np.array(top + right + bottom + left, float)
+    cut = np.zeros(len(P), bool)
+    cut[35:45] = True  # a notch in the middle of the top edge (the tangent fits stay on the edge)
+    R = complete_ring(P, cut)
+    assert np.abs(R[(R[:, 0] > 33) & (R[:, 0] < 47) & (R[:, 1] < 5), 1]).max() < 1e-9  # the edge goes on straight
+    assert len(R) >= len(P) - 10 and complete_ring(P, np.ones(len(P), bool)) is None
+    assert (complete_ring(P, np.zeros(len(P), bool)) == P).all()
+    # where the contour starts does not matter (a run across its start included)
+    for shift in (-40, -35, 3):
+        a = complete_ring(np.roll(P, shift, axis=0), np.roll(cut, shift))
+        assert sorted(map(tuple, np.round(a, 9))) == sorted(map(tuple, np.round(R, 9)))
