@@ -133,6 +133,21 @@ class KeyEdits:
         names = sorted({n for pins in table.values() for n in pins})
         return self._edit(Event("animation", "", "none", f"record {', '.join(names)} {t0:g}-{t1:g} s"), m)
 
+    def key_pins(self, time: float, pins: dict) -> bool:
+        """Key ``pins`` (``{pin: [x, y] | {"to", "angle", "depth"}}``) at ``time``, keeping
+        what a key there holds: a pose key keeps its pose and gets them as ``overrides``, a
+        pins key gets them added, and with no key there a pins key is made. A ``[x, y]``
+        keeps the angle and depth the pin has at that time (only its position changes)."""
+        from puppet.scene.recordkeys import recorded, write_motion
+
+        if not pins:
+            raise self._fail("no pins to key")
+        table = recorded(self, {float(time): pins})
+
+        def m(doc):
+            write_motion(doc, table, 1.0, 0.0)  # an empty span: no key loses a pin
+        return self._edit(Event("animation", "", "none", f"key {', '.join(pins)} at {float(time):g} s"), m)
+
     def remove_key(self, time: float) -> bool:
         """Remove the key at ``time`` (the animation goes with its last key)."""
         def m(doc):

@@ -235,3 +235,16 @@ def test_cli_reports_a_bad_override_in_one_line(tmp_path):
     line = one_error_line(cli("render", tmp_path / "bad.json", "--time", "0", "-o", tmp_path / "x.png"))
     assert "animation.keys[0].overrides.elbow" in line and "bad.json" in line
     assert not (tmp_path / "x.png").exists()
+
+
+def test_key_pins_keeps_a_pose_key_a_pose_key(make_scene):
+    sc = load(make_scene, copy.deepcopy(POSE_KEYS))
+    sc.key_pins(1.0, {"mid": [61, 22]})
+    assert sc.keys()[1] == {"time": 1.0, "pose": "bend", "ease": "smooth", "overrides": {"mid": [61.0, 22.0]}}
+    assert where(sc, 1.0) == {"left": L0, "mid": [61, 22], "right": [100, 5]}
+    sc.key_pins(1.5, {"mid": [60, 30]})
+    sc.key_pins(1.5, {"left": [16, 21]})
+    assert sc.keys()[2] == {"time": 1.5, "pins": {"mid": [60.0, 30.0], "left": [16.0, 21.0]}}
+    assert len(sc.keys()) == 5 and len(sc.history.undo_stack) == 3
+    with pytest.raises(SceneError, match="no pins to key"):
+        sc.key_pins(2, {})
