@@ -1,5 +1,6 @@
 """The scene file's ``animation`` section: keys of named poses (with pin ``overrides``)
-or of inline pin targets, eases (``bezier`` with Spine-style control points), the in-between and depth modes.
+or of inline pin targets, eases (``bezier`` with Spine-style control points), the
+in-between and depth modes.
 
 A compatible extension of format v1: a v1 animation (``fps`` and ``keys`` of ``time``,
 ``pose``, ``ease``) reads as before.

@@ -225,7 +225,8 @@ def test_render_time_of_a_bundled_scene_is_unchanged_by_empty_overrides(tmp_path
     for scene_file, out in ((src, tmp_path / "plain.png"), (tmp_path / "empty.json", tmp_path / "empty.png")):
         r = cli("render", scene_file, "--time", "1.3", "-o", out)
         assert r.returncode == 0, r.stderr
-    assert np.array_equal(np.asarray(Image.open(tmp_path / "plain.png")), np.asarray(Image.open(tmp_path / "empty.png")))
+    plain, empty = (np.asarray(Image.open(tmp_path / f)) for f in ("plain.png", "empty.png"))
+    assert np.array_equal(plain, empty)
 
 
 def test_cli_reports_a_bad_override_in_one_line(tmp_path):
