@@ -160,4 +160,7 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
         if doc.get("links"):
             _move_links(doc, layer, name, keep, part, im.offset)
     verb = "cut" if cut else "copy"
-    return s._edit(Event("layer", name, "mesh", f"{verb} {name} from {layer}"), m)
+    try:
+        return s._edit(Event("layer", name, "mesh", f"{verb} {name} from {layer}"), m)
+    except SceneError as e:  # e.g. a pose names an exterior point the new outline no longer has
+        raise type(e)(f"cannot {verb} {name!r} from {layer!r}: {e.message}", file=e.file, path=e.path) from None

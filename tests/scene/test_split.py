@@ -283,3 +283,15 @@ def test_complete_ring_bridges_a_straight_edge_straight():
     for shift in (-40, -35, 3):
         a = complete_ring(np.roll(P, shift, axis=0), np.roll(cut, shift))
         assert sorted(map(tuple, np.round(a, 9))) == sorted(map(tuple, np.round(R, 9)))
+
+
+def test_a_cut_the_scene_cannot_take_is_refused_whole(make_scene):
+    """The disc has no exterior points once the bar is gone: a pose that moves one makes
+    the cut fail, saying so, and nothing changes."""
+    s = {"puppet": 1, "source": "pic.png", "layers": [{"name": "body", "exterior": {"auto": True}}],
+         "poses": {"p": {"body:ext0": [10, 10]}}}
+    sc = puppet.load_scene(make_scene(s, {"pic.png": picture()}))
+    doc = sc.to_dict()
+    with pytest.raises(puppet.SceneError, match=r"cannot cut 'bar' from 'body': .*'body:ext0' does not exist"):
+        sc.split_layer("body", AROUND_BAR, "bar")
+    assert sc.to_dict() == doc and not sc.history.undo_stack
