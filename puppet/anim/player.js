@@ -202,18 +202,29 @@
     if (on) {
       if (frame >= N - 1 && !loop.checked) frame = 0;
       t0 = performance.now(); f0 = frame;
-      requestAnimationFrame(tick);
+      schedule();
     }
   }
-  function tick(now) {
+  function tick() {
     if (!playing) return;
-    let f = f0 + Math.floor((now - t0) * meta.fps / 1000);
+    // the clock, not the callback's frame timestamp (which may lag it, e.g. headless)
+    let f = f0 + Math.floor((performance.now() - t0) * meta.fps / 1000);
     if (f >= N) {
       if (loop.checked) f %= N;
       else { show(N - 1); setPlaying(false); return; }
     }
     show(f);
-    requestAnimationFrame(tick);
+    schedule();
+  }
+  // the next tick on the next animation frame, or after one frame time when no animation
+  // frame comes (a headless browser under virtual time): whichever is first
+  let pending = false;
+  function schedule() {
+    if (pending) return;
+    pending = true;
+    const go = () => { if (pending) { pending = false; tick(); } };
+    requestAnimationFrame(go);
+    setTimeout(go, 1000 / meta.fps);
   }
   function fromHash() {  // #t=SECONDS: paused on that frame
     const m = /(?:^#|&)t=([0-9.eE+-]+)/.exec(location.hash);

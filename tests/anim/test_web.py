@@ -57,37 +57,84 @@ def test_codes_clamp_far_outside_the_canvas():
     assert q.tolist() == [Q, -Q, Q]
 
 
-@pytest.fixture(scope="module")
-def page(tmp_path_factory):
-    out = str(tmp_path_factory.mktemp("web") / "trex.html")
-    assert main(["animate", TREX, "-o", out, "--to", "1"]) == 0
-    return out
+CHARACTER = os.path.join(ROOT, "assets", "scenes", "character.json")
+#: (scene, export arguments, canvas size, number of layers)
+SCENES = {"trex": (TREX, ["--to", "1"], (600, 500), 8),  # 12 fps: 13 frames
+          "character": (CHARACTER, ["--to", "1", "--fps", "24"], (700, 720), 18)}  # 25 frames
+needs_browser = pytest.mark.skipif(CHROMIUM is None, reason="no chromium: install Debian's chromium package "
+                                                            "(.ci/run does) to test the web player in a real browser")
+
+
+@pytest.fixture(scope="module", params=list(SCENES))
+def page(request, tmp_path_factory):
+    scene, args, size, layers = SCENES[request.param]
+    out = str(tmp_path_factory.mktemp("web") / f"{request.param}.html")
+    assert main(["animate", scene, "-o", out, *args]) == 0
+    return SimpleNamespace(path=out, scene=scene, size=size, layers=layers)
 
 
 @pytest.mark.gl
 def test_page_is_self_contained_and_small(page):
-    text = open(page, encoding="ascii").read()
-    assert os.path.getsize(page) < 3 << 20
+    text = open(page.path, encoding="ascii").read()
+    assert os.path.getsize(page.path) < 3 << 20
     refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)|url\(\s*["']?([^"')]+)""", text)
     assert all(v.startswith("data:") for pair in refs for v in pair if v), refs
     assert not re.search(r"https?://", text)
-    assert text.count("data:image/png;base64,") == 8  # one texture a layer
+    assert text.count("data:image/png;base64,") == page.layers  # one texture a layer
 
 
 @pytest.mark.gl
 @pytest.mark.slow
-@pytest.mark.skipif(CHROMIUM is None, reason="no chromium: install Debian's chromium package (.ci/run does) "
-                                                "to test the web player in a real browser")
+@needs_browser
 def test_browser_frames_match_puppet_render(page, tmp_path):
-    size = (600, 500)
     refs = {}
     for t in (0.0, 0.25, 0.5, 1.0):
         ref = str(tmp_path / f"ref{t}.png")
-        assert main(["render", TREX, "--time", str(t), "-o", ref]) == 0
+        assert main(["render", page.scene, "--time", str(t), "-o", ref]) == 0
         refs[t] = np.asarray(Image.open(ref).convert("RGB"))
-        shot = screenshot(page, str(tmp_path / f"shot{t}.png"), size, t)
+        shot = screenshot(page.path, str(tmp_path / f"shot{t}.png"), page.size, t)
         off = grey_off(shot, refs[t])
         assert off < 0.02, (t, off)
     # the frames differ from each other, so matching the right one means something
-    assert grey_off(refs[0.0], refs[0.5]) > 0.02
-    assert grey_off(shot, refs[0.5]) > 0.02  # the last shot (t = 1) is not t = 0.5
+    assert grey_off(refs[0.0], refs[0.5]) > 0.01
+    assert grey_off(shot, refs[0.5]) > 0.01  # the last shot (t = 1) is not t = 0.5
+
+
+DRIVE = """<script>
+(async () => {
+  const log = [], doc = document, wait = (ms) => new Promise((r) => setTimeout(r, ms));
+  const frame = () => doc.body.dataset.frame, play = doc.getElementById("puppet-play");
+  const scrub = doc.getElementById("puppet-scrub");
+  while (doc.body.dataset.ready !== "1") await wait(50);
+  log.push(frame());
+  play.click(); await wait(500); log.push(frame(), play.textContent);
+  play.click(); log.push(frame()); await wait(500); log.push(frame(), play.textContent);
+  scrub.value = "3"; scrub.dispatchEvent(new Event("input")); log.push(frame());
+  doc.getElementById("puppet-loop").checked = false;
+  scrub.value = "9"; scrub.dispatchEvent(new Event("input"));
+  play.click(); await wait(1500); log.push(frame(), play.textContent);
+  location.hash = "#t=0.25"; await wait(100); log.push(frame());
+  doc.body.dataset.log = log.join(",");
+})();
+</script>"""
+
+
+@pytest.mark.gl
+@needs_browser
+def test_controls_play_pause_scrub_loop_and_hash(tmp_path):
+    out = str(tmp_path / "trex.html")
+    assert main(["animate", TREX, "-o", out, "--to", "1"]) == 0  # 12 fps, 13 frames
+    driven = str(tmp_path / "driven.html")
+    with open(out) as f, open(driven, "w") as g:
+        g.write(f.read().replace("</body>", DRIVE + "</body>"))
+    dom = subprocess.run([CHROMIUM, "--headless=new", "--no-sandbox", "--use-angle=swiftshader",
+                          "--enable-unsafe-swiftshader", "--virtual-time-budget=10000", "--dump-dom",
+                          f"file://{driven}#t=0.5"], capture_output=True, text=True, timeout=120).stdout
+    log = re.search(r'data-log="([^"]*)"', dom).group(1).split(",")
+    hashed, played, label, paused, still, label2, scrubbed, end, label3, rehashed = log
+    assert hashed == "6"  # #t=0.5 at 12 fps
+    assert int(played) > 6 and label == "Pause"  # playing advances
+    assert still == paused and label2 == "Play"  # paused holds its frame
+    assert scrubbed == "3"
+    assert end == "12" and label3 == "Play"  # without loop it stops on the last frame
+    assert rehashed == "3"  # a new #t=0.25
