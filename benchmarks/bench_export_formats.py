@@ -36,7 +36,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 SCENES = {"character": "assets/scenes/character.json", "trex": "assets/scenes/trex-layers.json"}
-OUTS = {"mp4": "out.mp4", "html": "out.html", "spine": "out.spine.json", "gif": "out.gif", "webm": "out.webm"}
+OUTS = {"mp4": "out.mp4", "html": "out.html", "spine": "out.spine.json", "gif": "out.gif", "webm": "out.webm",
+        "glb": "out.glb"}
 
 
 def cli_time(scene: str, out: str, seconds: float, fps: float) -> float:

@@ -1,5 +1,7 @@
 """Export an animation: a folder of PNG frames, a GIF, an H.264 MP4, a VP9 WebM with
-alpha, an APNG, or a sprite sheet PNG with its JSON atlas.
+alpha, an APNG, a sprite sheet PNG with its JSON atlas, or (drawing nothing: the solved
+meshes) a self-contained web player, Spine 4.2 JSON or glTF 2.0 — the table
+:data:`puppet.anim.formats.FORMATS`.
 
 Every frame is solved from scratch (trajectory invariance) and streamed to its output
 as soon as it is drawn, through the three-stage pipeline of :mod:`puppet.anim.pipeline`
@@ -130,7 +132,7 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     scene : puppet.api.Scene
     output : a folder (ending in ``/``) or a file whose ending picks the format in
         :data:`puppet.anim.formats.FORMATS` (``.mp4``, ``.webm``, ``.gif``, ``.apng``,
-        ``.png`` sprite sheet + ``.json`` atlas, ``.html`` web player, ``.spine.json``).
+        ``.png`` sprite sheet + ``.json`` atlas, ``.html`` web player, ``.spine.json``, ``.glb``).
     format : a kind of that table (``"spine"`` lets ``output`` end in ``.json``).
     fps, start, end : frame rate and time range (default: the animation's).
     size : (W, H) of the frames (default: the canvas).

@@ -9,7 +9,7 @@ Two families:
 
 * **pixel** formats (``pixels=True``) take each composited frame, straight-alpha RGBA
   (h, w, 4) uint8, through the export's solve / composite / encode pipeline;
-* **mesh** formats (``pixels=False``: the web player, Spine) take each frame's solved
+* **mesh** formats (``pixels=False``: the web player, Spine, glTF) take each frame's solved
   layers (:class:`puppet.scene.rig.LayerResult` list) and draw nothing: the deformed
   meshes, depths and the layer textures are what they write.
 """
@@ -180,6 +180,16 @@ def _spine(job: Job):
     return SpineSink(job)
 
 
+def _glb(job: Job):
+    from puppet.anim.gltf import GltfSink
+    return GltfSink(job)
+
+
+def _glb_prepare(job: Job, draw) -> None:
+    from puppet.anim.gltf import check_count
+    check_count(job)
+
+
 def _spine_side(path: str) -> list[str]:
     from puppet.anim.spine import side_files
     return side_files(path)
@@ -203,6 +213,9 @@ FORMATS: tuple[Format, ...] = (
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
            pixels=False, also=(".json",), options=frozenset(), side=_spine_side,
            plays="Spine runtimes (Unity, Godot, Phaser, PixiJS, cocos); Spine editor import"),
+    Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
+           pixels=False, options=frozenset(), prepare=_glb_prepare,
+           plays="Blender, three.js, Babylon.js, Godot, Unity (glTFast), any glTF viewer"),
 )
 BY_KIND = {f.kind: f for f in FORMATS}
 
