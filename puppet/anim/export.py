@@ -13,7 +13,6 @@ end, inputs never overwritten, nothing left behind on an error or a signal).
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Iterator
 
 import numpy as np

@@ -190,9 +190,11 @@ def _glb_prepare(job: Job, draw) -> None:
     check_count(job)
 
 
-def _spine_side(path: str) -> list[str]:
-    from puppet.anim.spine import side_files
-    return side_files(path)
+def spine_side(path: str) -> list[str]:
+    """Beside Spine's ``NAME.json``: [``NAME.atlas``, ``NAME.png``] (the first page; more
+    are ``NAME_2.png`` ...)."""
+    stem = path[:-5] if path.lower().endswith(".json") else os.path.splitext(path)[0]
+    return [stem + ".atlas", stem + ".png"]
 
 
 FORMATS: tuple[Format, ...] = (
@@ -211,7 +213,7 @@ FORMATS: tuple[Format, ...] = (
            pixels=False, options=frozenset({"size", "background"}),
            plays="open it in a browser; NAME.html#t=SECONDS opens paused at that time"),
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
-           pixels=False, also=(".json",), options=frozenset(), side=_spine_side,
+           pixels=False, also=(".json",), options=frozenset(), side=spine_side,
            plays="Spine runtimes (Unity, Godot, Phaser, PixiJS, cocos); Spine editor import"),
     Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
            pixels=False, options=frozenset(), prepare=_glb_prepare,
@@ -220,9 +222,11 @@ FORMATS: tuple[Format, ...] = (
 BY_KIND = {f.kind: f for f in FORMATS}
 
 
-def suffixes() -> tuple[str, ...]:
-    """Every path ending that picks a format by itself (``"/"`` for a folder)."""
-    return tuple(f.suffix for f in FORMATS)
+def suffixes(*, single: bool = False) -> tuple[str, ...]:
+    """Every path ending that picks a format by itself (``"/"`` for a folder); with
+    ``single``, only formats that write one file or folder and nothing beside it (batch
+    jobs: their outputs must not collide, and ``.png`` is a frame there)."""
+    return tuple(f.suffix for f in FORMATS if not (single and f.side(f"x{f.suffix}")))
 
 
 def describe(sep: str = "; ") -> str:

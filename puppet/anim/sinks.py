@@ -17,7 +17,7 @@ kind         format                                      alpha
 ===========  ==========================================  ======================
 
 Which path picks which sink is the table :data:`puppet.anim.formats.FORMATS`; the mesh
-formats (web player, Spine) have their sinks in :mod:`.web` and :mod:`.spine`.
+formats (web player, Spine, glTF) have their sinks in :mod:`.web`, :mod:`.spine`, :mod:`.gltf`.
 """
 from __future__ import annotations
 

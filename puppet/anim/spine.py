@@ -39,6 +39,7 @@ import re
 
 import numpy as np
 
+from puppet.anim.formats import spine_side
 from puppet.anim.sinks import Sink
 from puppet.geom.mesh import edges
 
@@ -51,15 +52,9 @@ PAD = 2
 DECIMALS = 2
 
 
-def side_files(path: str) -> list[str]:
-    """``NAME.json`` -> [``NAME.atlas``, ``NAME.png``] (the first page; more are
-    ``NAME_2.png`` ...)."""
-    stem = path[:-5] if path.lower().endswith(".json") else os.path.splitext(path)[0]
-    return [stem + ".atlas", stem + ".png"]
-
-
 def page_path(path: str, k: int) -> str:
-    stem = side_files(path)[1][:-4]
+    """Atlas page ``k`` beside ``NAME.json``: ``NAME.png``, ``NAME_2.png``, ..."""
+    stem = spine_side(path)[1][:-4]
     return f"{stem}.png" if k == 0 else f"{stem}_{k + 1}.png"
 
 
@@ -301,4 +296,4 @@ class SpineSink(Sink):
                 _, x, y = place[j]
                 lines += [self.regions[j], f"\tbounds: {x}, {y}, {crops[j].shape[1]}, {crops[j].shape[0]}"]
             lines.append("")
-        write_text(side_files(out)[0], "\n".join(lines), inputs=self.job.inputs)
+        write_text(spine_side(out)[0], "\n".join(lines), inputs=self.job.inputs)

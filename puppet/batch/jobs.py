@@ -28,10 +28,10 @@ from puppet.errors import SceneError
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff")
 #: Files of OUT_DIR that belong to the batch itself.
 RESERVED = ("report.json", "manifest.json")
-#: Extensions of a single-frame output; an animation writes .gif, .mp4 or a folder (ending in /).
+#: Extensions of a single-frame output.
 FRAME_EXTS = (".png",)
-#: Endings of an animation's output file: the formats table (numpy-free), or a folder (ending in /).
-ANIM_EXTS = tuple(e for e in formats.suffixes() if e != "/")
+#: Endings of an animation's output file: the formats table's single-file formats, or a folder (ending in /).
+ANIM_EXTS = tuple(e for e in formats.suffixes(single=True) if e != "/")
 JOB_KEYS = {"scene", "pose", "time", "animate", "size", "output", "wireframe", "budget"}
 ANIM_KEYS = {"fps", "from", "to"}
 

@@ -138,3 +138,19 @@ def test_controls_play_pause_scrub_loop_and_hash(tmp_path):
     assert scrubbed == "3"
     assert end == "12" and label3 == "Play"  # without loop it stops on the last frame
     assert rehashed == "3"  # a new #t=0.25
+
+
+@pytest.mark.gl
+@needs_browser
+def test_background_image_is_the_canvas_background(tmp_path):
+    from tests.cli.outputs_helpers import make_bar
+
+    scene = make_bar(tmp_path / "s", background=True, seconds=1.0)  # 120x40 over a picture
+    out = str(tmp_path / "bar.html")
+    assert main(["animate", scene, "-o", out]) == 0
+    for t in (0.0, 1.0):
+        ref = str(tmp_path / f"ref{t}.png")
+        assert main(["render", scene, "--time", str(t), "-o", ref]) == 0
+        shot = screenshot(out, str(tmp_path / f"shot{t}.png"), (120, 40), t)
+        assert grey_off(shot, np.asarray(Image.open(ref).convert("RGB"))) < 0.02
+    assert grey_off(shot, np.full_like(shot, 255)) > 0.5  # the picture shows, not the page's white
