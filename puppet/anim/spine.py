@@ -23,8 +23,9 @@ middle of the canvas's bottom edge.
 
 Not expressible: per-vertex depth inside one layer (a layer is drawn whole, in the
 draw order, so a limb cannot pass behind the body and in front again within one frame;
-the draw order follows each layer's mean depth), holes in a mesh's hull (Spine meshes
-have one outline: only the outer loop is the hull), the scene background.
+the draw order follows each layer's mean depth), holes and separate pieces of one layer
+(Spine meshes have one outline: the longest boundary loop is the hull, the other loops'
+vertices follow as ordinary vertices; the triangles still draw them), the background.
 
 Memory: the deform keys of every frame are held until the JSON is written (as the file
 holds them): frames x vertices x 8 bytes.
