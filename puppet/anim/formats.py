@@ -67,7 +67,6 @@ class Format:
     options : which of :data:`OPTIONS` apply (others are refused with one line).
     side : ``side(output) -> [paths]`` written beside the output (checked up front).
     prepare : ``prepare(job, draw)`` before the frames (``draw(i)`` composites frame i).
-    plays : how to play it (docs, the dialog).
     """
 
     kind: str
@@ -80,7 +79,6 @@ class Format:
     options: frozenset = frozenset(OPTIONS)
     side: Callable[[str], list[str]] = lambda output: []
     prepare: Callable[[Job, Callable[[int], Any]], None] | None = None
-    plays: str = ""
 
     @property
     def folder(self) -> bool:
@@ -198,26 +196,19 @@ def spine_side(path: str) -> list[str]:
 
 
 FORMATS: tuple[Format, ...] = (
-    Format("gif", ".gif", "GIF", True, _file_sink(_gif), prepare=_gif_prepare,
-           plays="browsers, image viewers"),
-    Format("mp4", ".mp4", "MP4 (H.264)", False, _av("mp4"), plays="any video player or browser"),
-    Format("webm", ".webm", "WebM (VP9, alpha)", True, _av("webm"),
-           plays="browsers (Chrome, Firefox), VLC, mpv"),
-    Format("apng", ".apng", "APNG (animated PNG)", True, _av("apng"), plays="browsers"),
+    Format("gif", ".gif", "GIF", True, _file_sink(_gif), prepare=_gif_prepare),
+    Format("mp4", ".mp4", "MP4 (H.264)", False, _av("mp4")),
+    Format("webm", ".webm", "WebM (VP9, alpha)", True, _av("webm")),
+    Format("apng", ".apng", "APNG (animated PNG)", True, _av("apng")),
     Format("sheet", ".png", "sprite sheet PNG + OUT.json atlas", True, _file_sink(_sheet),
-           side=lambda output: [sheet_atlas(output)], prepare=_sheet_prepare,
-           plays="Phaser load.atlas, PixiJS Spritesheet"),
-    Format("dir", "/", "folder of frame_00000.png ...", True, _dir,
-           plays="image viewers, video editors (image sequence)"),
+           side=lambda output: [sheet_atlas(output)], prepare=_sheet_prepare),
+    Format("dir", "/", "folder of frame_00000.png ...", True, _dir),
     Format("html", ".html", "web player (one self-contained HTML file, WebGL2)", True, _html,
-           pixels=False, options=frozenset({"size", "background"}),
-           plays="open it in a browser; NAME.html#t=SECONDS opens paused at that time"),
+           pixels=False, options=frozenset({"size", "background"})),
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
-           pixels=False, also=(".json",), options=frozenset(), side=spine_side,
-           plays="Spine runtimes (Unity, Godot, Phaser, PixiJS, cocos); Spine editor import"),
+           pixels=False, also=(".json",), options=frozenset(), side=spine_side),
     Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
-           pixels=False, options=frozenset(), prepare=_glb_prepare,
-           plays="Blender, three.js, Babylon.js, Godot, Unity (glTFast), any glTF viewer"),
+           pixels=False, options=frozenset(), prepare=_glb_prepare),
 )
 BY_KIND = {f.kind: f for f in FORMATS}
 
