@@ -42,6 +42,7 @@ import numpy as np
 
 from puppet.anim.formats import spine_side
 from puppet.anim.sinks import Sink
+from puppet.errors import SceneError
 from puppet.geom.mesh import edges
 
 SPINE_VERSION = "4.2.0"
@@ -183,6 +184,11 @@ class SpineSink(Sink):
         self.setup = [to_spine(xy[p], self.canvas) for xy, p in zip(self.rest_xy, self.perm)]
         self.keys: list[list[np.ndarray]] = [[] for _ in rest]
         self.orders: list[list[int]] = []
+        crops = [scene.built.images[i].drawn[0] for i in self.slots]
+        try:
+            self.place = pack([(c.shape[1], c.shape[0]) for c in crops], side=PAGE_SIDE)
+        except ValueError as e:  # before any frame is solved
+            raise SceneError(f"-o {job.output!r}: {e}; Spine atlas pages are at most {PAGE_SIDE} px") from None
         self.poses = {name: self._pose(scene.layers(pose=name)) for name in scene.data.poses}
 
     def _pose(self, layers) -> tuple[list[np.ndarray], list[int]]:
@@ -277,8 +283,7 @@ class SpineSink(Sink):
         from puppet.output import save_png, write_text
 
         out = self.job.output
-        crops = [images[i][0] for i in self.slots]
-        place = pack([(c.shape[1], c.shape[0]) for c in crops])
+        crops, place = [images[i][0] for i in self.slots], self.place
         pages = 1 + max((p for p, _, _ in place), default=0)
         lines = []
         for k in range(pages):

@@ -210,3 +210,14 @@ def test_user_errors(tmp_path, capsys):
     assert err.startswith("puppet: error: --wireframe") and err.count("\n") == 1
     assert main(["animate", TREX, "-o", str(tmp_path / "a.html"), "--format", "spine"]) == 2
     assert os.listdir(tmp_path) == []
+
+
+def test_a_layer_larger_than_an_atlas_page_is_a_user_error(tmp_path, capsys, monkeypatch):
+    import puppet.anim.spine as spine
+
+    monkeypatch.setattr(spine, "PAGE_SIDE", 128)  # the T-rex body is 223x228
+    out = tmp_path / "a.spine.json"
+    assert main(["animate", TREX, "-o", str(out), "--to", "0.1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("puppet: error:") and "atlas pages are at most 128 px" in err and err.count("\n") == 1
+    assert os.listdir(tmp_path) == []
