@@ -104,7 +104,7 @@ class HtmlSink(Sink):
     def __init__(self, job):
         super().__init__()
         self.job = job
-        self.fp = open(job.tmp, "w", encoding="ascii")
+        self.fp = open(job.tmp, "w", encoding="utf-8")
         self.quant = self.depth_step = None
 
     def _head(self, layers) -> None:

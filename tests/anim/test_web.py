@@ -75,7 +75,7 @@ def page(request, tmp_path_factory):
 
 @pytest.mark.gl
 def test_page_is_self_contained_and_small(page):
-    text = open(page.path, encoding="ascii").read()
+    text = open(page.path, encoding="utf-8").read()
     assert os.path.getsize(page.path) < 3 << 20
     refs = re.findall(r"""(?:src|href)\s*=\s*["']?([^"'\s>]+)|url\(\s*["']?([^"')]+)""", text)
     assert all(v.startswith("data:") for pair in refs for v in pair if v), refs
