@@ -87,3 +87,49 @@ def test_too_many_frames_is_refused_before_writing(tmp_path, capsys):
     assert main(["animate", TREX, "-o", str(tmp_path / "b.glb"), "--fps", "240", "--to", "5"]) == 2
     err = capsys.readouterr().err
     assert "at most 1000 frames" in err and not (tmp_path / "b.glb").exists()
+
+
+THREE = os.environ.get("PUPPET_THREE_JS")  # a three.js package folder (npm install three), e.g. node_modules/three
+VIEW = """<!DOCTYPE html><html><body style="margin:0;background:#fff">
+<script type="importmap">{"imports": {"three": "file://THREE/build/three.module.js",
+ "three/addons/": "file://THREE/examples/jsm/"}}</script>
+<script type="module">
+import * as THREE from "three";
+import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
+const renderer = new THREE.WebGLRenderer({antialias: false, preserveDrawingBuffer: true});
+renderer.setSize(WIDTH, HEIGHT);
+renderer.setClearColor(0xffffff, 1);
+document.body.appendChild(renderer.domElement);
+const t = parseFloat(location.hash.slice(3));
+new GLTFLoader().load("trex.glb", (g) => {
+  const mixer = new THREE.AnimationMixer(g.scene);
+  mixer.clipAction(g.animations[0]).play();
+  mixer.setTime(t);
+  renderer.render(g.scene, g.cameras[0]);
+});
+</script></body></html>"""
+
+
+@pytest.mark.gl
+@pytest.mark.skipif(not THREE, reason="set PUPPET_THREE_JS to a three.js package folder (npm install three) "
+                                      "to render the .glb in a real glTF viewer")
+def test_three_js_renders_it_like_puppet(tmp_path):
+    from tests.anim.test_web import CHROMIUM, grey_off
+
+    if CHROMIUM is None:
+        pytest.skip("no chromium")
+    import subprocess
+
+    assert main(["animate", TREX, "-o", str(tmp_path / "trex.glb"), "--to", "1"]) == 0
+    page = tmp_path / "view.html"
+    page.write_text(VIEW.replace("THREE/", os.path.abspath(THREE) + "/").replace("WIDTH", "600")
+                    .replace("HEIGHT", "500"))
+    for t in (0.25, 0.5):  # on frames (12 fps) and between keys of the scene
+        shot, ref = tmp_path / f"shot{t}.png", tmp_path / f"ref{t}.png"
+        subprocess.run([CHROMIUM, "--headless=new", "--no-sandbox", "--use-angle=swiftshader",
+                        "--enable-unsafe-swiftshader", "--allow-file-access-from-files", "--hide-scrollbars",
+                        "--window-size=600,500", "--virtual-time-budget=8000", f"--screenshot={shot}",
+                        f"file://{page}#t={t}"], check=True, timeout=120, capture_output=True)
+        assert main(["render", TREX, "--time", str(t), "-o", str(ref)]) == 0
+        a = np.asarray(Image.open(shot).convert("RGB"))[:500, :600]
+        assert grey_off(a, np.asarray(Image.open(ref).convert("RGB"))) < 0.02, t
