@@ -116,9 +116,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     a = sub.add_parser("animate", help="render every frame of the scene's animation")
     a.add_argument("scene")
-    a.add_argument("-o", "--output", required=True, metavar="OUT.gif|OUT.mp4|OUT.webm|OUT.apng|OUT.png|OUT_DIR/",
-                   help="GIF, MP4 (H.264), WebM (VP9 with alpha), APNG, sprite sheet PNG (+ OUT.json atlas) "
-                        "or a folder of frame_00000.png ...")
+    from puppet.anim import formats  # the one table of output formats (cheap: no numpy)
+
+    a.add_argument("-o", "--output", required=True, metavar="OUT",
+                   help="the ending picks the format: " + formats.describe().replace("%", "%%"))
+    a.add_argument("--format", choices=tuple(formats.BY_KIND), metavar="KIND",
+                   help="name the format: " + ", ".join(formats.BY_KIND)
+                        + " (spine: OUT.json; default: from the ending of -o)")
     a.add_argument("--fps", type=_fps, help="frames per second (default: the scene's)")
     a.add_argument("--from", dest="start", type=_time, metavar="T0", help="first time, seconds")
     a.add_argument("--to", dest="end", type=_time, metavar="T1", help="last time, seconds")
@@ -254,9 +258,11 @@ def run(argv: list[str] | None = None) -> int:
         out = _output_file(args.output, (".png",) if args.command == "render" else (".json",))
         check_file(out, probe=True)
     elif args.command == "animate":
-        from puppet.anim.export import output_kind
+        from puppet.anim import formats
 
-        if output_kind(args.output) == "dir":
+        fmt = formats.find(args.output, args.format)
+        formats.check_options(fmt, size=args.size, wireframe=args.wireframe, background=args.background)
+        if fmt.folder:
             check_folder(args.output, probe=True, contents=False)
         else:
             check_file(args.output, probe=True)
@@ -281,10 +287,12 @@ def run(argv: list[str] | None = None) -> int:
     elif args.command == "animate":
         from puppet.anim.export import animate_to
 
-        _check_size(scene, args.size)
+        if fmt.pixels:  # mesh formats draw nothing
+            _check_size(scene, args.size)
         with _gl_allocation(scene, args.size):
             animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
-                       wireframe=args.wireframe, progress=sys.stderr.isatty(), background=args.background)
+                       wireframe=args.wireframe, progress=sys.stderr.isatty(), background=args.background,
+                       format=args.format)
     return 0
 
 

@@ -1,5 +1,7 @@
 """Export an animation: a folder of PNG frames, a GIF, an H.264 MP4, a VP9 WebM with
-alpha, an APNG, or a sprite sheet PNG with its JSON atlas.
+alpha, an APNG, a sprite sheet PNG with its JSON atlas, or (drawing nothing: the solved
+meshes) a self-contained web player, Spine 4.2 JSON or glTF 2.0 — the table
+:data:`puppet.anim.formats.FORMATS`.
 
 Every frame is solved from scratch (trajectory invariance) and streamed to its output
 as soon as it is drawn, through the three-stage pipeline of :mod:`puppet.anim.pipeline`
@@ -11,20 +13,16 @@ end, inputs never overwritten, nothing left behind on an error or a signal).
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Iterator
 
 import numpy as np
 
-from puppet.anim import pipeline, sinks
+from puppet.anim import formats, pipeline, sinks
 from puppet.errors import SceneError
 from puppet.output import atomic_write, check_file, check_folder, write_folder
 from puppet.scene import timeline
 from puppet.scene.inputs import input_files
 
-KINDS = {".gif": "gif", ".mp4": "mp4", ".webm": "webm", ".apng": "apng", ".png": "sheet"}
-#: Formats that keep an alpha channel (GIF: one bit).
-ALPHA = {"dir", "gif", "webm", "apng", "sheet"}
 #: Most frames one ``animate`` may write (duration x fps); longer exports are refused up front.
 MAX_FRAMES = 100_000
 #: Frame rates accepted, frames per second.
@@ -38,21 +36,13 @@ GIF_SAMPLE_CACHE = 64 << 20
 flatten = sinks.flatten
 
 
-def output_kind(path: str) -> str:
-    """``dir``, ``gif``, ``mp4``, ``webm``, ``apng`` or ``sheet`` (``.png``) from the output
-    path (a trailing slash or an existing folder is a folder)."""
-    if path.endswith(("/", os.sep)) or os.path.isdir(path):
-        return "dir"
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in KINDS:
-        raise SceneError(f"-o {path!r}: give a folder (ending in /) or a .gif, .mp4, .webm, .apng "
-                         "or .png (sprite sheet) file")
-    return KINDS[ext]
+def output_kind(path: str, kind: str | None = None) -> str:
+    """The format's kind (``mp4``, ``html``, ``spine``, ``dir`` ...) of an output path, or
+    ``kind`` checked against it (see :func:`puppet.anim.formats.find`)."""
+    return formats.find(path, kind).kind
 
 
-def atlas_path(path: str) -> str:
-    """The JSON atlas beside a sprite sheet: ``OUT.png`` -> ``OUT.json``."""
-    return os.path.splitext(path)[0] + ".json"
+atlas_path = formats.sheet_atlas
 
 
 def parse_background(text: str) -> str | tuple[int, int, int, int]:
@@ -104,14 +94,14 @@ def _background(scene, kind: str, output: str, background) -> tuple[object, bool
     else:
         bg = (0, 0, 0, 0) if background == "transparent" else tuple(background)
         alpha = bg[3] < 255
-        if alpha and kind not in ALPHA:
+        if alpha and not formats.BY_KIND[kind].alpha:
             what = "transparent" if background == "transparent" else "a see-through colour"
             raise SceneError(f"--background: {what} is not possible in an MP4 (H.264 has no alpha); "
                              "use .webm, .apng, .gif, .png or a folder, or give an opaque colour")
     return bg, bool(alpha)
 
 
-def _gif_palette(frame_at, n: int, alpha: bool) -> tuple[object, dict[int, np.ndarray]]:
+def gif_palette(frame_at, n: int, alpha: bool) -> tuple[object, dict[int, np.ndarray]]:
     """A palette from up to :data:`GIF_SAMPLE_FRAMES` frames spread over the animation,
     and those frames (empty when they are too big to keep)."""
     from puppet.anim.gif import palette_from_sample
@@ -133,18 +123,21 @@ def _gif_palette(frame_at, n: int, alpha: bool) -> tuple[object, dict[int, np.nd
 
 def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None, wireframe=False,
                progress=False, background=None, threads: bool = True, solver: str = "auto",
-               timings: pipeline.Timings | None = None) -> int:
+               timings: pipeline.Timings | None = None, format: str | None = None) -> int:
     """Render the scene's animation to ``output``; returns the number of frames.
 
     Parameters
     ----------
     scene : puppet.api.Scene
-    output : a folder (ending in ``/``), or ``.gif``, ``.mp4``, ``.webm``, ``.apng``, ``.png``
-        (sprite sheet; its atlas goes to ``.json`` beside it).
+    output : a folder (ending in ``/``) or a file whose ending picks the format in
+        :data:`puppet.anim.formats.FORMATS` (``.mp4``, ``.webm``, ``.gif``, ``.apng``,
+        ``.png`` sprite sheet + ``.json`` atlas, ``.html`` web player, ``.spine.json``, ``.glb``).
+    format : a kind of that table (``"spine"`` lets ``output`` end in ``.json``).
     fps, start, end : frame rate and time range (default: the animation's).
     size : (W, H) of the frames (default: the canvas).
     background : None (the scene's), ``"transparent"`` or an RGBA tuple (see :func:`parse_background`).
-    progress : draw a progress bar on stderr.
+    progress : True: a progress bar on stderr; a callable: ``progress(done, total)`` after
+        each frame is handed to the output (from the calling thread); False: nothing.
     threads : overlap solve, composite and encode (False: one after the other; same output).
     solver : where frames are solved when ``threads``: ``"thread"`` (also ``"auto"``) or
         ``"process"`` (a child process, see :mod:`puppet.anim.solver`; falls back to a thread
@@ -152,17 +145,19 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
         as fast (49.5 and 50.2 s), the process using ~10 % more CPU: threads by default.
     timings : filled with seconds per stage (see :class:`puppet.anim.pipeline.Timings`).
 
-    The output is checked (writable, no input of the scene overwritten), the frame count
-    bounded (:data:`MAX_FRAMES`) and a sprite sheet's size checked before anything is drawn.
+    The output and the files beside it are checked (writable, no input of the scene
+    overwritten), the frame count bounded (:data:`MAX_FRAMES`), options the format cannot
+    honour refused, and a sprite sheet's size checked before anything is drawn.
     """
     anim = scene.data.animation
     if anim is None:
         raise SceneError("the scene has no animation to export", file=scene.file, path="animation")
-    kind = output_kind(output)
+    fmt = formats.find(output, format)
+    formats.check_options(fmt, size=size, wireframe=wireframe, background=background)
     inputs = input_files(scene.data)
-    (check_folder if kind == "dir" else check_file)(output, inputs=inputs)
-    if kind == "sheet":
-        check_file(atlas_path(output), inputs=inputs)
+    (check_folder if fmt.folder else check_file)(output, inputs=inputs)
+    for path in fmt.side(output):
+        check_file(path, inputs=inputs)
     rate = float(fps or anim.fps)
     if not MIN_FPS <= rate <= MAX_FPS:
         raise SceneError(f"{rate:g} fps is outside {MIN_FPS:g}..{MAX_FPS:g}; give --fps",
@@ -170,31 +165,23 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     t0 = anim.keys[0].time if start is None else float(start)
     t1 = anim.keys[-1].time if end is None else float(end)
     n = frame_count(t0, t1, rate)
-    w, h = size or scene.canvas
-    lay = None
-    if kind == "sheet":
-        from puppet.anim.sheet import MAX_SIDE, layout
-
-        lay = layout(n, w, h)
-        if lay is None:
-            raise SceneError(f"-o {output!r}: a sprite sheet of {n} frames of {w}x{h} does not fit in "
-                             f"{MAX_SIDE}x{MAX_SIDE} pixels; lower --fps, shorten it with --from/--to or "
-                             "give a smaller --size")
-    bg, alpha = _background(scene, kind, output, background)
+    bg, alpha = _background(scene, fmt.kind, output, background)
+    job = formats.Job(output=output, size=tuple(size or scene.canvas), fps=rate, start=t0, count=n,
+                      alpha=alpha, background=bg, scene=scene, inputs=inputs)
     timings = pipeline.Timings() if timings is None else timings
     scene.built  # noqa: B018  (built here, on this thread: the solver thread only reads it)
 
     def solve(i: int):
         return scene.layers(time=t0 + i / rate)
 
-    def composite(layers) -> np.ndarray:
+    def composite(layers):
+        if not fmt.pixels:
+            return layers
         return scene.draw_layers(layers, size=size, wireframe=wireframe, background=bg)
 
-    cached: dict[int, np.ndarray] = {}
-    palette = None
-    if kind == "gif":
-        palette, cached = _gif_palette(lambda i: composite(solve(i)), n, alpha)
-
+    if fmt.prepare is not None:
+        fmt.prepare(job, lambda i: composite(solve(i)))
+    cached: dict[int, np.ndarray] = job.extra.pop("cached", {})
     todo = [i for i in range(n) if i not in cached]
     remote = bar = None
 
@@ -206,8 +193,9 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
         finally:
             drawn.close()
 
-    def stream(sink) -> int:
-        return sinks.stream(sink, frames(), threads=threads, progress=bar, timings=timings)
+    def fill(tmp: str) -> int:
+        job.tmp = tmp
+        return sinks.stream(fmt.open(job), frames(), threads=threads, progress=bar, timings=timings)
 
     written = [0]
     try:
@@ -217,25 +205,12 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
             remote = ProcessSolver(scene, t0, rate)
             if not remote.start(todo[0]):
                 remote = None
-        bar = pipeline.Progress(n, progress)
-        if kind == "dir":
-            return write_folder(output, lambda tmp: stream(sinks.DirSink(tmp)), inputs=inputs)
+        bar = _Callback(n, progress) if callable(progress) else pipeline.Progress(n, progress)
+        if fmt.folder:
+            return write_folder(output, fill, inputs=inputs)
 
         def write(tmp: str) -> None:
-            if kind in ("mp4", "webm", "apng"):
-                make = {"mp4": sinks.mp4_sink, "webm": sinks.webm_sink, "apng": sinks.apng_sink}[kind]
-                written[0] = stream(make(tmp, (w, h), rate))
-                return
-            with open(tmp, "wb") as f:
-                if kind == "gif":
-                    written[0] = stream(sinks.GifSink(f, (w, h), rate, palette, alpha))
-                else:
-                    written[0] = stream(sinks.SheetSink(f, lay))
-                    from puppet.anim.sheet import atlas_text
-                    from puppet.output import write_text
-
-                    write_text(atlas_path(output), atlas_text(lay, os.path.basename(output), rate),
-                               inputs=inputs)
+            written[0] = fill(tmp)
         atomic_write(output, write, inputs=inputs)
         return written[0]
     finally:
@@ -243,3 +218,17 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
             bar.close()
         if remote is not None:
             remote.close()
+
+
+class _Callback:
+    """The progress of :func:`animate_to` handed to ``callback(done, total)``."""
+
+    def __init__(self, total: int, callback):
+        self.total, self.callback, self.done = total, callback, 0
+
+    def update(self) -> None:
+        self.done += 1
+        self.callback(self.done, self.total)
+
+    def close(self) -> None:
+        pass

@@ -15,6 +15,9 @@ kind         format                                      alpha
 ``apng``     animated PNG (FFmpeg's apng), loops          yes
 ``sheet``    sprite sheet PNG (:mod:`.sheet`)             yes
 ===========  ==========================================  ======================
+
+Which path picks which sink is the table :data:`puppet.anim.formats.FORMATS`; the mesh
+formats (web player, Spine, glTF) have their sinks in :mod:`.web`, :mod:`.spine`, :mod:`.gltf`.
 """
 from __future__ import annotations
 
@@ -190,13 +193,14 @@ def apng_sink(tmp: str, size, fps: float) -> AVSink:
 
 
 class SheetSink(Sink):
-    """A sprite sheet PNG (see :mod:`puppet.anim.sheet`); the atlas is written by the caller."""
+    """A sprite sheet PNG (see :mod:`puppet.anim.sheet`); with ``atlas`` = (atlas path,
+    sheet path, fps, inputs) its JSON atlas is written (atomically) when the sheet is done."""
 
-    def __init__(self, fp, lay):
+    def __init__(self, fp, lay, atlas: tuple | None = None):
         from puppet.anim.sheet import SheetWriter
 
         super().__init__()
-        self.writer = SheetWriter(fp, lay)
+        self.writer, self.lay, self.atlas = SheetWriter(fp, lay), lay, atlas
 
     def add(self, rgba: np.ndarray) -> None:
         self.writer.add(rgba)
@@ -204,3 +208,9 @@ class SheetSink(Sink):
 
     def close(self) -> None:
         self.writer.close()
+        if self.atlas is not None:
+            from puppet.anim.sheet import atlas_text
+            from puppet.output import write_text
+
+            path, sheet, fps, inputs = self.atlas
+            write_text(path, atlas_text(self.lay, os.path.basename(sheet), fps), inputs=inputs)

@@ -7,11 +7,12 @@ import os
 
 from imgui_bundle import imgui
 
+from puppet.anim import formats
 from puppet.app.exporter import Export
 from puppet.app.widgets import button, note
 
 TITLE = "Export animation"
-FORMATS = ".mp4 (H.264), .webm (VP9, alpha), .gif, .apng, .png (sprite sheet + .json atlas), folder/ (PNG frames)"
+FORMATS = formats.describe()
 WIDTH = 440
 BACKGROUNDS = ("scene", "transparent")
 ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)

@@ -127,19 +127,10 @@ def main(argv: list[str]) -> int:
         t0 = float(options["start"]) if options.get("start") is not None else anim.keys[0].time
         t1 = float(options["end"]) if options.get("end") is not None else anim.keys[-1].time
         total = frame_count(t0, t1, fps)
-        count = [0]
-        draw = scene.draw_layers
-
-        def counted(*a, **kw):
-            out = draw(*a, **kw)
-            count[0] += 1
-            print(f"progress {min(count[0], total)} {total}", flush=True)
-            return out
-        scene.draw_layers = counted
         kw = {k: options[k] for k in ("fps", "start", "end", "background") if options.get(k) is not None}
         if options.get("size"):
             kw["size"] = tuple(options["size"])
-        animate_to(scene, output, **kw)
+        animate_to(scene, output, progress=lambda done, n: print(f"progress {done} {n}", flush=True), **kw)
         print(f"progress {total} {total}", flush=True)
     except SceneError as e:
         print(f"puppet: error: {e}", file=sys.stderr)

@@ -21,15 +21,17 @@ import os
 import re
 from collections.abc import Iterable
 
+from puppet.anim import formats
 from puppet.errors import SceneError
 
 #: Extensions of the images taken by template mode.
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff")
 #: Files of OUT_DIR that belong to the batch itself.
 RESERVED = ("report.json", "manifest.json")
-#: Extensions of a single-frame output; an animation writes .gif, .mp4 or a folder (ending in /).
+#: Extensions of a single-frame output.
 FRAME_EXTS = (".png",)
-ANIM_EXTS = (".gif", ".mp4")
+#: Endings of an animation's output file: the formats table's single-file formats, or a folder (ending in /).
+ANIM_EXTS = tuple(e for e in formats.suffixes(single=True) if e != "/")
 JOB_KEYS = {"scene", "pose", "time", "animate", "size", "output", "wireframe", "budget"}
 ANIM_KEYS = {"fps", "from", "to"}
 
@@ -100,8 +102,9 @@ def default_output(job: dict) -> str:
 
 def _kind_ext(kind: str, rel: str, file, path) -> None:
     if kind == "animate":
-        if not (rel.endswith("/") or os.path.splitext(rel)[1].lower() in ANIM_EXTS):
-            raise SceneError(f"output {rel!r}: an animation goes to a .gif, an .mp4 or a folder (ending in /)",
+        if not (rel.endswith("/") or rel.lower().endswith(ANIM_EXTS)):
+            raise SceneError(f"output {rel!r}: an animation goes to a folder (ending in /) or a file "
+                             f"ending in {', '.join(ANIM_EXTS)}",
                              file=file, path=path)
     elif rel.endswith("/") or os.path.splitext(rel)[1].lower() not in FRAME_EXTS:
         raise SceneError(f"output {rel!r}: a frame goes to a .png file", file=file, path=path)

@@ -1,0 +1,147 @@
+"""``puppet animate SCENE -o NAME.html``: one self-contained HTML file that plays the
+animation in a browser with a small WebGL2 player (:file:`player.js`, in this package).
+
+Nothing is referenced outside the file: every layer's texture is a PNG data URI (the
+cropped image the compositor uploads, see :attr:`puppet.scene.build.LayerImage.drawn`)
+and the frames are baked: the deformed vertices and depths of every frame, as puppet's
+solver gives them (in-betweens included), so the page needs no solver.
+
+Layout of the page: ``#puppet-meta`` (JSON: canvas, fps, layers with their texture,
+texture coordinates as float32 and triangles as uint32, all base64) and
+``#puppet-frames`` (base64 of int16: per frame, every layer's x, y, then every layer's
+depth). It is streamed: each frame's 6 bytes a vertex encode to base64 on their own (a
+multiple of 3 bytes: no padding), so memory stays flat in the frame count.
+
+Quantisation (see :func:`quantisation`): positions are int16 over the canvas widened by
+one canvas on each side (``3 W / 65534`` px a step: 0.032 px at 700 px), clamped
+beyond; depths are int16 in steps of ``2**-k`` stacking units, k the largest that holds
++/-(layers + 64).
+"""
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import math
+import os
+from importlib import resources
+
+import numpy as np
+
+from puppet.anim.sinks import Sink
+
+#: int16 codes used (symmetric: -Q..Q).
+Q = 32767
+
+
+def quantisation(canvas: tuple[int, int], layers: int) -> tuple[tuple[float, float, float, float], float]:
+    """((step x, step y, centre x, centre y), depth step) of the int16 codes.
+
+    A position p is stored as ``round((p - centre) / step)`` clamped to +/-:data:`Q`:
+    the canvas widened by its own size on every side fits.
+    """
+    w, h = (float(v) for v in canvas)
+    sx, sy = 3.0 * w / (2 * Q), 3.0 * h / (2 * Q)
+    k = math.floor(math.log2(Q / (layers + 64)))
+    return (sx, sy, w / 2.0, h / 2.0), 2.0 ** -k
+
+
+def encode_frame(layers, quant, depth_step: float) -> bytes:
+    """One frame's int16 codes: every layer's x, y (interleaved), then every depth.
+
+    Parameters
+    ----------
+    layers : list of LayerResult (``deformed`` (n, 2), ``depth`` (n,)).
+    """
+    sx, sy, cx, cy = quant
+    xy = np.concatenate([np.asarray(r.deformed, np.float64).reshape(-1, 2) for r in layers])
+    d = np.concatenate([np.asarray(r.depth, np.float64).reshape(-1) for r in layers])
+    q = np.empty((len(xy) * 3,), np.int16)
+    qxy = np.rint((xy - (cx, cy)) / (sx, sy))
+    q[: 2 * len(xy)] = np.clip(qxy, -Q, Q).reshape(-1)
+    q[2 * len(xy):] = np.clip(np.rint(d / depth_step), -Q, Q)
+    return q.astype("<i2").tobytes()
+
+
+def _png_uri(rgba: np.ndarray) -> str:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgba), "RGBA").save(buf, format="PNG", optimize=False, compress_level=9)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _b64(a: np.ndarray, dtype: str) -> str:
+    return base64.b64encode(np.ascontiguousarray(a, dtype).tobytes()).decode("ascii")
+
+
+def layer_entry(result, image: np.ndarray, offset, base: int) -> dict:
+    """The static part of one layer: texture, texture coordinates, triangles (the
+    non-empty ones, then the edge ones, as the compositor's two passes draw them)."""
+    from puppet.render.layers import classify_triangles
+
+    h, w = image.shape[:2]
+    uv = (np.asarray(result.rest, np.float64) - offset) / (w, h)
+    tri = np.asarray(result.triangles, np.int64).reshape(-1, 3)
+    edge, empty = classify_triangles(image, uv, tri)
+    drawn, edges = tri[~empty], tri[edge]
+    return {"name": result.name, "base": base, "n": len(uv), "opaque": len(drawn), "edge": len(edges),
+            "texture": _png_uri(image), "uv": _b64(uv, "<f4"),
+            "triangles": _b64(np.concatenate([drawn, edges]).reshape(-1), "<u4")}
+
+
+def _background(bg) -> tuple[list[float], str]:
+    """(clear colour, straight RGBA 0..1; CSS background of the canvas)."""
+    if isinstance(bg, np.ndarray) and bg.ndim == 3:
+        return [0.0, 0.0, 0.0, 0.0], f"background: url({_png_uri(bg)}) 0 0 / 100% 100% no-repeat;"
+    return [float(v) / 255.0 for v in bg], ""
+
+
+class HtmlSink(Sink):
+    """Writes the page to ``job.tmp`` as frames come (solved layers, not pixels)."""
+
+    def __init__(self, job):
+        super().__init__()
+        self.job = job
+        self.fp = open(job.tmp, "w", encoding="utf-8")
+        self.quant = self.depth_step = None
+
+    def _head(self, layers) -> None:
+        job, scene = self.job, self.job.scene
+        self.quant, self.depth_step = quantisation(scene.canvas, len(layers))
+        entries, base = [], 0
+        for r, im in zip(layers, scene.built.images):
+            image, offset = im.drawn
+            entries.append(layer_entry(r, image, offset, base))
+            base += len(r.rest)
+        clear, css = _background(job.background)
+        meta = {"puppet": 1, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,
+                "start": job.start, "count": job.count, "vertices": base, "quant": list(self.quant),
+                "depthStep": self.depth_step, "background": clear, "layers": entries}
+        title = html.escape(os.path.basename(scene.file or "puppet"))
+        page = resources.files("puppet.anim").joinpath("player.html").read_text("utf-8")
+        head, self.tail = page.split("{{frames}}")
+        w, h = job.size
+        self.fp.write(head.replace("{{title}}", title).replace("{{width}}", str(w))
+                      .replace("{{height}}", str(h)).replace("{{canvas_css}}", css)
+                      .replace("{{meta}}", json.dumps(meta, separators=(",", ":")).replace("</", "<\\/")))
+
+    def add(self, layers) -> None:
+        if self.quant is None:
+            self._head(layers)
+        self.fp.write(base64.b64encode(encode_frame(layers, self.quant, self.depth_step)).decode("ascii"))
+        self.fp.write("\n")
+        self.frames += 1
+
+    def close(self) -> None:
+        try:
+            if self.quant is None:
+                raise ValueError("no frames")
+            script = resources.files("puppet.anim").joinpath("player.js").read_text("utf-8")
+            self.fp.write(self.tail.replace("{{player}}", script.replace("</", "<\\/")))
+        finally:
+            self.fp.close()
+
+    def abort(self) -> None:
+        self.fp.close()
