@@ -88,7 +88,15 @@ class ArapData:
         ``(S00 + S11) + i (S01 - S10)``; ``S_f``, ``S_b`` its free and pinned columns.
     R : (nf, n) complex csr
         ``R @ (rho - 1)`` is the right-hand side of the free rows for cell rotations
-        ``rho`` (unit complex numbers), as ``x + iy``.
+        ``rho`` (unit complex numbers), as ``x + iy`` (times the cell weights ``k``).
+    k : (n,) float or None
+        Cell weights (painted stiffness); None = all 1. ``L`` then has the edge weights
+        ``w_ij (k_i + k_j) / 2`` while ``W``, ``S``, ``ew`` keep the plain ``w_ij``.
+    mix : (n, 3) float or None
+        Per-cell weights of the rigid, similar and affine energies
+        (:mod:`puppet.deform.modes`); None = rigid everywhere.
+    modes : ModeOps or None
+        The extra operators the non-rigid modes need (built when ``mix`` is given).
     """
 
     V: np.ndarray
@@ -114,6 +122,9 @@ class ArapData:
     S_f: sp.csr_matrix | None = field(default=None, repr=False)
     S_b: sp.csr_matrix | None = field(default=None, repr=False)
     R: sp.csr_matrix | None = field(default=None, repr=False)
+    k: np.ndarray | None = field(default=None, repr=False)
+    mix: np.ndarray | None = field(default=None, repr=False)
+    modes: object | None = field(default=None, repr=False)
 
     def __post_init__(self):
         for name in ("C", "K"):
@@ -123,6 +134,8 @@ class ArapData:
     def __getattr__(self, name):
         if name in ("C", "K"):
             self.C, self.K = _cell_operators(self.V, self.W, self.free)[:2]
+            if self.k is not None:  # stiffened cells weigh more on the right-hand side
+                self.K = (self.K @ sp.diags(np.concatenate([self.k, self.k]))).tocsr()
             return self.__dict__[name]
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
@@ -206,7 +219,7 @@ class _Pattern:
 
 @blas_capped
 def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
-                    solver: str = "qdldl") -> ArapData:
+                    solver: str = "qdldl", stiffness=None, mix=None, couple=None) -> ArapData:
     """Prepare ARAP for a mesh and a set of pinned vertices (factorises once).
 
     Parameters
@@ -231,6 +244,15 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         positive definite). QDLDL and SuperLU factorise on a second thread while the
         operators and the geodesic distances ``D`` are built (they release the GIL;
         cholespy does not, so it runs on the caller's thread).
+    stiffness : (n,) float, optional
+        Weight ``k_i > 0`` of each cell's energy (painted rigidity; see
+        :func:`puppet.deform.modes.stiffness_from_grey`). None: all 1, exactly as before.
+    mix : (n, 3) float, optional
+        Rigid / similar / affine weights of each cell (:func:`puppet.deform.modes.mode_mix`).
+        None: rigid everywhere (the plain ARAP loop).
+    couple : tuple ((p, 2) int, (p,) float), optional
+        Springs ``kappa |u_a - u_b|^2`` between vertices at the same rest point (links of
+        strength below 1): extra edges of rest length 0, so they enter ``L`` only.
 
     Returns
     -------
@@ -243,8 +265,12 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         raise ValueError(f"solver must be one of {factor.SOLVERS}, got {solver!r}")
     V, F, b = check_mesh(V, F, b)
     W = _edge_weights(V, F, weights)
+    if couple is not None and len(couple[0]):
+        W = _with_springs(W, *couple)
     P = _Pattern(W)
-    L = P.matrix(P.data(-W.data, np.bincount(P.wrows, weights=W.data, minlength=len(V))))
+    k = None if stiffness is None else np.asarray(stiffness, np.float64).reshape(len(V))
+    wl = W.data if k is None else W.data * 0.5 * (k[P.wrows] + k[W.indices])
+    L = P.matrix(P.data(-wl, np.bincount(P.wrows, weights=wl, minlength=len(V))))
     free, held, fmap, bmap = _free_vertices(W, b)
     nf = len(free)
     A = P.block(L.data, fmap, fmap, (nf, nf))
@@ -255,10 +281,30 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         if nf:  # symmetric: its csr arrays are its csc arrays
             worker.submit(sp.csc_matrix((A.data, A.indices, A.indptr), shape=A.shape))
         data = _arap_data(V, F, b, weights, alpha, W, P, L, free, held, fmap, bmap)
+        if k is not None:
+            data.k = k
+            data.R = (data.R @ sp.diags(k)).tocsr()
+        if mix is not None:
+            from puppet.deform.modes import mode_operators
+
+            data.mix = np.asarray(mix, np.float64).reshape(len(V), 3)
+            data.modes = mode_operators(data, P, fmap, bmap)
         data.factor = worker.result() if nf else None  # built meanwhile
     finally:
         worker.close()
     return data
+
+
+def _with_springs(W, pairs, kappa) -> sp.csr_matrix:
+    """``W`` plus symmetric entries ``kappa`` at ``pairs`` (p, 2)."""
+    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+    kappa = np.broadcast_to(np.asarray(kappa, np.float64), (len(pairs),))
+    r = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    c = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    S = sp.csr_matrix((np.concatenate([kappa, kappa]), (r, c)), shape=W.shape)
+    out = (W + S).tocsr()
+    out.sort_indices()
+    return out
 
 
 def _free_vertices(W, b):
@@ -289,7 +335,8 @@ def _arap_data(V, F, b, weights, alpha, W, P, L, free, held, fmap, bmap) -> Arap
         + 1j * np.bincount(P.wrows, weights=m.imag, minlength=n)
     S = P.matrix(P.data(-m, h, np.complex128))
     R = P.block(P.data(0.5 * m.conj(), 0.5 * h.conj(), np.complex128), fmap, None, (nf, n))
-    length = sp.csr_matrix((np.abs(e), W.indices, W.indptr), shape=(n, n))
+    # springs join points at the same place: a tiny length keeps them edges of the graph
+    length = sp.csr_matrix((np.maximum(np.abs(e), 1e-9), W.indices, W.indptr), shape=(n, n))
     D = csgraph.dijkstra(length, directed=True, indices=b).reshape(k, n) if k else np.zeros((0, n))
     return ArapData(
         V=V, F=F, b=b, weights=weights, alpha=float(alpha), W=W, L=L, free=free, held=held,
@@ -378,6 +425,10 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     U[b] = bc
     if data.factor is None or int(iterations) <= 0:
         return U
+    if data.mix is not None:
+        from puppet.deform.modes import solve_modes
+
+        return solve_modes(data, U, bc, int(iterations), callback)
     free = data.free
     nf = len(free)
     xf = (U[free, 0] - V[free, 0]) + 1j * (U[free, 1] - V[free, 1])

@@ -17,6 +17,7 @@ from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
 from puppet.deform.mls import mls_object_space
+from puppet.deform.modes import apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
 from puppet.deform.relax import relax_foldovers
 from puppet.deform.rotate import arap_solve_rotated
 from puppet.deform.skeleton import skeleton_precompute, skeleton_solve
@@ -57,16 +58,25 @@ class GroupPre:
 
     D: np.ndarray  # (k, n) geodesic distances from the group's pins
     arap: object = None
+    prefit: bool = False  # every cell 'similar': start from the pins' best similarity
     igarashi: object = None
     skeleton: object = None
 
 
-def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray) -> GroupPre:
-    """Factorisations and weights of one group (``bones``: (nb, 2) indices into the group's pins)."""
+def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None) -> GroupPre:
+    """Factorisations and weights of one group (``bones``: (nb, 2) indices into the group's
+    pins; ``cells``: (grey (n,) or None, mode per vertex) from :mod:`puppet.scene.stiffness`)."""
     V, F, b = g.mesh.V, g.mesh.F, g.b
     if deformer.method in ("arap", "mls"):
-        a = arap_precompute(V, F, b, weights=deformer.weights, alpha=deformer.alpha)
-        return GroupPre(D=a.D, arap=a)
+        grey, modes = cells if cells is not None else (None, [deformer.mode] * len(V))
+        stiff = None if grey is None else stiffness_from_grey(grey)
+        mix = None
+        if deformer.method == "arap" and any(m != "rigid" for m in modes):
+            mix = mode_mix(modes, None if grey is None else grey / 255.0)
+        couple = (g.couple, g.kappa) if len(g.couple) else None
+        a = arap_precompute(V, F, b, weights=deformer.weights, alpha=deformer.alpha,
+                            stiffness=stiff if deformer.method == "arap" else None, mix=mix, couple=couple)
+        return GroupPre(D=a.D, arap=a, prefit=mix is not None and all(m == "similar" for m in modes))
     if deformer.method == "igarashi":
         return GroupPre(D=geodesic_distances(V, F, b), igarashi=igarashi_precompute(V, F, b))
     sk = skeleton_precompute(V, F, b, bones)
@@ -83,7 +93,10 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
         if np.any(pose.angle != 0):
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
-            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=None if deformer.init == "mls" else V)
+            U0 = None if deformer.init == "mls" else V
+            if pre.prefit and U0 is None:
+                U0 = similar_guess(pre, V, g.b, bc, deformer.alpha)
+            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0)
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
     elif deformer.method == "mls":
@@ -94,6 +107,14 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     else:
         U = skeleton_solve(pre.skeleton, bc)
     return _finish(pre, g, deformer, ext, pose, U)
+
+
+def similar_guess(pre: GroupPre, V, b, bc, alpha: float) -> np.ndarray:
+    """Garment fitting: the rest mesh moved by the least-squares similarity of its pins
+    (scale, rotation, shift), then bent onto the targets by object-space MLS. (n, 2)."""
+    s, t = similarity_fit(V[b], bc)
+    Vs = apply_similarity(V, s, t)
+    return mls_object_space(Vs, pre.D, bc, Vs[b], kind="rigid", alpha=alpha)
 
 
 def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose,

@@ -1,0 +1,212 @@
+"""Deformation modes of the ARAP solver: what each cell may do besides turning.
+
+Every cell ``i`` (a vertex and its spokes ``e_ij = v_i - v_j``) fits a 2D linear map
+``T_i`` to its deformed spokes ``u_ij``; the global step then places the vertices so that
+``u_ij`` matches ``(T_i + T_j) e_ij / 2`` in the least-squares sense. The mode says which
+maps are allowed:
+
+``rigid``
+    rotations (Sorkine & Alexa 2007): the fit is ``q_i / |q_i|`` with
+    ``q_i = sum_j w_ij conj(e_ij) u_ij`` (points as complex numbers).
+``similar``
+    similarities, rotation times a uniform scale ("as similar as possible"; Igarashi,
+    Moscovich & Hughes 2005 step 1; Liu et al. 2008 call it ASAP): the least-squares
+    similarity of the cell is ``a_i = q_i / sum_j w_ij |e_ij|^2``, so a part may grow or
+    shrink evenly without folding.
+``distort``
+    half rigid, half affine: the energy is ``(E_rigid + E_affine) / 2``. The affine fit
+    ``u = a e + b conj(e)`` solves the 2x2 complex normal equations
+    ``[S0, conj(G); G, S0] [a; b] = [q; p]`` with ``p_i = sum_j w_ij e_ij u_ij`` and
+    ``G_i = sum_j w_ij e_ij^2`` (a pure affine energy alone has a whole family of
+    zero-energy solutions for two pins, some collapsed to a line; the rigid half keeps
+    the cells from degenerating).
+
+A cell may also mix modes: ``mix`` (n, 3) gives the weights of the rigid, similar and
+affine energies of each cell (rows summing to 1). The energy stays a sum of convex
+quadratics in (U, T) for fixed rotations, so the alternating local/global iterations
+decrease it monotonically; all three share the Laplacian, so no mode refactorises.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["MODES", "MIX", "mode_mix", "cell_sigma", "similarity_fit", "apply_similarity",
+           "stiffness_from_grey", "STIFF_MAX"]
+
+#: The modes and the (rigid, similar, affine) weights of their cell energies.
+MIX = {"rigid": (1.0, 0.0, 0.0), "similar": (0.0, 1.0, 0.0), "distort": (0.5, 0.0, 0.5)}
+MODES = tuple(MIX)
+
+#: Cell weight of the stiffest paint (grey 255); grey 0 weighs 1.
+STIFF_MAX = 100.0
+
+
+def mode_mix(modes, stiff=None) -> np.ndarray:
+    """Per-cell (rigid, similar, affine) weights.
+
+    Parameters
+    ----------
+    modes : sequence of str, length n
+        The mode of each cell (one of :data:`MODES`).
+    stiff : (n,) float in [0, 1], optional
+        Painted stiffness (grey / 255): a cell of stiffness t keeps the fraction t of its
+        energy rigid, whatever the mode.
+
+    Returns
+    -------
+    mix : (n, 3) float
+        Rows sum to 1.
+    """
+    table = np.array([MIX[m] for m in MODES])
+    idx = np.array([MODES.index(m) for m in modes], dtype=np.int64)
+    mix = table[idx] if len(idx) else np.zeros((0, 3))
+    if stiff is not None:
+        t = np.clip(np.asarray(stiff, np.float64), 0.0, 1.0)[:, None]
+        mix = (1.0 - t) * mix + t * table[0]
+    return mix
+
+
+def stiffness_from_grey(grey) -> np.ndarray:
+    """Cell weights from painted grey levels: ``k = STIFF_MAX ** (g / 255)``.
+
+    0 (unpainted) weighs 1, 128 about 10, 255 weighs :data:`STIFF_MAX` (100): each 55
+    grey levels multiply the weight by about 2.7, so the brush acts evenly over its range.
+    """
+    g = np.clip(np.asarray(grey, np.float64), 0.0, 255.0)
+    return STIFF_MAX ** (g / 255.0)
+
+
+def cell_sigma(mix: np.ndarray, q: np.ndarray, p: np.ndarray | None, S0: np.ndarray,
+               G: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Blended cell maps, as ``(sigma, beta)``: ``T_i e = (1 + sigma_i) e + beta_i conj(e)``.
+
+    Parameters
+    ----------
+    mix : (n, 3) float
+        Rigid, similar and affine weights per cell.
+    q : (n,) complex
+        ``sum_j w_ij conj(e_ij) u_ij``.
+    p : (n,) complex or None
+        ``sum_j w_ij e_ij u_ij`` (only needed when some cell has an affine part).
+    S0 : (n,) float
+        ``sum_j w_ij |e_ij|^2``.
+    G : (n,) complex or None
+        ``sum_j w_ij e_ij^2``.
+
+    Returns
+    -------
+    sigma : (n,) complex
+    beta : (n,) complex or None (no affine part anywhere)
+    """
+    r = np.abs(q)
+    r[r == 0] = 1.0
+    rest = np.where(S0 > 0, S0, 1.0)
+    sigma = mix[:, 0] * (q / r - 1.0) + mix[:, 1] * (q / rest - 1.0)
+    if p is None or G is None or not mix[:, 2].any():
+        return sigma, None
+    det = S0 * S0 - (G * G.conj()).real
+    ok = det > 1e-12 * np.maximum(S0 * S0, 1e-300)  # collinear spokes: no affine fit
+    det = np.where(ok, det, 1.0)
+    a = np.where(ok, (S0 * q - G.conj() * p) / det, q / r)
+    b = np.where(ok, (S0 * p - G * q) / det, 0.0)
+    sigma += mix[:, 2] * (a - 1.0)
+    return sigma, mix[:, 2] * b
+
+
+def similarity_fit(P, Q) -> tuple[complex, complex]:
+    """Least-squares similarity (rotation, uniform scale, shift; no reflection) taking
+    points ``P`` (k, 2) to ``Q`` (k, 2): ``z -> s z + t`` in complex numbers.
+
+    One point gives the shift alone (s = 1); coincident points likewise.
+    """
+    P = np.asarray(P, np.float64).reshape(-1, 2)
+    Q = np.asarray(Q, np.float64).reshape(-1, 2)
+    if len(P) == 0:
+        return 1.0 + 0j, 0j
+    p = P[:, 0] + 1j * P[:, 1]
+    q = Q[:, 0] + 1j * Q[:, 1]
+    pc, qc = p.mean(), q.mean()
+    dp, dq = p - pc, q - qc
+    den = float(np.sum(np.abs(dp) ** 2))
+    s = complex(np.sum(dp.conj() * dq) / den) if den > 1e-18 else 1.0 + 0j
+    if not np.isfinite(s) or abs(s) < 1e-9:
+        s = 1.0 + 0j
+    return s, complex(qc - s * pc)
+
+
+def apply_similarity(V, s: complex, t: complex) -> np.ndarray:
+    """``s z + t`` applied to points ``V`` (n, 2); returns (n, 2)."""
+    V = np.asarray(V, np.float64)
+    z = s * (V[:, 0] + 1j * V[:, 1]) + t
+    return np.stack([z.real, z.imag], axis=1)
+
+
+class ModeOps:
+    """Operators of the non-rigid modes, on the pattern of ``L`` (see the module docstring).
+
+    Attributes
+    ----------
+    G : (n,) complex
+        ``sum_j w_ij e_ij^2``.
+    T_f, T_b : (n, nf), (n, k) complex csr
+        ``G + T_f @ x_f + T_b @ x_b`` is ``p_i = sum_j w_ij e_ij u_ij``.
+    Rc : (nf, n) complex csr
+        ``Rc @ beta``: the right-hand side of the anti-linear parts ``beta conj(e)``.
+    """
+
+    def __init__(self, G, T_f, T_b, Rc):
+        self.G, self.T_f, self.T_b, self.Rc = G, T_f, T_b, Rc
+
+
+def mode_operators(data, P, fmap, bmap) -> ModeOps:
+    """Build :class:`ModeOps` for ``data`` (an ``ArapData`` whose ``mix`` is set)."""
+    n, nf, k = data.n, len(data.free), len(data.b)
+    e = data.ev[:, 0] + 1j * data.ev[:, 1]  # on W's entries, in P's row order
+    we = data.ew * e
+    g = np.bincount(data.ei, weights=we.real, minlength=n) + 1j * np.bincount(data.ei, weights=we.imag, minlength=n)
+    G2 = we * e
+    G = np.bincount(data.ei, weights=G2.real, minlength=n) + 1j * np.bincount(data.ei, weights=G2.imag, minlength=n)
+    T = P.matrix(P.data(-we, g, np.complex128))
+    m = data.ew * e.conj()
+    h = g.conj()
+    Rc = P.block(P.data(0.5 * m, 0.5 * h, np.complex128), fmap, None, (nf, n))
+    if data.k is not None:
+        import scipy.sparse as sp
+
+        Rc = (Rc @ sp.diags(data.k)).tocsr()
+    return ModeOps(G=G, T_f=P.block(T.data, None, fmap, (n, nf)), T_b=P.block(T.data, None, bmap, (n, k)), Rc=Rc)
+
+
+def solve_modes(data, U, bc, iterations: int, callback=None) -> np.ndarray:
+    """The local/global iterations with per-cell mixed modes (``data.mix``), from ``U``
+    (n, 2, pins already on ``bc``); the same factor as rigid ARAP. Returns U (n, 2)."""
+    from puppet.deform import factor
+
+    V, b, free = data.V, data.b, data.free
+    ops, mix = data.modes, data.mix
+    affine = bool(mix[:, 2].any())
+    xf = (U[free, 0] - V[free, 0]) + 1j * (U[free, 1] - V[free, 1])
+    xb = (bc[:, 0] - V[b, 0]) + 1j * (bc[:, 1] - V[b, 1])
+    q0 = data.S0 + data.S_b @ xb
+    p0 = ops.G + ops.T_b @ xb if affine else None
+    rb = data.L_fb @ xb
+    solve, close = factor.pair_solver(data.factor, len(free), iterations)
+    try:
+        for it in range(iterations):
+            q = data.S_f @ xf + q0
+            p = ops.T_f @ xf + p0 if affine else None
+            sigma, beta = cell_sigma(mix, q, p, data.S0, ops.G)
+            rhs = data.R @ sigma - rb
+            if beta is not None:
+                rhs += ops.Rc @ beta
+            x_new = solve(rhs)
+            if not np.isfinite(x_new).all():
+                break
+            xf = x_new
+            if callback is not None:
+                U[free, 0], U[free, 1] = V[free, 0] + xf.real, V[free, 1] + xf.imag
+                callback(it, U.copy())
+    finally:
+        close()
+    U[free, 0], U[free, 1] = V[free, 0] + xf.real, V[free, 1] + xf.imag
+    return U
