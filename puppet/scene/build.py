@@ -65,6 +65,8 @@ class Group:
     b: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # group vertex per pin
     couple: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))  # spring vertex pairs
     kappa: np.ndarray = field(default_factory=lambda: np.zeros(0))  # their weights (links of strength < 1)
+    hinges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # vertices of link points
+    pin_part: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # local layer of each pin
 
 
 def _image_and_mask(data: SceneData, L: Layer, source) -> LayerImage:
@@ -290,14 +292,16 @@ def build_groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
                     if va is None or vb is None:
                         raise SceneError("link could not be meshed in both layers (is it too close "
                                          "to an edge?)", file=data.file, path=path)
-                    (shared if link.strength >= 1.0 else springs).append((local[a], va, local[b], vb, li))
+                    (shared if link.strength >= 1.0 else springs).append((local[a], va, local[b], vb, li, len(P) == 1))
         gm = merge_meshes([(meshes[k].V, meshes[k].F) for k in members], [s[:4] for s in shared])
         grp = Group(layers=members, mesh=gm)
+        grp.hinges = np.unique(np.array([int(gm.maps[la][va]) for la, va, lb, vb, li, one in shared if one],
+                                        np.int64))
         if springs:
             from puppet.scene.links import coupling
 
             pairs = {(int(gm.maps[la][va]), int(gm.maps[lb][vb])): coupling(data.links[li].strength)
-                     for la, va, lb, vb, li in springs}
+                     for la, va, lb, vb, li, _ in springs}
             pairs = {ab: w for ab, w in pairs.items() if ab[0] != ab[1] and w > 0}
             grp.couple = np.array(list(pairs), np.int64).reshape(-1, 2)
             grp.kappa = np.array(list(pairs.values()), np.float64)
@@ -314,5 +318,6 @@ def build_groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
         grp.b = np.array([int(gm.maps[local[index[data.pins[i].layer]]][pin_vertex[index[data.pins[i].layer]]
                                                                           [data.pins[i].name]])
                           for i in grp.pins], np.int64)
+        grp.pin_part = np.array([local[index[data.pins[i].layer]] for i in grp.pins], np.int64)
         groups.append(grp)
     return groups

@@ -330,7 +330,9 @@ class Document(Edits, KeyEdits):
             notes.append(f"pin angles are applied by the 'arap' method only, not by {d.deformer.method!r}")
         if d.bones and d.deformer.method != "mls-skeleton":
             notes.append("bones are used by the 'mls-skeleton' method only")
-        return notes
+        if d.deformer.method != "arap" and (any(L.stiffness for L in d.layers) or any(p.kind == "starch" for p in d.pins)):
+            notes.append(f"stiffness and starch pins are applied by the 'arap' method only, not by {d.deformer.method!r}")
+        return notes + list(self.built.notes)
 
     # -- files -------------------------------------------------------------------
     def to_json(self, folder: str) -> dict:

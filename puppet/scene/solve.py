@@ -16,6 +16,7 @@ from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
+from puppet.deform.hinge import hinge_guess
 from puppet.deform.mls import mls_object_space
 from puppet.deform.modes import apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
 from puppet.deform.relax import relax_foldovers
@@ -59,6 +60,7 @@ class GroupPre:
     D: np.ndarray  # (k, n) geodesic distances from the group's pins
     arap: object = None
     prefit: bool = False  # every cell 'similar': start from the pins' best similarity
+    DH: np.ndarray | None = None  # (h, n) geodesic distances from the group's hinges
     igarashi: object = None
     skeleton: object = None
 
@@ -76,7 +78,8 @@ def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None
         couple = (g.couple, g.kappa) if len(g.couple) else None
         a = arap_precompute(V, F, b, weights=deformer.weights, alpha=deformer.alpha,
                             stiffness=stiff if deformer.method == "arap" else None, mix=mix, couple=couple)
-        return GroupPre(D=a.D, arap=a, prefit=mix is not None and all(m == "similar" for m in modes))
+        DH = geodesic_distances(V, F, g.hinges) if len(g.hinges) else None
+        return GroupPre(D=a.D, arap=a, prefit=mix is not None and all(m == "similar" for m in modes), DH=DH)
     if deformer.method == "igarashi":
         return GroupPre(D=geodesic_distances(V, F, b), igarashi=igarashi_precompute(V, F, b))
     sk = skeleton_precompute(V, F, b, bones)
@@ -93,9 +96,7 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
         if np.any(pose.angle != 0):
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
-            U0 = None if deformer.init == "mls" else V
-            if pre.prefit and U0 is None:
-                U0 = similar_guess(pre, V, g.b, bc, deformer.alpha)
+            U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else V
             U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0)
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
@@ -109,12 +110,20 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     return _finish(pre, g, deformer, ext, pose, U)
 
 
-def similar_guess(pre: GroupPre, V, b, bc, alpha: float) -> np.ndarray:
-    """Garment fitting: the rest mesh moved by the least-squares similarity of its pins
-    (scale, rotation, shift), then bent onto the targets by object-space MLS. (n, 2)."""
-    s, t = similarity_fit(V[b], bc)
-    Vs = apply_similarity(V, s, t)
-    return mls_object_space(Vs, pre.D, bc, Vs[b], kind="rigid", alpha=alpha)
+def initial_guess(pre: GroupPre, g: Group, bc, alpha: float) -> np.ndarray | None:
+    """The MLS initial guess, or None for :func:`arap_solve`'s own (the plain one).
+
+    In mode ``similar`` (garment fitting) the rest mesh is first moved by the
+    least-squares similarity of its pins (scale, rotation, shift); a group with hinges
+    (link points) is guessed part by part (:func:`puppet.deform.hinge.hinge_guess`)."""
+    if not pre.prefit and pre.DH is None:
+        return None
+    V, b = g.mesh.V, g.b
+    if pre.prefit:
+        V = apply_similarity(V, *similarity_fit(V[b], bc))
+    if pre.DH is None:
+        return mls_object_space(V, pre.D, bc, V[b], kind="rigid", alpha=alpha)
+    return hinge_guess(V, pre.D, V[b], bc, g.pin_part, g.mesh.maps, g.hinges, pre.DH, alpha=alpha)
 
 
 def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose,
