@@ -144,18 +144,61 @@ def apply_similarity(V, s: complex, t: complex) -> np.ndarray:
 class ModeOps:
     """Operators of the non-rigid modes, on the pattern of ``L`` (see the module docstring).
 
+    With ``p_i = sum_j w_ij e_ij u_ij`` and the per-cell constants below, one iteration's
+    blended cell maps are ``sigma = mr q / |q| + c1 q - c2 p - 1`` and
+    ``beta = d1 p - d2 q`` (:func:`cell_sigma` in closed form, constants folded once).
+
     Attributes
     ----------
     G : (n,) complex
         ``sum_j w_ij e_ij^2``.
-    T_f, T_b : (n, nf), (n, k) complex csr
-        ``G + T_f @ x_f + T_b @ x_b`` is ``p_i = sum_j w_ij e_ij u_ij``.
-    Rc : (nf, n) complex csr
+    T_f, T_b : (n, nf), (n, k) complex csr or None
+        ``G + T_f @ x_f + T_b @ x_b`` is ``p`` (None when no cell has an affine part).
+    Rc : (nf, n) complex csr or None
         ``Rc @ beta``: the right-hand side of the anti-linear parts ``beta conj(e)``.
+    mr : (n,) float
+        Rigid weight of each cell; ``rigid`` the cells where it is not 0.
+    c1, c2, d1, d2 : (n,) complex
+        ``c1 = ms / S0 + ma S0 / det``, ``c2 = ma conj(G) / det``, ``d1 = ma S0 / det``,
+        ``d2 = ma G / det`` with ``det = S0^2 - |G|^2`` (0 where a cell has no affine fit).
     """
 
-    def __init__(self, G, T_f, T_b, Rc):
+    def __init__(self, G, T_f, T_b, Rc, mix, S0):
         self.G, self.T_f, self.T_b, self.Rc = G, T_f, T_b, Rc
+        mr, ms, ma = mix[:, 0], mix[:, 1], mix[:, 2]
+        rest = np.where(S0 > 0, S0, 1.0)
+        det = S0 * S0 - (G * G.conj()).real
+        ok = det > 1e-12 * np.maximum(S0 * S0, 1e-300)  # collinear spokes: no affine fit, rigid instead
+        mr = mr + np.where(ok, 0.0, ma)
+        ma = np.where(ok, ma, 0.0)
+        det = np.where(ok, det, 1.0)
+        self.mr, self.rigid = mr, np.flatnonzero(mr)
+        self.c1 = ms / rest + ma * S0 / det
+        self.c2 = ma * G.conj() / det
+        self.d1 = ma * S0 / det
+        self.d2 = ma * G / det
+        self.affine = bool(ma.any())
+
+    def sigma(self, q, p):
+        """(sigma, beta) of cell values ``q`` and ``p`` (p None without affine cells)."""
+        out = self.c1 * q
+        out -= 1.0
+        if len(self.rigid) == len(q):  # every cell has a rigid part: no gather/scatter
+            r = np.abs(q)
+            r[r == 0] = 1.0
+            np.divide(self.mr, r, out=r)
+            out += r * q
+        elif len(self.rigid):
+            qr = q[self.rigid]
+            r = np.abs(qr)
+            r[r == 0] = 1.0
+            out[self.rigid] += (self.mr[self.rigid] / r) * qr
+        if not self.affine:
+            return out, None
+        out -= self.c2 * p
+        beta = self.d1 * p
+        beta -= self.d2 * q
+        return out, beta
 
 
 def mode_operators(data, P, fmap, bmap) -> ModeOps:
@@ -163,18 +206,20 @@ def mode_operators(data, P, fmap, bmap) -> ModeOps:
     n, nf, k = data.n, len(data.free), len(data.b)
     e = data.ev[:, 0] + 1j * data.ev[:, 1]  # on W's entries, in P's row order
     we = data.ew * e
-    g = np.bincount(data.ei, weights=we.real, minlength=n) + 1j * np.bincount(data.ei, weights=we.imag, minlength=n)
     G2 = we * e
     G = np.bincount(data.ei, weights=G2.real, minlength=n) + 1j * np.bincount(data.ei, weights=G2.imag, minlength=n)
+    if not data.mix[:, 2].any():
+        return ModeOps(G=G, T_f=None, T_b=None, Rc=None, mix=data.mix, S0=data.S0)
+    g = np.bincount(data.ei, weights=we.real, minlength=n) + 1j * np.bincount(data.ei, weights=we.imag, minlength=n)
     T = P.matrix(P.data(-we, g, np.complex128))
     m = data.ew * e.conj()
-    h = g.conj()
-    Rc = P.block(P.data(0.5 * m, 0.5 * h, np.complex128), fmap, None, (nf, n))
+    Rc = P.block(P.data(0.5 * m, 0.5 * g.conj(), np.complex128), fmap, None, (nf, n))
     if data.k is not None:
         import scipy.sparse as sp
 
         Rc = (Rc @ sp.diags(data.k)).tocsr()
-    return ModeOps(G=G, T_f=P.block(T.data, None, fmap, (n, nf)), T_b=P.block(T.data, None, bmap, (n, k)), Rc=Rc)
+    return ModeOps(G=G, T_f=P.block(T.data, None, fmap, (n, nf)), T_b=P.block(T.data, None, bmap, (n, k)), Rc=Rc,
+                   mix=data.mix, S0=data.S0)
 
 
 def solve_modes(data, U, bc, iterations: int, callback=None) -> np.ndarray:
@@ -183,8 +228,8 @@ def solve_modes(data, U, bc, iterations: int, callback=None) -> np.ndarray:
     from puppet.deform import factor
 
     V, b, free = data.V, data.b, data.free
-    ops, mix = data.modes, data.mix
-    affine = bool(mix[:, 2].any())
+    ops = data.modes
+    affine = ops.affine
     xf = (U[free, 0] - V[free, 0]) + 1j * (U[free, 1] - V[free, 1])
     xb = (bc[:, 0] - V[b, 0]) + 1j * (bc[:, 1] - V[b, 1])
     q0 = data.S0 + data.S_b @ xb
@@ -195,7 +240,7 @@ def solve_modes(data, U, bc, iterations: int, callback=None) -> np.ndarray:
         for it in range(iterations):
             q = data.S_f @ xf + q0
             p = ops.T_f @ xf + p0 if affine else None
-            sigma, beta = cell_sigma(mix, q, p, data.S0, ops.G)
+            sigma, beta = ops.sigma(q, p)
             rhs = data.R @ sigma - rb
             if beta is not None:
                 rhs += ops.Rc @ beta

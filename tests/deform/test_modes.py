@@ -141,3 +141,21 @@ def test_hinge_guess_turns_a_part_about_its_hinge():
     assert np.allclose(U[1], [10, 0])  # the two-pin part decides where the hinge is
     assert np.allclose(U[[0, 2, 3]], bc)
     assert np.allclose(U[4], [20, -10])  # rigidly turned about the hinge
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_folded_constants_match_the_cell_fits(mode):
+    V, F, b = bar()
+    grey = np.linspace(0, 255, len(V))
+    d = arap_precompute(V, F, b, mix=mode_mix([mode] * len(V), grey / 255))
+    rng = np.random.default_rng(1)
+    U = V + rng.normal(scale=0.5, size=V.shape)
+    x = (U - V) @ [1, 1j]
+    q = d.S0 + d.S @ x
+    p = d.modes.G + (d.modes.T_f @ x[d.free] + d.modes.T_b @ x[d.b] if d.modes.affine else 0)
+    want = cell_sigma(d.mix, q.copy(), p, d.S0, d.modes.G)
+    got = d.modes.sigma(q.copy(), p if d.modes.affine else None)
+    assert np.allclose(got[0], want[0])
+    assert (got[1] is None) == (want[1] is None) or np.allclose(want[1], 0)
+    if got[1] is not None:
+        assert np.allclose(got[1], want[1])
