@@ -332,6 +332,9 @@ class Document(Edits, KeyEdits):
             notes.append("bones are used by the 'mls-skeleton' method only")
         if d.deformer.method != "arap" and (any(L.stiffness for L in d.layers) or any(p.kind == "starch" for p in d.pins)):
             notes.append(f"stiffness and starch pins are applied by the 'arap' method only, not by {d.deformer.method!r}")
+        if d.deformer.method not in ("arap", "mls") and any(k.strength < 1 for k in d.links):
+            notes.append(f"link strength below 1 is applied by 'arap' and 'mls' only; {d.deformer.method!r} leaves "
+                         "such links untied")
         return notes + list(self.built.notes)
 
     # -- files -------------------------------------------------------------------
