@@ -55,6 +55,8 @@ def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
                 L["image"] = fn(L["image"])
             if isinstance(L.get("mask"), dict) and isinstance(L["mask"].get("file"), str):
                 L["mask"] = dict(L["mask"], file=fn(L["mask"]["file"]))
+            if isinstance(L.get("stiffness"), dict) and isinstance(L["stiffness"].get("file"), str):
+                L["stiffness"] = dict(L["stiffness"], file=fn(L["stiffness"]["file"]))
         layers.append(L)
     doc["layers"] = layers
     return doc

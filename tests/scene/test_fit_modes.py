@@ -298,3 +298,28 @@ def test_stiffness_image_must_match_the_layer(make_scene):
     imgs["paint.png"] = imgs["paint.png"][:100]
     with pytest.raises(SceneError, match=r"layers\[0\]\.stiffness\.file: stiffness image is 440x100"):
         puppet.load_scene(make_scene(strip_scene("paint"), imgs)).layers("bend")
+
+
+def test_saved_elsewhere_keeps_the_stiffness_image(make_scene, tmp_path):
+    from puppet.scene.document import Document
+    from puppet.scene.inputs import input_files
+
+    path = make_scene(strip_scene("paint"), strip_images())
+    doc = Document.load(path)
+    assert (os.path.join(os.path.dirname(path), "paint.png"), "layers[0].stiffness.file") in input_files(doc.data)
+    os.makedirs(tmp_path / "elsewhere")
+    out = str(tmp_path / "elsewhere" / "moved.json")
+    doc.save(out)
+    saved = json.load(open(out))
+    assert saved["layers"][0]["stiffness"]["file"] == "../paint.png"
+    a = Document.load(path).layers("bend")[0].deformed
+    assert np.array_equal(Document.load(out).layers("bend")[0].deformed, a)
+
+
+def test_check_prints_the_clipping_note(make_scene, capsys):
+    from puppet.cli import main
+
+    path = make_scene(arm_scene(segments=[[[150, 125], [215, 125]]]), arm_images())
+    assert main(["check", path]) == 0
+    out = capsys.readouterr().out
+    assert "note: links[0].segments[0]: the part outside layers 'body' and 'arm' was cut off" in out
