@@ -383,6 +383,21 @@ def _check_bc(data: ArapData, bc) -> np.ndarray:
     return bc
 
 
+def _rigid_rhs(data: ArapData, xb):
+    """``rhs(x_f)`` of the global step for the best rotations of ``x_f`` (pins at ``xb``)."""
+    q0 = data.S0 + data.S_b @ xb  # pinned displacements are fixed
+    rb = data.L_fb @ xb
+    sigma = np.empty(data.n, dtype=np.complex128)
+
+    def rhs_of(xf):
+        q = data.S_f @ xf
+        q += q0
+        rhs = data.R @ _rotation_minus_one(q, sigma)
+        rhs -= rb
+        return rhs
+    return rhs_of
+
+
 @blas_capped
 def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
                callback: Callable[[int, np.ndarray], None] | None = None) -> np.ndarray:
@@ -425,25 +440,19 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     U[b] = bc
     if data.factor is None or int(iterations) <= 0:
         return U
-    if data.mix is not None:
-        from puppet.deform.modes import solve_modes
-
-        return solve_modes(data, U, bc, int(iterations), callback)
     free = data.free
     nf = len(free)
     xf = (U[free, 0] - V[free, 0]) + 1j * (U[free, 1] - V[free, 1])
     xb = (bc[:, 0] - V[b, 0]) + 1j * (bc[:, 1] - V[b, 1])
-    q0 = data.S0 + data.S_b @ xb  # pinned displacements are fixed
-    rb = data.L_fb @ xb
-    sigma = np.empty(data.n, dtype=np.complex128)
+    rhs_of = _rigid_rhs(data, xb)
+    if data.mix is not None:  # other modes (puppet.deform.modes): another local step
+        from puppet.deform.modes import mode_rhs
+
+        rhs_of = mode_rhs(data, xb)
     solve, close = factor.pair_solver(data.factor, nf, int(iterations))
     try:
         for it in range(int(iterations)):
-            q = data.S_f @ xf
-            q += q0
-            rhs = data.R @ _rotation_minus_one(q, sigma)
-            rhs -= rb
-            x_new = solve(rhs)
+            x_new = solve(rhs_of(xf))
             if not np.isfinite(x_new).all():  # a breakdown (e.g. indefinite raw weights):
                 break  # keep the last finite iterate
             xf = x_new

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["MODES", "MIX", "mode_mix", "cell_sigma", "similarity_fit", "apply_similarity",
-           "stiffness_from_grey", "STIFF_MAX"]
+           "stiffness_from_grey", "STIFF_MAX", "ModeOps", "mode_operators", "mode_rhs"]
 
 #: The modes and the (rigid, similar, affine) weights of their cell energies.
 MIX = {"rigid": (1.0, 0.0, 0.0), "similar": (0.0, 1.0, 0.0), "distort": (0.5, 0.0, 0.5)}
@@ -222,36 +222,20 @@ def mode_operators(data, P, fmap, bmap) -> ModeOps:
                    mix=data.mix, S0=data.S0)
 
 
-def solve_modes(data, U, bc, iterations: int, callback=None) -> np.ndarray:
-    """The local/global iterations with per-cell mixed modes (``data.mix``), from ``U``
-    (n, 2, pins already on ``bc``); the same factor as rigid ARAP. Returns U (n, 2)."""
-    from puppet.deform import factor
-
-    V, b, free = data.V, data.b, data.free
+def mode_rhs(data, xb):
+    """``rhs(x_f)`` of the global step with per-cell mixed modes (``data.mix``), pins at
+    displacements ``xb`` (k,) complex; the same factor as rigid ARAP solves it."""
     ops = data.modes
-    affine = ops.affine
-    xf = (U[free, 0] - V[free, 0]) + 1j * (U[free, 1] - V[free, 1])
-    xb = (bc[:, 0] - V[b, 0]) + 1j * (bc[:, 1] - V[b, 1])
     q0 = data.S0 + data.S_b @ xb
-    p0 = ops.G + ops.T_b @ xb if affine else None
+    p0 = ops.G + ops.T_b @ xb if ops.affine else None
     rb = data.L_fb @ xb
-    solve, close = factor.pair_solver(data.factor, len(free), iterations)
-    try:
-        for it in range(iterations):
-            q = data.S_f @ xf + q0
-            p = ops.T_f @ xf + p0 if affine else None
-            sigma, beta = ops.sigma(q, p)
-            rhs = data.R @ sigma - rb
-            if beta is not None:
-                rhs += ops.Rc @ beta
-            x_new = solve(rhs)
-            if not np.isfinite(x_new).all():
-                break
-            xf = x_new
-            if callback is not None:
-                U[free, 0], U[free, 1] = V[free, 0] + xf.real, V[free, 1] + xf.imag
-                callback(it, U.copy())
-    finally:
-        close()
-    U[free, 0], U[free, 1] = V[free, 0] + xf.real, V[free, 1] + xf.imag
-    return U
+
+    def rhs_of(xf):
+        q = data.S_f @ xf + q0
+        p = ops.T_f @ xf + p0 if ops.affine else None
+        sigma, beta = ops.sigma(q, p)
+        rhs = data.R @ sigma - rb
+        if beta is not None:
+            rhs += ops.Rc @ beta
+        return rhs
+    return rhs_of
