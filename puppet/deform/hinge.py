@@ -37,11 +37,12 @@ def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0) -> n
     pin_part : (k,) int
         The part of each pin.
     parts : list of (n_l,) int arrays
-        Vertices of each part (a hinge belongs to every part it joins).
-    H : (h,) int
-        Hinge vertices.
-    DH : (h, n) float
-        Geodesic distances from the hinges.
+        Vertices of each part (a shared hinge vertex belongs to every part it joins).
+    H : (h, 2) int
+        Hinges, each as the vertices of its two sides: the same vertex twice for a shared
+        vertex, two vertices at the same rest point for a hinge of strength < 1 (a spring).
+    DH : (h, 2, n) float
+        Geodesic distances from each hinge's two vertices.
     alpha : float
         MLS weight exponent.
 
@@ -52,6 +53,7 @@ def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0) -> n
     """
     V = np.asarray(V, np.float64)
     U = mls_object_space(V, D, bc, P, kind="rigid", alpha=alpha)
+    H = np.asarray(H, np.int64).reshape(-1, 2)
     if len(H) == 0:
         return U
     pin_part = np.asarray(pin_part, np.int64)
@@ -59,25 +61,35 @@ def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0) -> n
     member = [np.zeros(len(V), bool) for _ in parts]
     for m, idx in zip(member, parts):
         m[idx] = True
-    HT = U[H].copy()
+    HT = U[H[:, 0]].copy()
     for j, h in enumerate(H):
         acc, wsum = np.zeros(2), 0.0
         for li in range(len(parts)):
+            side = _side(member[li], h)
             w = counts[li] - 1.0
-            if member[li][h] and w > 0:
-                sel = pin_part == li
-                acc += w * mls_object_space(V[[h]], D[sel][:, [h]], bc[sel], P[sel], kind="rigid", alpha=alpha)[0]
+            if side is not None and w > 0:
+                v, sel = h[side], pin_part == li
+                acc += w * mls_object_space(V[[v]], D[sel][:, [v]], bc[sel], P[sel], kind="rigid", alpha=alpha)[0]
                 wsum += w
         if wsum > 0:
             HT[j] = acc / wsum
     for li, idx in enumerate(parts):
         sel = pin_part == li
-        hs = np.flatnonzero(member[li][H])
-        if sel.sum() + len(hs) == 0:
+        sides = [(j, _side(member[li], h)) for j, h in enumerate(H)]
+        sides = [(j, s) for j, s in sides if s is not None]
+        if sel.sum() + len(sides) == 0:
             continue
-        Dl = np.vstack([D[sel][:, idx], DH[hs][:, idx]])
+        hs = np.array([j for j, _ in sides], np.int64)
+        Dh = np.array([DH[j, s][idx] for j, s in sides]).reshape(len(sides), len(idx))
+        Dl = np.vstack([D[sel][:, idx], Dh])
         Q = np.vstack([bc[sel], HT[hs]])
-        Pl = np.vstack([P[sel], V[H[hs]]])
+        Pl = np.vstack([P[sel], V[H[hs, 0]]])
         U[idx] = mls_object_space(V[idx], Dl, Q, Pl, kind="rigid", alpha=alpha)
-    U[H] = HT
+    U[H[:, 0]] = HT
+    U[H[:, 1]] = HT
     return U
+
+
+def _side(member: np.ndarray, h: np.ndarray) -> int | None:
+    """Which vertex of hinge ``h`` (2,) lies in the part (``member`` (n,) bool), or None."""
+    return 0 if member[h[0]] else (1 if member[h[1]] else None)

@@ -65,7 +65,7 @@ class Group:
     b: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # group vertex per pin
     couple: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))  # spring vertex pairs
     kappa: np.ndarray = field(default_factory=lambda: np.zeros(0))  # their weights (links of strength < 1)
-    hinges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # vertices of link points
+    hinges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))  # link points: vertex per side
     pin_part: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # local layer of each pin
 
 
@@ -295,8 +295,9 @@ def build_groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
                     (shared if link.strength >= 1.0 else springs).append((local[a], va, local[b], vb, li, len(P) == 1))
         gm = merge_meshes([(meshes[k].V, meshes[k].F) for k in members], [s[:4] for s in shared])
         grp = Group(layers=members, mesh=gm)
-        grp.hinges = np.unique(np.array([int(gm.maps[la][va]) for la, va, lb, vb, li, one in shared if one],
-                                        np.int64))
+        merged = np.unique(np.array([int(gm.maps[la][va]) for la, va, lb, vb, li, one in shared if one], np.int64))
+        split = [(int(gm.maps[la][va]), int(gm.maps[lb][vb])) for la, va, lb, vb, li, one in springs if one]
+        grp.hinges = np.array([(v, v) for v in merged] + split, np.int64).reshape(-1, 2)
         if springs:
             from puppet.scene.links import coupling
 

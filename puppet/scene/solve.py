@@ -60,7 +60,7 @@ class GroupPre:
     D: np.ndarray  # (k, n) geodesic distances from the group's pins
     arap: object = None
     prefit: bool = False  # every cell 'similar': start from the pins' best similarity
-    DH: np.ndarray | None = None  # (h, n) geodesic distances from the group's hinges
+    DH: np.ndarray | None = None  # (h, 2, n) geodesic distances from both sides of the group's hinges
     igarashi: object = None
     skeleton: object = None
 
@@ -78,7 +78,8 @@ def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None
         couple = (g.couple, g.kappa) if len(g.couple) else None
         a = arap_precompute(V, F, b, weights=deformer.weights, alpha=deformer.alpha,
                             stiffness=stiff if deformer.method == "arap" else None, mix=mix, couple=couple)
-        DH = geodesic_distances(V, F, g.hinges) if len(g.hinges) else None
+        H = g.hinges.reshape(-1)
+        DH = geodesic_distances(V, F, H).reshape(-1, 2, len(V)) if len(H) else None
         return GroupPre(D=a.D, arap=a, prefit=mix is not None and all(m == "similar" for m in modes), DH=DH)
     if deformer.method == "igarashi":
         return GroupPre(D=geodesic_distances(V, F, b), igarashi=igarashi_precompute(V, F, b))

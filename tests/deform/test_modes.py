@@ -136,8 +136,8 @@ def test_hinge_guess_turns_a_part_about_its_hinge():
     P = V[[0, 2, 3]]
     bc = np.array([[0, 0], [0, 10], [10, -10.0]])  # the second part's pin turned -90 degrees about (10, 0)
     D = np.linalg.norm(V[None] - P[:, None], axis=2)
-    DH = np.linalg.norm(V[None] - V[[1]][:, None], axis=2)
-    U = hinge_guess(V, D, P, bc, np.array([0, 0, 1]), parts, np.array([1]), DH)
+    DH = np.linalg.norm(V[None] - V[[1]][:, None], axis=2)[:, None].repeat(2, axis=1)  # (1, 2, n)
+    U = hinge_guess(V, D, P, bc, np.array([0, 0, 1]), parts, np.array([[1, 1]]), DH)
     assert np.allclose(U[1], [10, 0])  # the two-pin part decides where the hinge is
     assert np.allclose(U[[0, 2, 3]], bc)
     assert np.allclose(U[4], [20, -10])  # rigidly turned about the hinge
@@ -159,3 +159,16 @@ def test_folded_constants_match_the_cell_fits(mode):
     assert (got[1] is None) == (want[1] is None) or np.allclose(want[1], 0)
     if got[1] is not None:
         assert np.allclose(got[1], want[1])
+
+
+def test_hinge_guess_with_two_vertices_at_the_hinge():
+    # the same as above, but the hinge is two vertices (a link of strength < 1)
+    V = np.array([[0, 0], [10, 0], [0, 10], [20, 0], [20, 10.0], [10, 0]])
+    parts = [np.array([0, 1, 2]), np.array([5, 3, 4])]
+    P = V[[0, 2, 3]]
+    bc = np.array([[0, 0], [0, 10], [10, -10.0]])
+    D = np.linalg.norm(V[None] - P[:, None], axis=2)
+    DH = np.linalg.norm(V[None] - V[[1, 5]][:, None], axis=2)[None]
+    U = hinge_guess(V, D, P, bc, np.array([0, 0, 1]), parts, np.array([[1, 5]]), DH)
+    assert np.allclose(U[[1, 5]], [[10, 0], [10, 0]])
+    assert np.allclose(U[4], [20, -10])
