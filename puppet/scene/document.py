@@ -316,11 +316,15 @@ class Document(Edits, KeyEdits):
                     if d.animation else "")]
         for k, (L, m) in enumerate(zip(d.layers, built.meshes)):
             gi = next(i for i, g in enumerate(built.groups) if k in g.layers)
+            extra = "".join([f", mode {L.mode or d.deformer.mode}" if (L.mode or d.deformer.mode) != "rigid" else "",
+                             ", painted stiffness" if L.stiffness else ""])
             lines.append(f"  layer {L.name!r}: order {built.rank[k]}, group {gi}, {len(m.V)} vertices, "
-                         f"{len(m.F)} triangles")
+                         f"{len(m.F)} triangles{extra}")
         for gi, g in enumerate(built.groups):
+            extra = "".join([f", {len(g.hinges)} hinge(s)" if len(g.hinges) else "",
+                             f", {len(g.couple)} spring(s)" if len(g.couple) else ""])
             lines.append(f"  group {gi}: {len(g.layers)} layer(s), {len(g.mesh.V)} vertices, "
-                         f"{len(g.mesh.F)} triangles, {len(g.pins)} pin(s)")
+                         f"{len(g.mesh.F)} triangles, {len(g.pins)} pin(s){extra}")
         lines += [f"  note: {n}" for n in self.not_applied()]
         return "\n".join(lines)
 

@@ -340,3 +340,9 @@ def test_check_prints_the_clipping_note(make_scene, capsys):
     assert main(["check", path]) == 0
     out = capsys.readouterr().out
     assert "note: links[0].segments[0]: the part outside layers 'body' and 'arm' was cut off" in out
+    s = arm_scene(points=[[200, 125]], strength=0.5)
+    s["layers"][1]["deformer"] = {"mode": "similar"}
+    assert main(["check", make_scene(s, arm_images(), name="hinge.json")]) == 0
+    out = capsys.readouterr().out
+    assert "'arm': order 1, group 0," in out and "triangles, mode similar" in out
+    assert "3 pin(s), 1 hinge(s), 1 spring(s)" in out
