@@ -31,7 +31,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["MODES", "MIX", "mode_mix", "cell_sigma", "similarity_fit", "apply_similarity",
-           "stiffness_from_grey", "STIFF_MAX", "ModeOps", "mode_operators", "mode_rhs"]
+           "stiffness_from_grey", "STIFF_MAX", "ModeOps", "mode_operators", "mode_rhs",
+           "mode_solve_rotated"]
 
 #: The modes and the (rigid, similar, affine) weights of their cell energies.
 MIX = {"rigid": (1.0, 0.0, 0.0), "similar": (0.0, 1.0, 0.0), "distort": (0.5, 0.0, 0.5)}
@@ -222,9 +223,11 @@ def mode_operators(data, P, fmap, bmap) -> ModeOps:
                    mix=data.mix, S0=data.S0)
 
 
-def mode_rhs(data, xb):
+def mode_rhs(data, xb, held=None):
     """``rhs(x_f)`` of the global step with per-cell mixed modes (``data.mix``), pins at
-    displacements ``xb`` (k,) complex; the same factor as rigid ARAP solves it."""
+    displacements ``xb`` (k,) complex; the same factor as rigid ARAP solves it.
+    ``held``: ``(cells, rho)``, cells whose map is held at the rotation ``rho`` (unit
+    complex numbers; pins with an angle)."""
     ops = data.modes
     q0 = data.S0 + data.S_b @ xb
     p0 = ops.G + ops.T_b @ xb if ops.affine else None
@@ -234,8 +237,28 @@ def mode_rhs(data, xb):
         q = data.S_f @ xf + q0
         p = ops.T_f @ xf + p0 if ops.affine else None
         sigma, beta = ops.sigma(q, p)
+        if held is not None:
+            sigma[held[0]] = held[1] - 1.0
+            if beta is not None:
+                beta[held[0]] = 0.0
         rhs = data.R @ sigma - rb
         if beta is not None:
             rhs += ops.Rc @ beta
         return rhs
     return rhs_of
+
+
+def mode_solve_rotated(data, bc, angles_deg, *, iterations: int = 20) -> np.ndarray:
+    """Pins that also turn the region around them, in a mode other than rigid.
+
+    As :func:`puppet.deform.rotate.arap_solve_rotated`'s full pass: every vertex whose
+    nearest pin is turned starts turned about it, and the cells near a turned pin keep
+    its rotation while the others take their mode's fit (no residual rounds: those
+    re-solve rigid cells). Returns U (n, 2) with ``U[b] == bc``.
+    """
+    from puppet.deform.arap import arap_solve
+    from puppet.deform.rotate import held_rotations, rotation_initial_guess
+
+    U0 = rotation_initial_guess(data, bc, angles_deg)
+    cells, cm1, s = held_rotations(data, angles_deg)
+    return arap_solve(data, bc, iterations=iterations, U0=U0, held=(cells, (cm1 + 1.0) + 1j * s))

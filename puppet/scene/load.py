@@ -120,7 +120,6 @@ def parse_scene(raw, file: str) -> m.SceneData:
     if "animation" in raw:
         animation = parse_animation(c, raw["animation"], "animation", poses,
                                     lambda v, q: _pose(c, v, q, pin_names, layers, names, starch))
-    _check_angles(c, deformer, layers, names, pins, poses, animation)
     if "app" in raw:  # app-only settings (a compatible extension; render ignores them)
         parse_app(c, raw["app"], "app", file_path)
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
@@ -258,21 +257,6 @@ def _check_modes(c, d: m.Deformer, layers) -> None:
         if L.mode not in (None, "rigid"):
             raise c.fail(f"layers[{L.index}].deformer.mode",
                          f"mode {L.mode!r} needs deformer.method 'arap' (the method is {d.method!r})")
-
-
-def _check_angles(c, d: m.Deformer, layers, names, pins, poses, animation) -> None:
-    """Pin angles turn rigid cells (rotation about pins); other modes refuse them."""
-    layer_of = {p.name: layers[names[p.layer]] for p in pins}
-    tables = [(join("poses", n), t) for n, t in poses.items()]
-    if animation is not None:
-        tables += [(f"animation.keys[{i}].pins", k.pins) for i, k in enumerate(animation.keys) if k.pins]
-    for path, table in tables:
-        for pin, t in table.items():
-            L = layer_of.get(pin)
-            mode = (L.mode or d.mode) if L is not None else "rigid"
-            if t.angle != 0 and mode != "rigid":
-                raise c.fail(join(join(path, pin), "angle"), f"pin angles need mode 'rigid' (layer {L.name!r} "
-                                                             f"is in mode {mode!r})")
 
 
 def _ring_area(P) -> float:

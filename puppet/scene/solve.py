@@ -18,7 +18,8 @@ from puppet.deform.depth import depth_field
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
 from puppet.deform.hinge import hinge_guess
 from puppet.deform.mls import mls_object_space
-from puppet.deform.modes import apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
+from puppet.deform.modes import (apply_similarity, mode_mix, mode_solve_rotated, similarity_fit,
+                                 stiffness_from_grey)
 from puppet.deform.relax import relax_foldovers
 from puppet.deform.rotate import arap_solve_rotated
 from puppet.deform.skeleton import skeleton_precompute, skeleton_solve
@@ -94,7 +95,9 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     if len(g.pins) == 0:
         U = V.copy()
     elif deformer.method == "arap":
-        if np.any(pose.angle != 0):
+        if np.any(pose.angle != 0) and pre.arap.mix is not None:
+            U = mode_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
+        elif np.any(pose.angle != 0):
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
             U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else V

@@ -110,17 +110,29 @@ def test_layer_mode_overrides_the_scene(make_scene):
     assert area_ratio(res) == pytest.approx(0.36, abs=0.04)
 
 
-def test_modes_refuse_what_they_cannot_do(make_scene):
-    imgs = {"bar.png": bar_image()}
-    s = bar_scene("similar")
-    s["poses"]["twist"] = {"r": {"angle": 30}}
-    with pytest.raises(SceneError, match=r"poses\.twist\.r\.angle: pin angles need mode 'rigid'"):
-        puppet.load_scene(make_scene(s, imgs, name="a.json"))
+def test_modes_refuse_other_methods(make_scene):
     s = bar_scene()
     s["layers"][0]["deformer"] = {"mode": "distort"}
     s["deformer"] = {"method": "mls"}
     with pytest.raises(SceneError, match=r"layers\[0\]\.deformer\.mode: .*needs deformer\.method 'arap'"):
-        puppet.load_scene(make_scene(s, imgs, name="b.json"))
+        puppet.load_scene(make_scene(s, {"bar.png": bar_image()}))
+
+
+def screen_angle(V0, U, mask) -> float:
+    """Procrustes turn of the points ``mask`` from V0 to U, degrees counter-clockwise on screen."""
+    X, Y = V0[mask] - V0[mask].mean(0), U[mask] - U[mask].mean(0)
+    return -np.degrees(np.arctan2((X[:, 0] * Y[:, 1] - X[:, 1] * Y[:, 0]).sum(), (X * Y).sum()))
+
+
+@pytest.mark.parametrize("mode", ["rigid", "similar", "distort"])
+def test_pin_angles_in_every_mode(make_scene, mode):
+    s = bar_scene(mode)
+    s["poses"]["twist"] = {"l": [106, 60], "r": {"to": [334, 60], "angle": 30}}
+    (r,) = puppet.load_scene(make_scene(s, {"bar.png": bar_image()})).layers("twist")
+    near = np.linalg.norm(r.rest - [410, 60], axis=1) < 30
+    assert screen_angle(r.rest, r.deformed, near) == pytest.approx(30, abs=3)
+    assert folds([r]) == 0
+    assert np.allclose(r.deformed[r.pins["r"]], [334, 60])
 
 
 @pytest.mark.parametrize("mode", ["similar", "distort"])
