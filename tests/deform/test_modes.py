@@ -172,3 +172,19 @@ def test_hinge_guess_with_two_vertices_at_the_hinge():
     U = hinge_guess(V, D, P, bc, np.array([0, 0, 1]), parts, np.array([[1, 5]]), DH)
     assert np.allclose(U[[1, 5]], [[10, 0], [10, 0]])
     assert np.allclose(U[4], [20, -10])
+
+
+def test_folds_of_a_mode_are_untangled_without_making_cells_rigid():
+    from puppet.deform.relax import folded_triangles, relax_foldovers
+
+    V, F = rectangle(40, 8, 1.0)
+    b = nearest(V, [[0, 4], [40, 4], [20, 4]])
+    bc = V[b] + [[0, 0], [-38, 0], [0, -10]]  # the right end pulled back over the bar
+    d = arap_precompute(V, F, b, mix=mode_mix(["distort"] * len(V)))
+    U = arap_solve(d, bc)
+    assert len(folded_triangles(V, U, F)) > 0
+    info = {}
+    U2 = relax_foldovers(d, U, bc, info=info)
+    assert info["stage"] == "untangle"  # the similarity stage (rigid cells) is skipped
+    assert len(folded_triangles(V, U2, F)) == 0
+    assert np.array_equal(U2[b], bc)
