@@ -34,7 +34,7 @@ from scipy.sparse import csgraph
 from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
 from puppet.deform.threads import blas_capped
-from puppet.geom.laplacian import cotangent_weights, uniform_weights
+from puppet.geom.laplacian import cotangent_weights, spring_weights, uniform_weights
 from puppet.geom.mesh import check_mesh
 
 __all__ = ["ArapData", "arap_precompute", "arap_solve", "arap_energy", "WEIGHTS"]
@@ -265,8 +265,9 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         raise ValueError(f"solver must be one of {factor.SOLVERS}, got {solver!r}")
     V, F, b = check_mesh(V, F, b)
     W = _edge_weights(V, F, weights)
-    if couple is not None and len(couple[0]):
-        W = _with_springs(W, *couple)
+    if couple is not None and len(couple[0]):  # springs: edges of rest length 0
+        W = (W + spring_weights(len(V), *couple)).tocsr()
+        W.sort_indices()
     P = _Pattern(W)
     k = None if stiffness is None else np.asarray(stiffness, np.float64).reshape(len(V))
     wl = W.data if k is None else W.data * 0.5 * (k[P.wrows] + k[W.indices])
@@ -293,18 +294,6 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
     finally:
         worker.close()
     return data
-
-
-def _with_springs(W, pairs, kappa) -> sp.csr_matrix:
-    """``W`` plus symmetric entries ``kappa`` at ``pairs`` (p, 2)."""
-    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
-    kappa = np.broadcast_to(np.asarray(kappa, np.float64), (len(pairs),))
-    r = np.concatenate([pairs[:, 0], pairs[:, 1]])
-    c = np.concatenate([pairs[:, 1], pairs[:, 0]])
-    S = sp.csr_matrix((np.concatenate([kappa, kappa]), (r, c)), shape=W.shape)
-    out = (W + S).tocsr()
-    out.sort_indices()
-    return out
 
 
 def _free_vertices(W, b):

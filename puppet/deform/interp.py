@@ -194,15 +194,13 @@ def _with_springs(K, F, pairs, kappa):
     """K plus the springs' Laplacian, and the components of the mesh joined by them."""
     from scipy.sparse.csgraph import connected_components as graph_components
 
+    from puppet.geom.laplacian import laplacian_from_weights, spring_weights
+
     n = K.shape[0]
-    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
-    kappa = np.broadcast_to(np.asarray(kappa, np.float64), (len(pairs),))
-    a, b = pairs[:, 0], pairs[:, 1]
-    S = sp.csr_matrix((np.concatenate([kappa, kappa, -kappa, -kappa]),
-                       (np.concatenate([a, b, a, b]), np.concatenate([a, b, b, a]))), shape=(n, n))
-    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]], pairs])
+    S = spring_weights(n, pairs, kappa)
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]], np.asarray(pairs, np.int64).reshape(-1, 2)])
     graph = sp.csr_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
-    return (K + S).tocsr(), graph_components(graph, directed=False)[1]
+    return (K + laplacian_from_weights(S)).tocsr(), graph_components(graph, directed=False)[1]
 
 
 @dataclass
