@@ -7,7 +7,9 @@ It writes the scenes it renders into a temporary folder, renders them with
 * docs/fit/hinge-vs-segment.png: an arm linked to a body by a segment (left) and by a
   hinge point (right), its tip pin turned 90 degrees about the shoulder;
 * docs/fit/garment-modes.png: the bundled dress garment narrowed to 75 % around its
-  pins, in each mode (rest, rigid, similar, distort).
+  pins, in each mode (rest, rigid, similar, distort);
+* docs/fit/garment-on-mannequin.png: the bundled t-shirt fitted onto a drawn mannequin
+  narrower than it (its eight pins moved onto shoulders, arms, chest and hips), per mode.
 """
 from __future__ import annotations
 
@@ -87,11 +89,46 @@ def garment_figure(folder: str) -> None:
     row(frames, scale=0.5).save(os.path.join(OUT, "garment-modes.png"))
 
 
+def mannequin(path: str) -> None:
+    """A plain mannequin (torso, neck, arms held out and down), narrower than the shirt."""
+    im = Image.new("RGBA", (512, 512), (250, 246, 238, 255))
+    d = ImageDraw.Draw(im)
+    skin = (214, 196, 178, 255)
+    d.polygon([(196, 120), (316, 120), (330, 250), (312, 420), (200, 420), (182, 250)], fill=skin)  # torso
+    d.rectangle([236, 70, 276, 125], fill=skin)  # neck
+    d.ellipse([226, 20, 286, 82], fill=skin)  # head
+    d.polygon([(196, 122), (170, 130), (96, 240), (118, 252), (190, 170)], fill=skin)  # arms
+    d.polygon([(316, 122), (342, 130), (416, 240), (394, 252), (322, 170)], fill=skin)
+    im.save(path)
+
+
+def mannequin_figure(folder: str) -> None:
+    src = os.path.join(ROOT, "assets", "scenes", "tshirt-garment.json")
+    raw = json.load(open(src))
+    raw["layers"][0]["image"] = os.path.abspath(os.path.join(ROOT, "assets", "scenes", raw["layers"][0]["image"]))
+    raw.pop("animation", None)
+    mannequin(os.path.join(folder, "mannequin.png"))
+    raw["background"] = "mannequin.png"
+    # the shirt's pins onto the mannequin: shoulders, sleeves down the arms, chest, hips
+    raw["poses"] = {"fit": {"shoulder_l": [200, 126], "shoulder_r": [312, 126], "sleeve_l": [126, 214],
+                            "sleeve_r": [386, 214], "chest": [256, 215], "hem_l": [208, 390],
+                            "hem_c": [256, 396], "hem_r": [304, 390]}}
+    frames = []
+    for mode in ("rigid", "similar", "distort"):
+        s = copy.deepcopy(raw)
+        s["deformer"] = {"mode": mode}
+        if not frames:
+            frames.append(("the shirt at rest over the mannequin", render(s, folder, "shirt-rest", None)))
+        frames.append((f"fitted: {mode}", render(s, folder, f"shirt-{mode}", "fit")))
+    row(frames, scale=0.5).save(os.path.join(OUT, "garment-on-mannequin.png"))
+
+
 def main():
     with tempfile.TemporaryDirectory() as folder:
         arm_figure(folder)
         garment_figure(folder)
-    print("wrote", os.path.join(OUT, "hinge-vs-segment.png"), os.path.join(OUT, "garment-modes.png"))
+        mannequin_figure(folder)
+    print("wrote hinge-vs-segment.png, garment-modes.png, garment-on-mannequin.png in", OUT)
 
 
 if __name__ == "__main__":
