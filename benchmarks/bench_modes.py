@@ -3,8 +3,9 @@
 Run:  python benchmarks/bench_modes.py [--runs 2]
 Meshes: quality discs of about 5k and 20k vertices, five pins (benchmarks.common). Per
 mode: the precomputation (factorisation + operators) and a pose solve = initial guess +
-20 local/global iterations, best of 5, as `puppet.scene.solve` runs it: `similar` starts
-from the pins' least-squares similarity then MLS (garment fitting); `rigid+paint` has
+20 local/global iterations, as `puppet.scene.solve` runs it: `similar` starts from the
+pins' least-squares similarity then MLS (garment fitting), its cells' scale bounded
+around that similarity's; `rigid+paint` has
 cell weights 1..100 over a third of the disc. The ratio columns are solve / rigid solve, by wall time (best of 9) and by process CPU
 time (best of 9, all threads: less moved by the other processes of a shared machine).
 The table is printed once per run, with the load average and the BLAS threads.
@@ -23,16 +24,21 @@ from benchmarks.common import best, disc, pins_and_targets  # noqa: E402
 
 from puppet.deform.arap import arap_precompute, arap_solve  # noqa: E402
 from puppet.deform.mls import mls_object_space  # noqa: E402
-from puppet.deform.modes import apply_similarity, mode_mix, similarity_fit, stiffness_from_grey  # noqa: E402
+from puppet.deform.modes import (SCALE_SPAN, apply_similarity, mode_mix, similarity_fit,  # noqa: E402
+                                 stiffness_from_grey)
 
 SIZES = {"5k": (500, 6.0), "20k": (1000, 1.5)}
 
 
-def guess(data, bc, prefit):
+def solve(data, bc, prefit):
+    """A pose as puppet.scene.solve runs it: in `similar`, the similarity guess and the
+    cells' scale bounded around the pins' similarity scale."""
     if not prefit:
-        return None  # arap_solve's own MLS guess
-    V = apply_similarity(data.V, *similarity_fit(data.V[data.b], bc))
-    return mls_object_space(V, data.D, bc, V[data.b], kind="rigid", alpha=data.alpha)
+        return arap_solve(data, bc)  # its own MLS guess
+    s, t = similarity_fit(data.V[data.b], bc)
+    V = apply_similarity(data.V, s, t)
+    U0 = mls_object_space(V, data.D, bc, V[data.b], kind="rigid", alpha=data.alpha)
+    return arap_solve(data, bc, U0=U0, scale=(abs(s) / SCALE_SPAN, abs(s) * SCALE_SPAN))
 
 
 def cases(V):
@@ -66,8 +72,8 @@ def table():
         base = None
         for name, kw, prefit in cases(V):
             t_pre, data = best(lambda: arap_precompute(V, F, b, **kw), repeat=3)
-            t_solve, _ = best(lambda: arap_solve(data, bc, U0=guess(data, bc, prefit)), repeat=9)
-            c_solve = cpu_best(lambda: arap_solve(data, bc, U0=guess(data, bc, prefit)))
+            t_solve, _ = best(lambda: solve(data, bc, prefit), repeat=9)
+            c_solve = cpu_best(lambda: solve(data, bc, prefit))
             if name == "rigid":
                 base, cbase = t_solve, c_solve
             rows.append((size, len(V), name, t_pre * 1e3, t_solve * 1e3, t_solve / base, c_solve * 1e3,

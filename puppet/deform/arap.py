@@ -389,7 +389,7 @@ def _rigid_rhs(data: ArapData, xb):
 
 @blas_capped
 def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
-               callback: Callable[[int, np.ndarray], None] | None = None, held=None) -> np.ndarray:
+               callback: Callable[[int, np.ndarray], None] | None = None, held=None, scale=None) -> np.ndarray:
     """Deform the mesh so that the pins reach their targets, as rigidly as possible.
 
     Parameters
@@ -409,6 +409,9 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     held : tuple ((h,) int, (h,) complex), optional
         Cells whose map is held at a rotation (unit complex numbers) instead of fitted;
         only with ``data.mix`` (the rigid loop holds cells in :mod:`puppet.deform.rotate`).
+    scale : (lo, hi), optional
+        Bounds of the scale of the cells in mode ``similar`` (their fit is the best
+        similarity whose scale lies in [lo, hi]); None: unbounded.
 
     Returns
     -------
@@ -440,7 +443,7 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     if data.mix is not None:  # other modes (puppet.deform.modes): another local step
         from puppet.deform.modes import mode_rhs
 
-        rhs_of = mode_rhs(data, xb, held)
+        rhs_of = mode_rhs(data, xb, held, scale)
     elif held is not None:
         raise ValueError("held cells need data.mix (see puppet.deform.rotate for rigid ARAP)")
     solve, close = factor.pair_solver(data.factor, nf, int(iterations))

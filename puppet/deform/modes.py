@@ -31,12 +31,16 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["MODES", "MIX", "mode_mix", "cell_sigma", "similarity_fit", "apply_similarity",
-           "stiffness_from_grey", "STIFF_MAX", "ModeOps", "mode_operators", "mode_rhs",
+           "stiffness_from_grey", "STIFF_MAX", "ModeOps", "mode_operators", "mode_rhs", "SCALE_SPAN",
            "mode_solve_rotated"]
 
 #: The modes and the (rigid, similar, affine) weights of their cell energies.
 MIX = {"rigid": (1.0, 0.0, 0.0), "similar": (0.0, 1.0, 0.0), "distort": (0.5, 0.0, 0.5)}
 MODES = tuple(MIX)
+
+#: In a scene, the scale of a ``similar`` cell stays within this factor of the scale of
+#: the pins' least-squares similarity (``puppet.scene.solve.scale_bounds``).
+SCALE_SPAN = 1.25
 
 #: Cell weight of the stiffest paint (grey 255); grey 0 weighs 1.
 STIFF_MAX = 100.0
@@ -175,14 +179,26 @@ class ModeOps:
         det = np.where(ok, det, 1.0)
         self.mr, self.rigid = mr, np.flatnonzero(mr)
         self.c1 = ms / rest + ma * S0 / det
+        self.c1a, self.cs = ma * S0 / det, ms / rest  # c1's affine and similar parts
+        self.inv_rest = 1.0 / rest
+        self.similar = np.flatnonzero(ms)
         self.c2 = ma * G.conj() / det
         self.d1 = ma * S0 / det
         self.d2 = ma * G / det
         self.affine = bool(ma.any())
 
-    def sigma(self, q, p):
-        """(sigma, beta) of cell values ``q`` and ``p`` (p None without affine cells)."""
-        out = self.c1 * q
+    def sigma(self, q, p, scale=None):
+        """(sigma, beta) of cell values ``q`` and ``p`` (p None without affine cells).
+        ``scale``: (lo, hi) bounds of the similar cells' scale (None: unbounded)."""
+        if scale is None or not len(self.similar):
+            out = self.c1 * q
+        else:  # the best similarity with its scale clamped: the exact fit over that set
+            out = self.c1a * q
+            sim = self.similar
+            qs = q[sim]
+            size = np.abs(qs) * self.inv_rest[sim]  # the cell's best scale |q| / S0
+            size[size == 0] = 1.0
+            out[sim] += (self.cs[sim] * qs) * (np.clip(size, scale[0], scale[1]) / size)
         out -= 1.0
         if len(self.rigid) == len(q):  # every cell has a rigid part: no gather/scatter
             r = np.abs(q)
@@ -223,11 +239,12 @@ def mode_operators(data, P, fmap, bmap) -> ModeOps:
                    mix=data.mix, S0=data.S0)
 
 
-def mode_rhs(data, xb, held=None):
+def mode_rhs(data, xb, held=None, scale=None):
     """``rhs(x_f)`` of the global step with per-cell mixed modes (``data.mix``), pins at
     displacements ``xb`` (k,) complex; the same factor as rigid ARAP solves it.
     ``held``: ``(cells, rho)``, cells whose map is held at the rotation ``rho`` (unit
-    complex numbers; pins with an angle)."""
+    complex numbers; pins with an angle). ``scale``: (lo, hi) bounds of the similar cells'
+    scale, None for unbounded."""
     ops = data.modes
     q0 = data.S0 + data.S_b @ xb
     p0 = ops.G + ops.T_b @ xb if ops.affine else None
@@ -236,7 +253,7 @@ def mode_rhs(data, xb, held=None):
     def rhs_of(xf):
         q = data.S_f @ xf + q0
         p = ops.T_f @ xf + p0 if ops.affine else None
-        sigma, beta = ops.sigma(q, p)
+        sigma, beta = ops.sigma(q, p, scale)
         if held is not None:
             sigma[held[0]] = held[1] - 1.0
             if beta is not None:
@@ -248,7 +265,7 @@ def mode_rhs(data, xb, held=None):
     return rhs_of
 
 
-def mode_solve_rotated(data, bc, angles_deg, *, iterations: int = 20) -> np.ndarray:
+def mode_solve_rotated(data, bc, angles_deg, *, iterations: int = 20, scale=None) -> np.ndarray:
     """Pins that also turn the region around them, in a mode other than rigid.
 
     As :func:`puppet.deform.rotate.arap_solve_rotated`'s full pass: every vertex whose
@@ -261,4 +278,4 @@ def mode_solve_rotated(data, bc, angles_deg, *, iterations: int = 20) -> np.ndar
 
     U0 = rotation_initial_guess(data, bc, angles_deg)
     cells, cm1, s = held_rotations(data, angles_deg)
-    return arap_solve(data, bc, iterations=iterations, U0=U0, held=(cells, (cm1 + 1.0) + 1j * s))
+    return arap_solve(data, bc, iterations=iterations, U0=U0, held=(cells, (cm1 + 1.0) + 1j * s), scale=scale)

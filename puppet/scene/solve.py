@@ -18,7 +18,7 @@ from puppet.deform.depth import depth_field
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
 from puppet.deform.hinge import hinge_guess
 from puppet.deform.mls import mls_object_space
-from puppet.deform.modes import (apply_similarity, mode_mix, mode_solve_rotated, similarity_fit,
+from puppet.deform.modes import (SCALE_SPAN, apply_similarity, mode_mix, mode_solve_rotated, similarity_fit,
                                  stiffness_from_grey)
 from puppet.deform.relax import relax_foldovers
 from puppet.deform.rotate import arap_solve_rotated
@@ -96,12 +96,13 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
         U = V.copy()
     elif deformer.method == "arap":
         if np.any(pose.angle != 0) and pre.arap.mix is not None:
-            U = mode_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
+            U = mode_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations,
+                                   scale=scale_bounds(pre, g, bc))
         elif np.any(pose.angle != 0):
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
             U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else V
-            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0)
+            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
     elif deformer.method == "mls":
@@ -112,6 +113,19 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     else:
         U = skeleton_solve(pre.skeleton, bc)
     return _finish(pre, g, deformer, ext, pose, U)
+
+
+def scale_bounds(pre: GroupPre, g: Group, bc) -> tuple[float, float] | None:
+    """Scale bounds of the group's ``similar`` cells in this pose: within a factor
+    :data:`~puppet.deform.modes.SCALE_SPAN` of the scale of the pins' least-squares
+    similarity, so a part shrinks or grows evenly with the pins, never balloons between
+    them (unbounded similarity cells are conformal maps, which blow up or pinch near
+    point handles). None without similar cells."""
+    a = pre.arap
+    if a is None or a.mix is None or not len(a.modes.similar):
+        return None
+    s = abs(similarity_fit(g.mesh.V[g.b], bc)[0])
+    return s / SCALE_SPAN, s * SCALE_SPAN
 
 
 def initial_guess(pre: GroupPre, g: Group, bc, alpha: float) -> np.ndarray | None:

@@ -188,3 +188,17 @@ def test_folds_of_a_mode_are_untangled_without_making_cells_rigid():
     assert info["stage"] == "untangle"  # the similarity stage (rigid cells) is skipped
     assert len(folded_triangles(V, U2, F)) == 0
     assert np.array_equal(U2[b], bc)
+
+
+def test_similar_scale_bounds_by_hand():
+    V, F, b = bar()
+    d = arap_precompute(V, F, b, mix=mode_mix(["similar"] * len(V)))
+    c = V.mean(0)
+    for f, want in ((2.0, 1.25), (0.5, 0.8), (1.1, 1.1)):
+        x = (f - 1.0) * ((V - c) @ [1, 1j])  # every cell scaled by f about the centre
+        q = d.S0 + d.S @ x
+        sigma, _ = d.modes.sigma(q, None, (0.8, 1.25))
+        inner = np.flatnonzero(d.S0 > 0)
+        assert np.allclose(sigma[inner], want - 1.0)  # clamped to [0.8, 1.25], no turn
+        free_sigma, _ = d.modes.sigma(q, None)
+        assert np.allclose(free_sigma[inner], f - 1.0)
