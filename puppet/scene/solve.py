@@ -151,7 +151,7 @@ def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterio
     ``arap`` without angles, and the first frame, solve exactly."""
     if U0 is None or deformer.method != "arap" or len(g.pins) == 0 or np.any(pose.angle != 0):
         return solve_group(pre, g, deformer, ext, pose)
-    U = arap_solve(pre.arap, pose.bc, iterations=iterations, U0=U0)
+    U = arap_solve(pre.arap, pose.bc, iterations=iterations, U0=U0, scale=scale_bounds(pre, g, pose.bc))
     return _finish(pre, g, deformer, ext, pose, U)
 
 
