@@ -12,7 +12,9 @@ maps are allowed:
     similarities, rotation times a uniform scale ("as similar as possible"; Igarashi,
     Moscovich & Hughes 2005 step 1; Liu et al. 2008 call it ASAP): the least-squares
     similarity of the cell is ``a_i = q_i / sum_j w_ij |e_ij|^2``, so a part may grow or
-    shrink evenly without folding.
+    shrink evenly without folding. With ``scale=(lo, hi)`` its modulus is clipped to
+    [lo, hi] (the exact fit over those similarities): unbounded similarity cells make a
+    discrete conformal map, which pinches near point handles and balloons between them.
 ``distort``
     half rigid, half affine: the energy is ``(E_rigid + E_affine) / 2``. The affine fit
     ``u = a e + b conj(e)`` solves the 2x2 complex normal equations
