@@ -34,7 +34,7 @@ from scipy.sparse import csgraph
 from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
 from puppet.deform.threads import blas_capped
-from puppet.geom.laplacian import cotangent_weights, uniform_weights
+from puppet.geom.laplacian import cotangent_weights, spring_weights, uniform_weights
 from puppet.geom.mesh import check_mesh
 
 __all__ = ["ArapData", "arap_precompute", "arap_solve", "arap_energy", "WEIGHTS"]
@@ -88,7 +88,15 @@ class ArapData:
         ``(S00 + S11) + i (S01 - S10)``; ``S_f``, ``S_b`` its free and pinned columns.
     R : (nf, n) complex csr
         ``R @ (rho - 1)`` is the right-hand side of the free rows for cell rotations
-        ``rho`` (unit complex numbers), as ``x + iy``.
+        ``rho`` (unit complex numbers), as ``x + iy`` (times the cell weights ``k``).
+    k : (n,) float or None
+        Cell weights (painted stiffness); None = all 1. ``L`` then has the edge weights
+        ``w_ij (k_i + k_j) / 2`` while ``W``, ``S``, ``ew`` keep the plain ``w_ij``.
+    mix : (n, 3) float or None
+        Per-cell weights of the rigid, similar and affine energies
+        (:mod:`puppet.deform.modes`); None = rigid everywhere.
+    modes : ModeOps or None
+        The extra operators the non-rigid modes need (built when ``mix`` is given).
     """
 
     V: np.ndarray
@@ -114,6 +122,9 @@ class ArapData:
     S_f: sp.csr_matrix | None = field(default=None, repr=False)
     S_b: sp.csr_matrix | None = field(default=None, repr=False)
     R: sp.csr_matrix | None = field(default=None, repr=False)
+    k: np.ndarray | None = field(default=None, repr=False)
+    mix: np.ndarray | None = field(default=None, repr=False)
+    modes: object | None = field(default=None, repr=False)
 
     def __post_init__(self):
         for name in ("C", "K"):
@@ -123,6 +134,8 @@ class ArapData:
     def __getattr__(self, name):
         if name in ("C", "K"):
             self.C, self.K = _cell_operators(self.V, self.W, self.free)[:2]
+            if self.k is not None:  # stiffened cells weigh more on the right-hand side
+                self.K = (self.K @ sp.diags(np.concatenate([self.k, self.k]))).tocsr()
             return self.__dict__[name]
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
@@ -206,7 +219,7 @@ class _Pattern:
 
 @blas_capped
 def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
-                    solver: str = "qdldl") -> ArapData:
+                    solver: str = "qdldl", stiffness=None, mix=None, couple=None) -> ArapData:
     """Prepare ARAP for a mesh and a set of pinned vertices (factorises once).
 
     Parameters
@@ -231,6 +244,15 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         positive definite). QDLDL and SuperLU factorise on a second thread while the
         operators and the geodesic distances ``D`` are built (they release the GIL;
         cholespy does not, so it runs on the caller's thread).
+    stiffness : (n,) float, optional
+        Weight ``k_i > 0`` of each cell's energy (painted rigidity; see
+        :func:`puppet.deform.modes.stiffness_from_grey`). None: all 1, exactly as before.
+    mix : (n, 3) float, optional
+        Rigid / similar / affine weights of each cell (:func:`puppet.deform.modes.mode_mix`).
+        None: rigid everywhere (the plain ARAP loop).
+    couple : tuple ((p, 2) int, (p,) float), optional
+        Springs ``kappa |u_a - u_b|^2`` between vertices at the same rest point (links of
+        strength below 1): extra edges of rest length 0, so they enter ``L`` only.
 
     Returns
     -------
@@ -243,8 +265,13 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         raise ValueError(f"solver must be one of {factor.SOLVERS}, got {solver!r}")
     V, F, b = check_mesh(V, F, b)
     W = _edge_weights(V, F, weights)
+    if couple is not None and len(couple[0]):  # springs: edges of rest length 0
+        W = (W + spring_weights(len(V), *couple)).tocsr()
+        W.sort_indices()
     P = _Pattern(W)
-    L = P.matrix(P.data(-W.data, np.bincount(P.wrows, weights=W.data, minlength=len(V))))
+    k = None if stiffness is None else np.asarray(stiffness, np.float64).reshape(len(V))
+    wl = W.data if k is None else W.data * 0.5 * (k[P.wrows] + k[W.indices])
+    L = P.matrix(P.data(-wl, np.bincount(P.wrows, weights=wl, minlength=len(V))))
     free, held, fmap, bmap = _free_vertices(W, b)
     nf = len(free)
     A = P.block(L.data, fmap, fmap, (nf, nf))
@@ -255,6 +282,14 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
         if nf:  # symmetric: its csr arrays are its csc arrays
             worker.submit(sp.csc_matrix((A.data, A.indices, A.indptr), shape=A.shape))
         data = _arap_data(V, F, b, weights, alpha, W, P, L, free, held, fmap, bmap)
+        if k is not None:
+            data.k = k
+            data.R = (data.R @ sp.diags(k)).tocsr()
+        if mix is not None:
+            from puppet.deform.modes import mode_operators
+
+            data.mix = np.asarray(mix, np.float64).reshape(len(V), 3)
+            data.modes = mode_operators(data, P, fmap, bmap)
         data.factor = worker.result() if nf else None  # built meanwhile
     finally:
         worker.close()
@@ -289,7 +324,8 @@ def _arap_data(V, F, b, weights, alpha, W, P, L, free, held, fmap, bmap) -> Arap
         + 1j * np.bincount(P.wrows, weights=m.imag, minlength=n)
     S = P.matrix(P.data(-m, h, np.complex128))
     R = P.block(P.data(0.5 * m.conj(), 0.5 * h.conj(), np.complex128), fmap, None, (nf, n))
-    length = sp.csr_matrix((np.abs(e), W.indices, W.indptr), shape=(n, n))
+    # springs join points at the same place: a tiny length keeps them edges of the graph
+    length = sp.csr_matrix((np.maximum(np.abs(e), 1e-9), W.indices, W.indptr), shape=(n, n))
     D = csgraph.dijkstra(length, directed=True, indices=b).reshape(k, n) if k else np.zeros((0, n))
     return ArapData(
         V=V, F=F, b=b, weights=weights, alpha=float(alpha), W=W, L=L, free=free, held=held,
@@ -336,9 +372,24 @@ def _check_bc(data: ArapData, bc) -> np.ndarray:
     return bc
 
 
+def _rigid_rhs(data: ArapData, xb):
+    """``rhs(x_f)`` of the global step for the best rotations of ``x_f`` (pins at ``xb``)."""
+    q0 = data.S0 + data.S_b @ xb  # pinned displacements are fixed
+    rb = data.L_fb @ xb
+    sigma = np.empty(data.n, dtype=np.complex128)
+
+    def rhs_of(xf):
+        q = data.S_f @ xf
+        q += q0
+        rhs = data.R @ _rotation_minus_one(q, sigma)
+        rhs -= rb
+        return rhs
+    return rhs_of
+
+
 @blas_capped
 def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
-               callback: Callable[[int, np.ndarray], None] | None = None) -> np.ndarray:
+               callback: Callable[[int, np.ndarray], None] | None = None, held=None, scale=None) -> np.ndarray:
     """Deform the mesh so that the pins reach their targets, as rigidly as possible.
 
     Parameters
@@ -355,6 +406,12 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
         the result depends only on ``bc`` (trajectory invariance).
     callback : callable, optional
         ``callback(iteration, U)`` after each iteration with a copy of the iterate.
+    held : tuple ((h,) int, (h,) complex), optional
+        Cells whose map is held at a rotation (unit complex numbers) instead of fitted;
+        only with ``data.mix`` (the rigid loop holds cells in :mod:`puppet.deform.rotate`).
+    scale : (lo, hi), optional
+        Bounds of the scale of the cells in mode ``similar`` (their fit is the best
+        similarity whose scale lies in [lo, hi]); None: unbounded.
 
     Returns
     -------
@@ -382,17 +439,17 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
     nf = len(free)
     xf = (U[free, 0] - V[free, 0]) + 1j * (U[free, 1] - V[free, 1])
     xb = (bc[:, 0] - V[b, 0]) + 1j * (bc[:, 1] - V[b, 1])
-    q0 = data.S0 + data.S_b @ xb  # pinned displacements are fixed
-    rb = data.L_fb @ xb
-    sigma = np.empty(data.n, dtype=np.complex128)
+    rhs_of = _rigid_rhs(data, xb)
+    if data.mix is not None:  # other modes (puppet.deform.modes): another local step
+        from puppet.deform.modes import mode_rhs
+
+        rhs_of = mode_rhs(data, xb, held, scale)
+    elif held is not None:
+        raise ValueError("held cells need data.mix (see puppet.deform.rotate for rigid ARAP)")
     solve, close = factor.pair_solver(data.factor, nf, int(iterations))
     try:
         for it in range(int(iterations)):
-            q = data.S_f @ xf
-            q += q0
-            rhs = data.R @ _rotation_minus_one(q, sigma)
-            rhs -= rb
-            x_new = solve(rhs)
+            x_new = solve(rhs_of(xf))
             if not np.isfinite(x_new).all():  # a breakdown (e.g. indefinite raw weights):
                 break  # keep the last finite iterate
             xf = x_new

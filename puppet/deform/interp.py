@@ -147,13 +147,17 @@ class InterpData:
     parts: list[np.ndarray]  # vertices of each connected part with no fixed vertex
 
 
-def interp_precompute(V, F, fixed=(), *, solver: str = "qdldl") -> InterpData:
+def interp_precompute(V, F, fixed=(), *, solver: str = "qdldl", couple=None) -> InterpData:
     """Gradient operator and the factorised Poisson system of a rest mesh.
 
     Parameters
     ----------
     V : (n, 2) float rest vertices; F : (m, 3) int triangles.
     fixed : (f,) int vertices that stay put between the two keys.
+    couple : ((p, 2) int, (p,) float), optional
+        Springs ``kappa |u_a - u_b|^2`` between vertices at one rest point (links of
+        strength below 1, as in ARAP): added to the Poisson system, so the parts they tie
+        stay tied between the keys and count as one component.
     """
     V, F = check_mesh(V, F)
     n, m = len(V), len(F)
@@ -170,7 +174,11 @@ def interp_precompute(V, F, fixed=(), *, solver: str = "qdldl") -> InterpData:
     GTW = (G.T @ sp.diags(np.repeat(area, 2))).tocsr()
     K = (GTW @ G).tocsr()
     fixed = np.unique(np.asarray(fixed, dtype=np.int64).reshape(-1))
-    ncomp, label = connected_components(n, F)
+    if couple is not None and len(couple[0]):
+        K, label = _with_springs(K, F, *couple)
+        ncomp = int(label.max()) + 1
+    else:
+        ncomp, label = connected_components(n, F)
     has_fixed = np.zeros(ncomp, bool)
     has_fixed[label[fixed]] = True
     parts = [np.flatnonzero(label == c) for c in range(ncomp) if not has_fixed[c]]
@@ -180,6 +188,19 @@ def interp_precompute(V, F, fixed=(), *, solver: str = "qdldl") -> InterpData:
     return InterpData(V=V, F=F, G=G, GTW=GTW, fixed=fixed, held=held, free=free,
                       K_fh=K[free][:, held].tocsr(), factor=factorize(Kf, solver) if len(free) else None,
                       parts=parts)
+
+
+def _with_springs(K, F, pairs, kappa):
+    """K plus the springs' Laplacian, and the components of the mesh joined by them."""
+    from scipy.sparse.csgraph import connected_components as graph_components
+
+    from puppet.geom.laplacian import laplacian_from_weights, spring_weights
+
+    n = K.shape[0]
+    S = spring_weights(n, pairs, kappa)
+    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]], np.asarray(pairs, np.int64).reshape(-1, 2)])
+    graph = sp.csr_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    return (K + laplacian_from_weights(S)).tocsr(), graph_components(graph, directed=False)[1]
 
 
 @dataclass

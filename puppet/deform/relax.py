@@ -187,7 +187,9 @@ def relax_foldovers(data: ArapData, U, bc, *, rings: int = 1, s_min: float = 0.5
     bad = folded_triangles(V, best, F)  # of the given pose, pins on bc: not charged
     meter.calibrate((cost.clock() - t0) / cost.CHECK)
     start, stage = best, "given"
-    if data.factor is not None and rounds > 0 and len(bad):
+    # stage 1 makes the cells around the folds similarities and every other cell rigid: only
+    # for rigid ARAP (a mesh solved in another mode goes straight to the untangling)
+    if data.factor is not None and rounds > 0 and len(bad) and getattr(data, "mix", None) is None:
         X, left = _similarity_rounds(data, best, bc, bad, rings, s_min, s_max, iterations, rounds, meter)
         if len(left) < len(bad):
             best, bad, stage = X, left, "similarity"

@@ -20,6 +20,7 @@ __all__ = [
     "laplacian_from_weights",
     "cotangent_laplacian",
     "uniform_laplacian",
+    "spring_weights",
 ]
 
 
@@ -134,3 +135,13 @@ def cotangent_laplacian(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
 def uniform_laplacian(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
     """Graph (umbrella) Laplacian ``L = D - A``, csr (n, n), positive semi-definite."""
     return laplacian_from_weights(uniform_weights(V, F))
+
+
+def spring_weights(n: int, pairs, kappa) -> sp.csr_matrix:
+    """Symmetric weights (n, n) csr: ``kappa`` at each of ``pairs`` (p, 2) int and its
+    mirror (springs between vertices, e.g. the two sides of a loose link)."""
+    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+    kappa = np.broadcast_to(np.asarray(kappa, np.float64), (len(pairs),))
+    r = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    c = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    return sp.csr_matrix((np.concatenate([kappa, kappa]), (r, c)), shape=(n, n))

@@ -63,6 +63,10 @@ class Group:
     mesh: GroupMesh
     pins: list[int] = field(default_factory=list)  # indices into scene pins (interior pins)
     b: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # group vertex per pin
+    couple: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))  # spring vertex pairs
+    kappa: np.ndarray = field(default_factory=lambda: np.zeros(0))  # their weights (links of strength < 1)
+    hinges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))  # link points: vertex per side
+    pin_part: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # local layer of each pin
 
 
 def _image_and_mask(data: SceneData, L: Layer, source) -> LayerImage:
@@ -158,22 +162,33 @@ def default_max_area(mask: np.ndarray) -> float:
     return float(np.clip(mask.sum() / TARGET_TRIANGLES, 6.0, 400.0))
 
 
-def link_polylines(data: SceneData, areas: list[float]) -> list[list[tuple[int, int, np.ndarray]]]:
-    """Per layer, its link segments as (link index, segment index, (p, 2) points), each
-    subdivided once with the finer spacing of its two layers (so both meshes share them)."""
+def link_polylines(data: SceneData, areas: list[float], parts=None) -> list[list[tuple[int, str, np.ndarray]]]:
+    """Per layer, its link parts as (link index, JSON path, (p, 2) points): each segment
+    (clipped, polygon edges included; ``parts`` from :func:`puppet.scene.links.link_parts`,
+    the links' own segments when None) subdivided once with the finer spacing of its two
+    layers (so both meshes share them), each hinge point as a (1, 2) array."""
     index = {L.name: L.index for L in data.layers}
-    polylines: list[list[tuple[int, int, np.ndarray]]] = [[] for _ in data.layers]
-    for li, link in enumerate(data.links):
+    if parts is None:
+        from puppet.scene.links import LinkParts
+
+        parts = LinkParts(segments=[(li, f"links[{li}].segments[{si}]", s) for li, link in enumerate(data.links)
+                                    for si, s in enumerate(link.segments)])
+    polylines: list[list[tuple[int, str, np.ndarray]]] = [[] for _ in data.layers]
+    for li, path, seg in parts.segments:
+        link = data.links[li]
         a, b = index[link.layers[0]], index[link.layers[1]]
         h = min(edge_length_for_area(areas[a]), edge_length_for_area(areas[b]))
-        for si, seg in enumerate(link.segments):
-            n = float(np.linalg.norm(seg[1] - seg[0])) / h  # bounded before allocating
-            if n > MAX_TRIANGLES:
-                raise SceneError(f"segment would be split into {n:,.0f} mesh edges at this density (at most "
-                                 f"{MAX_TRIANGLES:,})", file=data.file, path=f"links[{li}].segments[{si}]")
-            P = subdivide_segment(seg[0], seg[1], h)
-            polylines[a].append((li, si, P))
-            polylines[b].append((li, si, P))
+        n = float(np.linalg.norm(seg[1] - seg[0])) / h  # bounded before allocating
+        if n > MAX_TRIANGLES:
+            raise SceneError(f"segment would be split into {n:,.0f} mesh edges at this density (at most "
+                             f"{MAX_TRIANGLES:,})", file=data.file, path=path)
+        P = subdivide_segment(seg[0], seg[1], h)
+        polylines[a].append((li, path, P))
+        polylines[b].append((li, path, P))
+    for li, path, q in parts.points:
+        link = data.links[li]
+        for name in link.layers:
+            polylines[index[name]].append((li, path, np.asarray(q, np.float64).reshape(1, 2)))
     return polylines
 
 
@@ -184,9 +199,10 @@ def layer_pins(data: SceneData, k: int) -> list[tuple[int, object]]:
 
 
 def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
-               polylines: list[tuple[int, int, np.ndarray]], regions=None) -> Mesh:
+               polylines: list[tuple[int, str, np.ndarray]], regions=None) -> Mesh:
     """Triangulate layer ``k``: its mask outline (``regions``, from the mask when None),
-    its pins as vertices, its link segments as edges."""
+    its pins and link points as vertices, its link segments (already clipped to the
+    overlap, :mod:`puppet.scene.links`) as edges."""
     L = data.layers[k]
     pins = layer_pins(data, k)
     for i, p in pins:
@@ -194,17 +210,14 @@ def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
             on = f" on frame {data.video['start']}" if data.video is not None and im.from_source else ""
             raise SceneError(f"pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of layer "
                              f"{L.name!r}{on}", file=data.file, path=f"pins[{i}].at")
-    for li, si, P in polylines:
-        if not _segment_inside(im, data.links[li].segments[si]):
-            raise SceneError(f"segment leaves the mask of layer {L.name!r} "
-                             "(a link segment must lie inside both layers)",
-                             file=data.file, path=f"links[{li}].segments[{si}]")
     if regions is None:
         regions = mask_regions(im.mask, im.offset)
-    pts = np.array([p.at for _, p in pins]).reshape(-1, 2)
+    hinges = [P[0] for _, _, P in polylines if len(P) == 1]
+    pts = np.array([p.at for _, p in pins] + hinges).reshape(-1, 2)
     try:
         mesh = triangulate_regions(regions, max_area=area, min_angle=L.mesh.min_angle,
-                                   simplify=L.mesh.simplify, points=pts, segments=[P for _, _, P in polylines])
+                                   simplify=L.mesh.simplify, points=pts,
+                                   segments=[P for _, _, P in polylines if len(P) > 1])
     except MeshTooLarge as e:  # estimated before Triangle runs
         given = L.mesh.max_area is not None
         raise SceneError(str(e) if given else f"the default mesh would be too large: {e}", file=data.file,
@@ -239,30 +252,13 @@ def build_meshes(data: SceneData, images: list[LayerImage]) -> tuple[list[Mesh],
     meshes : per layer. pin_vertex : per layer, interior pin name -> vertex index.
     groups : linked groups, each with its merged mesh and pinned vertices.
     """
+    from puppet.scene.links import link_parts
+
     areas = layer_areas(data, images)
-    polylines = link_polylines(data, areas)
+    polylines = link_polylines(data, areas, link_parts(data, images))
     meshes = [mesh_layer(data, k, im, areas[k], polylines[k]) for k, im in enumerate(images)]
     pin_vertex = [pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
     return meshes, pin_vertex, build_groups(data, meshes, pin_vertex, polylines)
-
-
-def _segment_inside(im: LayerImage, seg: np.ndarray) -> bool:
-    """All points of the segment (sampled every 0.25 px) on mask pixels, with 1 px tolerance."""
-    import cv2
-
-    h, w = im.mask.shape
-    E = np.asarray(seg, np.float64) - np.asarray(im.offset)
-    if not ((E >= -1).all() and (E[:, 0] <= w + 1).all() and (E[:, 1] <= h + 1).all()):
-        return False  # an end off the image: never sample a long segment
-    grown = cv2.dilate(im.mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    n = max(2, int(np.ceil(np.linalg.norm(seg[1] - seg[0]) / 0.25)) + 1)
-    t = np.linspace(0.0, 1.0, n)[:, None]
-    P = seg[0] + t * (seg[1] - seg[0]) - np.asarray(im.offset)
-    j = np.floor(P[:, 0]).astype(int)
-    i = np.floor(P[:, 1]).astype(int)
-    h, w = grown.shape
-    ok = (i >= 0) & (i < h) & (j >= 0) & (j < w)
-    return bool(ok.all() and grown[i, j].all())
 
 
 def _vertex_at(V: np.ndarray, xy, tol: float = 1e-7):
@@ -283,22 +279,33 @@ def build_groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
     for g in range(lab.max() + 1):
         members = [k for k in range(n) if lab[k] == g]
         local = {k: i for i, k in enumerate(members)}
-        shared = []
+        shared, springs = [], []
         for li, link in enumerate(data.links):
             a, b = index[link.layers[0]], index[link.layers[1]]
             if a not in local:
                 continue
-            for (l2, si, P) in polylines[a]:
+            for (l2, path, P) in polylines[a]:
                 if l2 != li:
                     continue
                 for q in P:
                     va, vb = _vertex_at(meshes[a].V, q), _vertex_at(meshes[b].V, q)
                     if va is None or vb is None:
-                        raise SceneError("link segment could not be meshed in both layers (is it too close "
-                                         "to an edge?)", file=data.file, path=f"links[{li}].segments[{si}]")
-                    shared.append((local[a], va, local[b], vb))
-        gm = merge_meshes([(meshes[k].V, meshes[k].F) for k in members], shared)
+                        raise SceneError("link could not be meshed in both layers (is it too close "
+                                         "to an edge?)", file=data.file, path=path)
+                    (shared if link.strength >= 1.0 else springs).append((local[a], va, local[b], vb, li, len(P) == 1))
+        gm = merge_meshes([(meshes[k].V, meshes[k].F) for k in members], [s[:4] for s in shared])
         grp = Group(layers=members, mesh=gm)
+        merged = np.unique(np.array([int(gm.maps[la][va]) for la, va, lb, vb, li, one in shared if one], np.int64))
+        split = [(int(gm.maps[la][va]), int(gm.maps[lb][vb])) for la, va, lb, vb, li, one in springs if one]
+        grp.hinges = np.array([(v, v) for v in merged] + split, np.int64).reshape(-1, 2)
+        if springs:
+            from puppet.scene.links import coupling
+
+            pairs = {(int(gm.maps[la][va]), int(gm.maps[lb][vb])): coupling(data.links[li].strength)
+                     for la, va, lb, vb, li, _ in springs}
+            pairs = {ab: w for ab, w in pairs.items() if ab[0] != ab[1] and w > 0}
+            grp.couple = np.array(list(pairs), np.int64).reshape(-1, 2)
+            grp.kappa = np.array(list(pairs.values()), np.float64)
         seen = {}
         for i, p in enumerate(data.pins):
             if p.kind != "interior" or index[p.layer] not in local:
@@ -312,5 +319,6 @@ def build_groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
         grp.b = np.array([int(gm.maps[local[index[data.pins[i].layer]]][pin_vertex[index[data.pins[i].layer]]
                                                                           [data.pins[i].name]])
                           for i in grp.pins], np.int64)
+        grp.pin_part = np.array([local[index[data.pins[i].layer]] for i in grp.pins], np.int64)
         groups.append(grp)
     return groups

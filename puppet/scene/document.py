@@ -55,6 +55,8 @@ def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
                 L["image"] = fn(L["image"])
             if isinstance(L.get("mask"), dict) and isinstance(L["mask"].get("file"), str):
                 L["mask"] = dict(L["mask"], file=fn(L["mask"]["file"]))
+            if isinstance(L.get("stiffness"), dict) and isinstance(L["stiffness"].get("file"), str):
+                L["stiffness"] = dict(L["stiffness"], file=fn(L["stiffness"]["file"]))
         layers.append(L)
     doc["layers"] = layers
     return doc
@@ -314,11 +316,15 @@ class Document(Edits, KeyEdits):
                     if d.animation else "")]
         for k, (L, m) in enumerate(zip(d.layers, built.meshes)):
             gi = next(i for i, g in enumerate(built.groups) if k in g.layers)
+            extra = "".join([f", mode {L.mode or d.deformer.mode}" if (L.mode or d.deformer.mode) != "rigid" else "",
+                             ", painted stiffness" if L.stiffness else ""])
             lines.append(f"  layer {L.name!r}: order {built.rank[k]}, group {gi}, {len(m.V)} vertices, "
-                         f"{len(m.F)} triangles")
+                         f"{len(m.F)} triangles{extra}")
         for gi, g in enumerate(built.groups):
+            extra = "".join([f", {len(g.hinges)} hinge(s)" if len(g.hinges) else "",
+                             f", {len(g.couple)} spring(s)" if len(g.couple) else ""])
             lines.append(f"  group {gi}: {len(g.layers)} layer(s), {len(g.mesh.V)} vertices, "
-                         f"{len(g.mesh.F)} triangles, {len(g.pins)} pin(s)")
+                         f"{len(g.mesh.F)} triangles, {len(g.pins)} pin(s){extra}")
         lines += [f"  note: {n}" for n in self.not_applied()]
         return "\n".join(lines)
 
@@ -330,7 +336,12 @@ class Document(Edits, KeyEdits):
             notes.append(f"pin angles are applied by the 'arap' method only, not by {d.deformer.method!r}")
         if d.bones and d.deformer.method != "mls-skeleton":
             notes.append("bones are used by the 'mls-skeleton' method only")
-        return notes
+        if d.deformer.method != "arap" and (any(L.stiffness for L in d.layers) or any(p.kind == "starch" for p in d.pins)):
+            notes.append(f"stiffness and starch pins are applied by the 'arap' method only, not by {d.deformer.method!r}")
+        if d.deformer.method not in ("arap", "mls") and any(k.strength < 1 for k in d.links):
+            notes.append(f"link strength below 1 is applied by 'arap' and 'mls' only; {d.deformer.method!r} leaves "
+                         "such links untied")
+        return notes + list(self.built.notes)
 
     # -- files -------------------------------------------------------------------
     def to_json(self, folder: str) -> dict:

@@ -66,7 +66,8 @@ def rigid_group(rig: Rig, built: Built, gi: int, UA: np.ndarray, UB: np.ndarray,
         moved = np.linalg.norm(UA[g.b] - UB[g.b], axis=1) if len(g.b) else np.zeros(0)
         fixed = np.asarray(g.b, np.int64)[moved <= STILL]
         data = rig.memo.get("inbetween", fingerprint("interp", built.pre_keys[gi], fixed),
-                            lambda: interp_precompute(g.mesh.V, g.mesh.F, fixed))
+                            lambda: interp_precompute(g.mesh.V, g.mesh.F, fixed,
+                                                      couple=(g.couple, g.kappa) if len(g.couple) else None))
         pair = rig.memo.get("keypair", fingerprint(built.pre_keys[gi], UA, UB), lambda: interp_pair(data, UA, UB))
         U = interp_solve(data, pair, u, anchors=g.b)
         if built.data.deformer.relax_foldovers and pre.arap is not None and len(g.b):

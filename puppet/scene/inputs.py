@@ -31,6 +31,8 @@ def input_files(data: SceneData, *, scene_file: bool = True) -> list[tuple[str, 
         mask = layer.mask
         if mask is not None and getattr(mask, "file", None):
             out.append((mask.file, f"layers[{i}].mask.file"))
+        if getattr(layer, "stiffness", None):
+            out.append((layer.stiffness, f"layers[{i}].stiffness.file"))
     underlay = _underlay(data)
     if underlay:
         out.append((underlay, "app.underlay.image"))

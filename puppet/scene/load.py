@@ -103,6 +103,8 @@ def parse_scene(raw, file: str) -> m.SceneData:
         bones.append((a, z))
 
     deformer = _deformer(c, raw.get("deformer", {}), "deformer")
+    starch = frozenset(p.name for p in pins if p.kind == "starch")
+    _check_modes(c, deformer, layers)
     poses = {}
     pv = expect_object(c, raw.get("poses", {}), "poses", optional=raw.get("poses", {}).keys()
                        if isinstance(raw.get("poses", {}), dict) else ())
@@ -112,12 +114,12 @@ def parse_scene(raw, file: str) -> m.SceneData:
             raise c.fail(p, "the pose name 'rest' is reserved (every pin at its 'at')")
         if not name.strip():
             raise c.fail(p, "a pose needs a non-empty name")
-        poses[name] = _pose(c, pose, p, pin_names, layers, names)
+        poses[name] = _pose(c, pose, p, pin_names, layers, names, starch)
 
     animation = None
     if "animation" in raw:
         animation = parse_animation(c, raw["animation"], "animation", poses,
-                                    lambda v, q: _pose(c, v, q, pin_names, layers, names))
+                                    lambda v, q: _pose(c, v, q, pin_names, layers, names, starch))
     if "app" in raw:  # app-only settings (a compatible extension; render ignores them)
         parse_app(c, raw["app"], "app", file_path)
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
@@ -127,7 +129,8 @@ def parse_scene(raw, file: str) -> m.SceneData:
 
 def _layer(c, v, p, index, file_path, source) -> m.Layer:
     expect_object(c, v, p, required=("name",),
-                  optional=("name", "image", "offset", "mask", "order", "inpaint", "mesh", "exterior"))
+                  optional=("name", "image", "offset", "mask", "order", "inpaint", "mesh", "exterior",
+                            "deformer", "stiffness"))
     name = expect_string(c, v["name"], join(p, "name"))
     image = file_path(v["image"], join(p, "image")) if "image" in v else None
     if image is None and source is None:
@@ -153,8 +156,18 @@ def _layer(c, v, p, index, file_path, source) -> m.Layer:
         auto = expect_bool(c, eo.get("auto", True), join(ep, "auto"))
         beta = expect_number(c, eo.get("beta", 1.0), join(ep, "beta"), lo=0, lo_open=True, hi=1000)
         exterior = m.Exterior(auto=auto, beta=beta) if auto else None
+    mode = None
+    if "deformer" in v:  # a layer overrides the scene's mode (its cells' energy)
+        dp = join(p, "deformer")
+        do = expect_object(c, v["deformer"], dp, optional=("mode",))
+        mode = expect_string(c, do["mode"], join(dp, "mode"), choices=m.MODES) if "mode" in do else None
+    stiffness = None
+    if "stiffness" in v:
+        sp_ = join(p, "stiffness")
+        so = expect_object(c, v["stiffness"], sp_, required=("file",))
+        stiffness = file_path(so["file"], join(sp_, "file"))
     return m.Layer(name=name, image=image, offset=offset, mask=mask, order=order, inpaint=inpaint,
-                   mesh=mesh, exterior=exterior, index=index)
+                   mesh=mesh, exterior=exterior, index=index, mode=mode, stiffness=stiffness)
 
 
 def _mask(c, v, p, file_path, offset=(0.0, 0.0)) -> m.Mask:
@@ -198,7 +211,9 @@ def _mask(c, v, p, file_path, offset=(0.0, 0.0)) -> m.Mask:
 
 
 def _link(c, v, p, names) -> m.Link:
-    expect_object(c, v, p, required=("layers", "segments"))
+    expect_object(c, v, p, required=("layers",), optional=("layers", "segments", "points", "polygons", "strength"))
+    if not any(k in v for k in ("segments", "points", "polygons")):
+        raise c.fail(join(p, "segments"), "required key is missing (a link needs at least one of segments, points, polygons)")
     lp = join(p, "layers")
     expect_list(c, v["layers"], lp, length=2)
     a, b = (expect_string(c, v["layers"][k], join(lp, k)) for k in range(2))
@@ -209,30 +224,66 @@ def _link(c, v, p, names) -> m.Link:
         raise c.fail(lp, "a link joins two different layers")
     sp = join(p, "segments")
     segs = []
-    for i, s in enumerate(expect_list(c, v["segments"], sp, min_len=1)):
+    for i, s in enumerate(expect_list(c, v["segments"], sp, min_len=1) if "segments" in v else []):
         q = join(sp, i)
         expect_list(c, s, q, length=2)
         S = np.array([expect_point(c, s[k], join(q, k)) for k in range(2)])
         if np.linalg.norm(S[1] - S[0]) < 1e-6:
             raise c.fail(q, "segment has zero length")
         segs.append(S)
-    return m.Link(layers=(a, b), segments=segs)
+    pp = join(p, "points")
+    points = [np.array(expect_point(c, q, join(pp, i)))
+              for i, q in enumerate(expect_list(c, v["points"], pp, min_len=1, max_len=1000) if "points" in v else [])]
+    gp = join(p, "polygons")
+    polys = []
+    for i, q in enumerate(expect_list(c, v["polygons"], gp, min_len=1, max_len=100) if "polygons" in v else []):
+        qp = join(gp, i)
+        P = np.array([expect_point(c, x, join(qp, j)) for j, x in enumerate(expect_list(c, q, qp, min_len=3,
+                                                                                          max_len=1000))])
+        if abs(_ring_area(P)) < 1e-6:
+            raise c.fail(qp, "polygon encloses no area")
+        polys.append(P)
+    strength = expect_number(c, v.get("strength", 1.0), join(p, "strength"), lo=0, hi=1)
+    return m.Link(layers=(a, b), segments=segs, points=points, polygons=polys, strength=strength)
+
+
+def _check_modes(c, d: m.Deformer, layers) -> None:
+    """Modes other than rigid are ARAP cell energies: other methods refuse them."""
+    if d.method == "arap":
+        return
+    if d.mode != "rigid":
+        raise c.fail("deformer.mode", f"mode {d.mode!r} needs method 'arap' (the method is {d.method!r})")
+    for L in layers:
+        if L.mode not in (None, "rigid"):
+            raise c.fail(f"layers[{L.index}].deformer.mode",
+                         f"mode {L.mode!r} needs deformer.method 'arap' (the method is {d.method!r})")
+
+
+def _ring_area(P) -> float:
+    x, y = P[:, 0], P[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
 def _pin(c, v, p, names) -> m.Pin:
-    expect_object(c, v, p, required=("name", "layer", "at"), optional=("name", "layer", "at", "depth", "kind"))
+    expect_object(c, v, p, required=("name", "layer", "at"),
+                  optional=("name", "layer", "at", "depth", "kind", "radius"))
     name = expect_string(c, v["name"], join(p, "name"))
     layer = expect_string(c, v["layer"], join(p, "layer"))
     if layer not in names:
         raise c.fail(join(p, "layer"), f"no layer named {short(layer)}")
     at = np.array(expect_point(c, v["at"], join(p, "at")))
     depth = expect_number(c, v.get("depth", 0.0), join(p, "depth"), lo=-1e4, hi=1e4)
-    kind = expect_string(c, v.get("kind", "interior"), join(p, "kind"), choices=("interior", "exterior"))
-    return m.Pin(name=name, layer=layer, at=at, depth=depth, kind=kind)
+    kind = expect_string(c, v.get("kind", "interior"), join(p, "kind"), choices=m.PIN_KINDS)
+    radius = None
+    if "radius" in v:
+        if kind != "starch":
+            raise c.fail(join(p, "radius"), "only a starch pin (\"kind\": \"starch\") has a radius")
+        radius = expect_number(c, v["radius"], join(p, "radius"), lo=0, lo_open=True, hi=1e4)
+    return m.Pin(name=name, layer=layer, at=at, depth=depth, kind=kind, radius=radius)
 
 
 def _deformer(c, v, p) -> m.Deformer:
-    expect_object(c, v, p, optional=("method", "weights", "init", "iterations", "alpha", "relax_foldovers"))
+    expect_object(c, v, p, optional=("method", "weights", "init", "iterations", "alpha", "relax_foldovers", "mode"))
     d = m.Deformer()
     d.method = expect_string(c, v.get("method", d.method), join(p, "method"), choices=m.METHODS)
     d.weights = expect_string(c, v.get("weights", d.weights), join(p, "weights"), choices=m.WEIGHTS)
@@ -241,10 +292,11 @@ def _deformer(c, v, p) -> m.Deformer:
                                  integer=True)
     d.alpha = expect_number(c, v.get("alpha", d.alpha), join(p, "alpha"), lo=0, lo_open=True, hi=20)
     d.relax_foldovers = expect_bool(c, v.get("relax_foldovers", True), join(p, "relax_foldovers"))
+    d.mode = expect_string(c, v.get("mode", d.mode), join(p, "mode"), choices=m.MODES)
     return d
 
 
-def _pose(c, v, p, pin_names, layers, names) -> dict[str, m.Target]:
+def _pose(c, v, p, pin_names, layers, names, starch=frozenset()) -> dict[str, m.Target]:
     expect_object(c, v, p, optional=v.keys() if isinstance(v, dict) else ())
     out = {}
     for pin, t in v.items():
@@ -253,6 +305,9 @@ def _pose(c, v, p, pin_names, layers, names) -> dict[str, m.Target]:
         auto_ext = mt and mt.group("layer") in names and layers[names[mt.group("layer")]].exterior
         if pin not in pin_names and not auto_ext:
             raise c.fail(q, f"no pin named {short(pin)}")
+        if pin in starch:
+            raise c.fail(q, f"{short(pin)} is a starch pin: it stiffens the shape around it and holds no "
+                            "position, so a pose cannot move it")
         if isinstance(t, list):
             out[pin] = m.Target(to=np.array(expect_point(c, t, q)))
             continue

@@ -10,6 +10,8 @@ INPAINT_METHODS = ("none", "pyramid", "telea", "ns", "fsr")
 METHODS = ("arap", "igarashi", "mls", "mls-skeleton")
 WEIGHTS = ("cotangent", "cotangent-raw", "uniform")
 INITS = ("mls", "rest")
+MODES = ("rigid", "similar", "distort")
+PIN_KINDS = ("interior", "exterior", "starch")
 EASES = ("linear", "smooth", "step", "bezier")
 INBETWEENS = ("rigid", "linear")
 DEPTH_MODES = ("step", "interpolate")
@@ -54,12 +56,17 @@ class Layer:
     mesh: MeshOptions = field(default_factory=MeshOptions)
     exterior: Exterior | None = None
     index: int = 0  # position in the scene's list
+    mode: str | None = None  # ``deformer.mode`` of this layer (None: the scene's)
+    stiffness: str | None = None  # absolute path of the painted stiffness image
 
 
 @dataclass
 class Link:
     layers: tuple[str, str]
     segments: list[np.ndarray]  # each (2, 2): [[x0, y0], [x1, y1]]
+    points: list[np.ndarray] = field(default_factory=list)  # hinges, each (2,)
+    polygons: list[np.ndarray] = field(default_factory=list)  # shared patches, each (p, 2)
+    strength: float = 1.0  # coupling across the link, 0..1
 
 
 @dataclass
@@ -69,6 +76,7 @@ class Pin:
     at: np.ndarray  # (2,)
     depth: float = 0.0
     kind: str = "interior"
+    radius: float | None = None  # starch pins: reach of the stiffening, px
 
 
 @dataclass
@@ -79,6 +87,7 @@ class Deformer:
     iterations: int = 20
     alpha: float = 1.0
     relax_foldovers: bool = True
+    mode: str = "rigid"
 
 
 @dataclass

@@ -14,7 +14,7 @@ deformed vertices and depth per layer (:meth:`Rig.evaluate`) -> the compositor.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,11 +22,14 @@ from puppet.geom.contour import mask_regions
 from puppet.scene import build
 from puppet.scene.cache import Memo, file_stamp, fingerprint
 from puppet.scene.exterior import GroupExterior, build_exterior
+from puppet.scene.links import link_parts
+from puppet.scene.stiffness import group_cells
 from puppet.scene.model import SceneData
 from puppet.scene.solve import GroupPose, GroupPre, PinState, precompute_group, preview_group, solve_group
 
 #: how many of each kind of built part are kept (least recently used dropped first)
-CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64}
+CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
+            "cells": 16}
 
 
 @dataclass
@@ -59,6 +62,7 @@ class Built:
     exterior: list[GroupExterior]
     pre: list[GroupPre]
     pre_keys: list[str]
+    notes: list[str] = field(default_factory=list)  # for `puppet check` (clipped link segments)
 
     def group_of_pin(self, i: int) -> int | None:
         """Group of scene pin ``i`` (None for exterior pins)."""
@@ -105,18 +109,19 @@ class Rig:
             images.append(memo.get("image", key, lambda k=k, L=L: build.finish_image(
                 bases[k], build.inpaint_hole(data, bases, k, rank), L.inpaint)))
         areas = build.layer_areas(data, images)
-        polylines = build.link_polylines(data, areas)
+        parts = link_parts(data, images)
+        polylines = build.link_polylines(data, areas, parts)
         mesh_keys, meshes = [], []
         for k, L in enumerate(data.layers):
             pins = [p.at for _, p in build.layer_pins(data, k)]
-            segs = [(data.links[li].segments[si], P) for li, si, P in polylines[k]]
+            segs = [(path, P) for li, path, P in polylines[k]]
             key = fingerprint(base_keys[k], L.mesh, areas[k], pins, segs)
             mesh_keys.append(key)
             regions = memo.get("outline", base_keys[k], lambda k=k: mask_regions(images[k].mask, images[k].offset))
             meshes.append(memo.get("mesh", key, lambda k=k, regions=regions: build.mesh_layer(
                 data, k, images[k], areas[k], polylines[k], regions)))
         pin_vertex = [build.pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
-        groups_key = fingerprint(mesh_keys, [(k.layers, k.segments) for k in data.links],
+        groups_key = fingerprint(mesh_keys, [(k.layers, k.segments) + _link_extra(k) for k in data.links],
                                  [(p.name, p.layer, p.at, p.kind) for p in data.pins])
         groups = memo.get("groups", groups_key, lambda: build.build_groups(data, meshes, pin_vertex, polylines))
         group_keys = [fingerprint([mesh_keys[k] for k in g.layers], g.mesh.V.shape, g.b) for g in groups]
@@ -128,11 +133,19 @@ class Rig:
         for gi, g in enumerate(groups):
             bones = _group_bones(data, g)
             d = data.deformer
-            key = fingerprint(group_keys[gi], d.method, d.weights, d.alpha, bones if d.method == "mls-skeleton" else 0)
+            ckey = fingerprint(group_keys[gi], d.mode, [(data.layers[k].mode, data.layers[k].stiffness and file_stamp(
+                data.layers[k].stiffness)) for k in g.layers], [(p.layer, p.at, p.radius) for p in data.pins
+                                                                  if p.kind == "starch"],
+                               [(k.layers, k.polygons) for k in data.links if k.polygons])
+            cells = memo.get("cells", ckey, lambda g=g: group_cells(data, images, g, meshes))
+            key = fingerprint(group_keys[gi], d.method, d.weights, d.alpha, bones if d.method == "mls-skeleton" else 0,
+                              *_cells_key(d, cells, g))
             pre_keys.append(key)
-            pre.append(memo.get("precompute", key, lambda g=g, bones=bones: precompute_group(g, d, bones)))
+            pre.append(memo.get("precompute", key, lambda g=g, bones=bones, cells=cells: precompute_group(
+                g, d, bones, cells)))
         return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
-                     pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys)
+                     pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
+                     notes=parts.notes)
 
     # -- posing ------------------------------------------------------------------
     def solve(self, built: Built, gi: int, state: PinState):
@@ -164,6 +177,21 @@ class Rig:
                                      triangles=built.meshes[k].F, depth=r + depth[idx],
                                      pins=dict(built.pin_vertex[k]), exterior=exterior, key=built.image_keys[k])
         return out
+
+
+def _link_extra(link) -> tuple:
+    """The parts of a link besides its segments, () for a plain v1 link (same keys as before)."""
+    if not link.points and not link.polygons and link.strength == 1.0:
+        return ()
+    return (link.points, link.polygons, link.strength)
+
+
+def _cells_key(d, cells, g) -> tuple:
+    """What of the cells' settings enters a group's precomputation, () when nothing does."""
+    grey, modes = cells
+    if grey is None and all(m == "rigid" for m in modes) and not len(g.couple):
+        return ()
+    return (grey, modes if d.method == "arap" else None, g.couple, g.kappa)
 
 
 def _group_bones(data: SceneData, g: build.Group) -> np.ndarray:

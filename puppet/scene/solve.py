@@ -16,7 +16,10 @@ from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
+from puppet.deform.hinge import hinge_guess
 from puppet.deform.mls import mls_object_space
+from puppet.deform.modes import (SCALE_SPAN, apply_similarity, mode_mix, mode_solve_rotated, similarity_fit,
+                                 stiffness_from_grey)
 from puppet.deform.relax import relax_foldovers
 from puppet.deform.rotate import arap_solve_rotated
 from puppet.deform.skeleton import skeleton_precompute, skeleton_solve
@@ -57,16 +60,28 @@ class GroupPre:
 
     D: np.ndarray  # (k, n) geodesic distances from the group's pins
     arap: object = None
+    prefit: bool = False  # every cell 'similar': start from the pins' best similarity
+    DH: np.ndarray | None = None  # (h, 2, n) geodesic distances from both sides of the group's hinges
     igarashi: object = None
     skeleton: object = None
 
 
-def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray) -> GroupPre:
-    """Factorisations and weights of one group (``bones``: (nb, 2) indices into the group's pins)."""
+def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None) -> GroupPre:
+    """Factorisations and weights of one group (``bones``: (nb, 2) indices into the group's
+    pins; ``cells``: (grey (n,) or None, mode per vertex) from :mod:`puppet.scene.stiffness`)."""
     V, F, b = g.mesh.V, g.mesh.F, g.b
     if deformer.method in ("arap", "mls"):
-        a = arap_precompute(V, F, b, weights=deformer.weights, alpha=deformer.alpha)
-        return GroupPre(D=a.D, arap=a)
+        grey, modes = cells if cells is not None else (None, [deformer.mode] * len(V))
+        stiff = None if grey is None else stiffness_from_grey(grey)
+        mix = None
+        if deformer.method == "arap" and any(m != "rigid" for m in modes):
+            mix = mode_mix(modes, None if grey is None else grey / 255.0)
+        couple = (g.couple, g.kappa) if len(g.couple) else None
+        a = arap_precompute(V, F, b, weights=deformer.weights, alpha=deformer.alpha,
+                            stiffness=stiff if deformer.method == "arap" else None, mix=mix, couple=couple)
+        H = g.hinges.reshape(-1)
+        DH = geodesic_distances(V, F, H).reshape(-1, 2, len(V)) if len(H) else None
+        return GroupPre(D=a.D, arap=a, prefit=mix is not None and all(m == "similar" for m in modes), DH=DH)
     if deformer.method == "igarashi":
         return GroupPre(D=geodesic_distances(V, F, b), igarashi=igarashi_precompute(V, F, b))
     sk = skeleton_precompute(V, F, b, bones)
@@ -80,10 +95,14 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     if len(g.pins) == 0:
         U = V.copy()
     elif deformer.method == "arap":
-        if np.any(pose.angle != 0):
+        if np.any(pose.angle != 0) and pre.arap.mix is not None:
+            U = mode_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations,
+                                   scale=scale_bounds(pre, g, bc))
+        elif np.any(pose.angle != 0):
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
-            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=None if deformer.init == "mls" else V)
+            U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else V
+            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
     elif deformer.method == "mls":
@@ -96,6 +115,35 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     return _finish(pre, g, deformer, ext, pose, U)
 
 
+def scale_bounds(pre: GroupPre, g: Group, bc) -> tuple[float, float] | None:
+    """Scale bounds of the group's ``similar`` cells in this pose: within a factor
+    :data:`~puppet.deform.modes.SCALE_SPAN` of the scale of the pins' least-squares
+    similarity, so a part shrinks or grows evenly with the pins, never balloons between
+    them (unbounded similarity cells are conformal maps, which blow up or pinch near
+    point handles). None without similar cells."""
+    a = pre.arap
+    if a is None or a.mix is None or not len(a.modes.similar):
+        return None
+    s = abs(similarity_fit(g.mesh.V[g.b], bc)[0])
+    return s / SCALE_SPAN, s * SCALE_SPAN
+
+
+def initial_guess(pre: GroupPre, g: Group, bc, alpha: float) -> np.ndarray | None:
+    """The MLS initial guess, or None for :func:`arap_solve`'s own (the plain one).
+
+    In mode ``similar`` (garment fitting) the rest mesh is first moved by the
+    least-squares similarity of its pins (scale, rotation, shift); a group with hinges
+    (link points) is guessed part by part (:func:`puppet.deform.hinge.hinge_guess`)."""
+    if not pre.prefit and pre.DH is None:
+        return None
+    V, b = g.mesh.V, g.b
+    if pre.prefit:
+        V = apply_similarity(V, *similarity_fit(V[b], bc))
+    if pre.DH is None:
+        return mls_object_space(V, pre.D, bc, V[b], kind="rigid", alpha=alpha)
+    return hinge_guess(V, pre.D, V[b], bc, g.pin_part, g.mesh.maps, g.hinges, pre.DH, alpha=alpha)
+
+
 def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose,
                   U0: np.ndarray | None, *, iterations: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A fast approximate solve while a pin is dragged: plain ARAP warm-started from the
@@ -103,7 +151,7 @@ def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterio
     ``arap`` without angles, and the first frame, solve exactly."""
     if U0 is None or deformer.method != "arap" or len(g.pins) == 0 or np.any(pose.angle != 0):
         return solve_group(pre, g, deformer, ext, pose)
-    U = arap_solve(pre.arap, pose.bc, iterations=iterations, U0=U0)
+    U = arap_solve(pre.arap, pose.bc, iterations=iterations, U0=U0, scale=scale_bounds(pre, g, pose.bc))
     return _finish(pre, g, deformer, ext, pose, U)
 
 
