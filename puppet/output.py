@@ -25,6 +25,7 @@ import os
 import re
 import shutil
 import signal
+import stat
 import tempfile
 import threading
 from collections.abc import Callable, Iterable
@@ -121,8 +122,6 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
     if why:
         raise OutputError(path, why)
     if os.path.lexists(target):
-        import stat
-
         st = os.stat(target)
         if not stat.S_ISREG(st.st_mode):
             raise OutputError(path, "not a regular file")
@@ -152,7 +151,7 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     _check_inputs(path, target, inputs, folder=True)
     if contents and os.path.isdir(target):
         try:
-            others = sorted(n for n in os.listdir(target) if not FRAME_NAME.fullmatch(n))
+            others = sorted(n for n in os.listdir(target) if not _is_frame(target, n))
         except OSError as e:
             raise OutputError(path, _reason(e)) from None
         if others:
@@ -163,6 +162,11 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     if probe:
         _probe(path, os.path.dirname(target))
     return target
+
+
+def _is_frame(folder: str, name: str) -> bool:
+    """A frame of an earlier run: a regular file (not a folder, not a link) named ``frame_N.png``."""
+    return bool(FRAME_NAME.fullmatch(name)) and stat.S_ISREG(os.lstat(os.path.join(folder, name)).st_mode)
 
 
 # -- temporaries ----------------------------------------------------------------------
@@ -251,20 +255,42 @@ def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()
         The output cannot be written (see :func:`check_file`), or writing failed with an
         operating-system error (no space left, I/O error, ...).
     """
-    target = check_file(path, inputs=inputs)
-    tmp = _temp(path, os.path.dirname(target), _make_file)
-    with _removed_on_failure(path, tmp):
-        write(tmp)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)  # a full disk may only show here (delayed allocation, NFS)
-        finally:
-            os.close(fd)
-        os.chmod(tmp, _mode(target, 0o666))
-        with _signals_blocked():
-            os.replace(tmp, target)
+    Staged(path, write, inputs=inputs).commit()
+
+
+class Staged:
+    """A file written in full beside ``path`` now, put in place by :meth:`commit` (or
+    dropped by :meth:`discard`): two outputs that must exist both or neither are each
+    staged first, then committed (a rename each).
+
+    ``path`` is checked (:func:`check_file`); ``write(tmp_path)`` fills the temporary,
+    which is flushed to disk. Failures raise :class:`OutputError` like :func:`atomic_write`
+    and leave nothing behind.
+    """
+
+    def __init__(self, path: str, write: Callable[[str], None], *, inputs: Inputs = ()):
+        self.path = path
+        self.target = check_file(path, inputs=inputs)
+        self.tmp = _temp(path, os.path.dirname(self.target), _make_file)
+        with _removed_on_failure(path, self.tmp):
+            write(self.tmp)
+            fd = os.open(self.tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)  # a full disk may only show here (delayed allocation, NFS)
+            finally:
+                os.close(fd)
+            os.chmod(self.tmp, _mode(self.target, 0o666))
+
+    def commit(self) -> None:
+        """Rename the temporary onto the output."""
+        with _removed_on_failure(self.path, self.tmp), _signals_blocked():
+            os.replace(self.tmp, self.target)
             with _lock:
-                _live.discard(tmp)
+                _live.discard(self.tmp)
+
+    def discard(self) -> None:
+        """Remove the temporary (nothing was written at the output)."""
+        _remove(self.tmp)
 
 
 @contextlib.contextmanager
