@@ -95,7 +95,7 @@ def _probe(path: str, folder: str) -> None:
     _remove(_temp(path, folder, _make_file))
 
 
-def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
+def check_file(path: str, *, inputs: Inputs = (), probe: bool = False, follow: bool = True) -> str:
     """Check that ``path`` can be written as a file, without writing anything.
 
     Parameters
@@ -103,11 +103,14 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
     path : the output as the user gave it.
     inputs : (path, description) of every file the scene reads; none may be overwritten.
     probe : also create and remove an empty temporary file beside the output.
+    follow : write through a symlink at ``path`` (an output the user named); False for
+        files puppet names itself (``SCENE-mask.png``, ``SCENE.files/...``): a symlink
+        there is refused, never followed.
 
     Returns
     -------
-    The real path that will be written (symlinks resolved: a symlink is kept and its
-    target replaced).
+    The real path that will be written (symlinks resolved: a symlink the user named is
+    kept and its target replaced).
 
     Raises
     ------
@@ -115,6 +118,8 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
         Missing or non-folder parent, read-only or unwritable folder or file, a folder or
         a non-regular file (device, pipe, /proc entry) at the path, or an input.
     """
+    if not follow and os.path.islink(path):
+        raise OutputError(path, "is a symbolic link (puppet writes through a link only when it is named as the output)")
     target = os.path.realpath(path)
     if os.path.isdir(target):
         raise OutputError(path, "is a folder")
@@ -243,10 +248,10 @@ def _failed(path: str, exc: BaseException) -> BaseException:
 
 
 # -- writing --------------------------------------------------------------------------
-def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()) -> None:
+def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = (), follow: bool = True) -> None:
     """Call ``write(tmp_path)``, flush it to disk, then rename it onto ``path``.
 
-    ``path`` is checked first (:func:`check_file`). On any failure, and on a signal,
+    ``path`` is checked first (:func:`check_file`, ``follow`` as there). On any failure, and on a signal,
     the temporary file is removed, so no partial output is ever left behind.
 
     Raises
@@ -255,7 +260,7 @@ def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()
         The output cannot be written (see :func:`check_file`), or writing failed with an
         operating-system error (no space left, I/O error, ...).
     """
-    Staged(path, write, inputs=inputs).commit()
+    Staged(path, write, inputs=inputs, follow=follow).commit()
 
 
 class Staged:
@@ -263,14 +268,15 @@ class Staged:
     dropped by :meth:`discard`): two outputs that must exist both or neither are each
     staged first, then committed (a rename each).
 
-    ``path`` is checked (:func:`check_file`); ``write(tmp_path)`` fills the temporary,
+    ``path`` is checked (:func:`check_file`, ``follow`` as there); ``write(tmp_path)`` fills the temporary,
     which is flushed to disk. Failures raise :class:`OutputError` like :func:`atomic_write`
     and leave nothing behind.
     """
 
-    def __init__(self, path: str, write: Callable[[str], None], *, inputs: Inputs = ()):
+    def __init__(self, path: str, write: Callable[[str], None], *, inputs: Inputs = (), follow: bool = True):
         self.path = path
-        self.target = check_file(path, inputs=inputs)
+        self.target = check_file(path, inputs=inputs, follow=follow)
+        self.existed = os.path.lexists(self.target)
         self.tmp = _temp(path, os.path.dirname(self.target), _make_file)
         with _removed_on_failure(path, self.tmp):
             write(self.tmp)
@@ -291,6 +297,24 @@ class Staged:
     def discard(self) -> None:
         """Remove the temporary (nothing was written at the output)."""
         _remove(self.tmp)
+
+
+def commit_all(staged: list[Staged]) -> None:
+    """Commit every staged file in turn; when one fails, the rest are discarded and the
+    ones already committed that are new (no file was there before) are removed again."""
+    done = []
+    try:
+        for s in staged:
+            s.commit()
+            done.append(s)
+    except BaseException:
+        for s in staged[len(done):]:
+            s.discard()
+        for s in done:
+            if not s.existed:
+                with contextlib.suppress(OSError):
+                    os.remove(s.target)
+        raise
 
 
 @contextlib.contextmanager
@@ -363,7 +387,7 @@ def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = ()) 
     return n
 
 
-def save_png(path: str, rgba, *, inputs: Inputs = ()) -> None:
+def save_png(path: str, rgba, *, inputs: Inputs = (), follow: bool = True) -> None:
     """Write an (h, w, 4) or (h, w, 3) uint8 array as PNG, atomically (see :func:`atomic_write`).
 
     Encoded by OpenCV's libpng with its default settings (zlib level 1, run-length
@@ -382,13 +406,13 @@ def save_png(path: str, rgba, *, inputs: Inputs = ()) -> None:
     def write(tmp: str) -> None:
         with open(tmp, "wb") as f:
             f.write(png.data)
-    atomic_write(path, write, inputs=inputs)
+    atomic_write(path, write, inputs=inputs, follow=follow)
 
 
-def write_text(path: str, text: str, *, inputs: Inputs = ()) -> None:
+def write_text(path: str, text: str, *, inputs: Inputs = (), follow: bool = True) -> None:
     """Write UTF-8 text atomically (see :func:`atomic_write`)."""
 
     def write(tmp: str) -> None:
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
-    atomic_write(path, write, inputs=inputs)
+    atomic_write(path, write, inputs=inputs, follow=follow)

@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     """Validate everything, then stream the re-posed frames to the output; 0 on success."""
     import numpy as np
 
-    from puppet.output import check_file, check_folder
+    from puppet.output import check_file, check_folder, commit_all
     from puppet.video.encode import output_kind, write_frames
 
     kind = output_kind(args.output)
@@ -103,8 +103,11 @@ def run(args: argparse.Namespace) -> int:
         for s in staged:
             s.discard()
         raise
-    for s in staged:
-        s.commit()
+    try:
+        commit_all(staged)
+    except BaseException:  # the video is in place, its tracks are not: take it back
+        _take_back(args.output, kind)
+        raise
     if plan.ended is not None:
         print(f"puppet: warning: {plan.data.file}: video {plan.data.source!r} ends at frame {plan.ended[0]} "
               f"although it declares {plan.data.video['count']} frames ({plan.ended[1]}): wrote frames "
@@ -113,6 +116,18 @@ def run(args: argparse.Namespace) -> int:
         print(f"puppet: tracking lost on {len(lost)} of {written} frames: {_ranges(lost)} "
               f"(the skeleton was held; re-place it there with --anchors)", file=sys.stderr)
     return 0
+
+
+def _take_back(path: str, kind: str) -> None:
+    import contextlib
+    import os
+    import shutil
+
+    with contextlib.suppress(OSError):
+        if kind == "dir":
+            shutil.rmtree(path)
+        else:
+            os.remove(path)
 
 
 def _stage_tracks(path: str, plan, joints: dict, conf: dict, lost: list[int], count: int, inputs):
