@@ -118,6 +118,8 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False, follow: b
         Missing or non-folder parent, read-only or unwritable folder or file, a folder or
         a non-regular file (device, pipe, /proc entry) at the path, or an input.
     """
+    if "\0" in path:
+        raise OutputError(path.replace("\0", "\\0"), "not a valid file name (it holds a NUL byte)")
     if not follow and os.path.islink(path):
         raise OutputError(path, "is a symbolic link (puppet writes through a link only when it is named as the output)")
     target = os.path.realpath(path)
@@ -145,6 +147,8 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     are replaced as a whole. Any other file in it is refused rather than deleted
     (``contents=False`` skips looking inside, for a first check before the inputs are known).
     """
+    if "\0" in path:
+        raise OutputError(path.replace("\0", "\\0"), "not a valid folder name (it holds a NUL byte)")
     target = os.path.realpath(path.rstrip("/" + os.sep) or os.sep)
     if os.path.lexists(target) and not os.path.isdir(target):
         raise OutputError(path, "exists and is not a folder")
