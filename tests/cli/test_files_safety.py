@@ -177,3 +177,20 @@ def test_app_on_a_display_without_a_server(tmp_path):
                            env=dict(env, PYTHONPATH=ROOT), cwd=ROOT)
         line = one_error_line(r)
         assert repr(display) in line
+
+
+@pytest.mark.parametrize("text, words", [('{"\u00b2": {"hand": [1, 2]}}', (": \u00b2: ", "frame number")),
+                                         ('{"' + "9" * 5000 + '": {}}', ("frame number",)),
+                                         (None, ("a.json", "no such anchors file"))])
+def test_bad_anchors_files(tmp_path, text, words):
+    from tests.video.video_helpers import write_mp4_clip
+
+    write_mp4_clip(tmp_path / "walk.mp4", n=4)
+    s = write_scene(tmp_path, video_scene("walk.mp4"))
+    if text is not None:
+        (tmp_path / "a.json").write_text(text)
+    before = snapshot(tmp_path)
+    line = one_error_line(cli("video", s, "--pose", "wave", "-o", tmp_path / "o.mp4", "--anchors", tmp_path / "a.json"))
+    for w in words:
+        assert w in line, line
+    assert snapshot(tmp_path) == before
