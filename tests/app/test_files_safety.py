@@ -31,13 +31,19 @@ def paint_red(d, x0=30, x1=60):
     d.settle()
 
 
-def test_save_after_an_autosave_writes_pixels_beside_the_scene(make_scene, tmp_path):
+def painted_and_autosaved(make_scene):
+    """The app on the bar scene with a red patch painted and autosaved at once: (driver, path)."""
     path = make_scene(bar_scene(), {"bar.png": bar_image()})
     d = Driver(path, autosave_interval=0.0)
+    paint_red(d)
+    d.frame(2)
+    d.settle()
+    return d, path
+
+
+def test_save_after_an_autosave_writes_pixels_beside_the_scene(make_scene, tmp_path):
+    d, path = painted_and_autosaved(make_scene)
     try:
-        paint_red(d)
-        d.frame(2)
-        d.settle()
         assert os.path.exists(tmp_path / "scene.autosave.json") and os.listdir(tmp_path / "scene.autosave.files")
         shown = d.scene().render()
         d.key(key.S, key.MOD_CTRL)
@@ -60,12 +66,8 @@ def test_save_after_an_autosave_writes_pixels_beside_the_scene(make_scene, tmp_p
 
 
 def test_recovered_pixels_are_saved_beside_the_scene(make_scene, tmp_path):
-    path = make_scene(bar_scene(), {"bar.png": bar_image()})
-    d = Driver(path, autosave_interval=0.0)
+    d, path = painted_and_autosaved(make_scene)
     try:
-        paint_red(d)
-        d.frame(2)
-        d.settle()
         shutil.copytree(tmp_path, tmp_path.parent / (tmp_path.name + "-crash"))  # what a crash leaves
     finally:
         d.close()
