@@ -25,7 +25,8 @@ def clip_source(data) -> FrameSource:
     return FrameSource(data.source, scene_file=data.file, json_path="source", fps=data.video["fps"])
 
 
-def prefetch(src: FrameSource, start: int, stop: int, *, ahead: int = AHEAD, partial: bool = False) -> Iterator[tuple[int, np.ndarray]]:
+def prefetch(src: FrameSource, start: int, stop: int, *, ahead: int = AHEAD,
+             partial: bool = False) -> Iterator[tuple[int, np.ndarray]]:
     """``(index, rgba)`` for frames ``start .. stop - 1``, decoded by a helper thread.
 
     An error in the decoder is raised here, at the frame where it happened (with
