@@ -113,6 +113,51 @@ def write(rel, data):
     return f
 
 
+def full_disk(rel="out/full", size="64k"):
+    """A tmpfs mounted at ``rel`` and filled to the last byte (root only; unmounted after the case)."""
+    def f(d):
+        where = os.path.join(d, rel)
+        os.makedirs(where, exist_ok=True)
+        subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", where], check=True,
+                       capture_output=True)
+        fd = os.open(os.path.join(where, "filler"), os.O_WRONLY | os.O_CREAT)
+        try:
+            while os.write(fd, b"\0" * 4096):
+                pass
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
+    return f
+
+
+def unmount_under(d: str) -> None:
+    with open("/proc/mounts") as f:
+        points = [line.split()[1] for line in f]
+    for p in sorted((p for p in points if p.startswith(d + "/")), reverse=True):
+        subprocess.run(["umount", "-l", p], capture_output=True)
+
+
+def full_disk_cases() -> list[Case]:
+    s, v, h = "{d}/in/scene.json", "{d}/in/v_walk_mp4.json", "{d}/in/horse.png"
+    f = "{d}/out/full"
+    cli = {
+        "render": ["render", s, "-o", f + "/r.png"],
+        "mesh": ["mesh", s, "-o", f + "/m.json"],
+        "animate gif": ["animate", s, "-o", f + "/a.gif"],
+        "animate frames": ["animate", s, "-o", f + "/frames/"],
+        "animate sheet": ["animate", s, "-o", f + "/sheet.png"],
+        "init": ["init", h, "-o", f + "/s.json"],
+        "video mp4": ["video", v, "--pose", "wave", "-o", f + "/o.mp4"],
+        "video tracks": ["video", v, "--pose", "wave", "-o", "{d}/out/o.mp4", "--tracks", f + "/t.json"],
+    }
+    cases = [Case(f"full disk {name}", argv, setup=[full_disk()]) for name, argv in cli.items()]
+    paint = "    s = puppet.load_scene(D + '/in/scene.json'); s.set_mask_pixels('bar', np.random.default_rng(0).random((40, 120)) > .5)\n"
+    cases.append(Case("full disk api save painted", script=SAVE.format(body=paint + "    s.save(D + '/out/full/s.json')\n"),
+                      setup=[full_disk()]))
+    return cases
+
+
 def scene_with(rel, edit):
     """A copy of in/scene.json (the bar) at ``rel`` with ``edit(doc)`` applied."""
     def f(d):
@@ -394,6 +439,7 @@ def run_case(case: Case, template: str, timeout: float) -> dict:
         after = snapshot(d)
         return judge(case, d, before, after, res)
     finally:
+        unmount_under(d)
         for dirpath, dirnames, _ in os.walk(d):
             for n in dirnames:
                 try:
@@ -430,7 +476,7 @@ def main() -> int:
     ap.add_argument("-v", action="store_true", help="print every case")
     args = ap.parse_args()
     cases = [c for c in video_cases() + animate_cases() + init_cases() + path_cases() + save_cases()
-             if args.k in c.name]
+             + full_disk_cases() if args.k in c.name]
     template = tempfile.mkdtemp(prefix="campaign-template-")
     try:
         build_template(template)
