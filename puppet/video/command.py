@@ -119,15 +119,17 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _take_back(path: str, kind: str) -> None:
+    """Remove the output just put in place (where a symlink named as ``-o`` points)."""
     import contextlib
     import os
     import shutil
 
+    real = os.path.realpath(path.rstrip("/" + os.sep) or os.sep)
     with contextlib.suppress(OSError):
         if kind == "dir":
-            shutil.rmtree(path)
+            shutil.rmtree(real)
         else:
-            os.remove(path)
+            os.remove(real)
 
 
 def _stage_tracks(path: str, plan, joints: dict, conf: dict, lost: list[int], count: int, inputs):
