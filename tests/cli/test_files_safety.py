@@ -194,3 +194,28 @@ def test_bad_anchors_files(tmp_path, text, words):
     for w in words:
         assert w in line, line
     assert snapshot(tmp_path) == before
+
+
+def test_tracks_rename_failing_takes_the_video_back(tmp_path, monkeypatch, capsys):
+    """The last step (the tracks' rename after the video's) failing leaves neither."""
+    import puppet.output
+    from puppet.cli import main
+    from puppet.output import OutputError
+    from tests.video.video_helpers import write_mp4_clip
+
+    write_mp4_clip(tmp_path / "walk.mp4", n=3)
+    s = write_scene(tmp_path, video_scene("walk.mp4"))
+    before = snapshot(tmp_path)
+
+    commit = puppet.output.Staged.commit
+
+    def fail(self):
+        if not self.path.endswith("t.json"):
+            return commit(self)
+        self.discard()
+        raise OutputError(self.path, "Input/output error")
+    monkeypatch.setattr(puppet.output.Staged, "commit", fail)
+    for out in (tmp_path / "o.webm", str(tmp_path / "f") + "/"):
+        assert main(["video", s, "--pose", "wave", "-o", str(out), "--tracks", str(tmp_path / "t.json")]) == 2
+        assert "t.json" in capsys.readouterr().err
+        assert snapshot(tmp_path) == before
