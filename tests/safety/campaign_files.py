@@ -11,6 +11,7 @@ through a link or from a FIFO), and each case is judged:
 - traceback: ``Traceback`` on stderr, or an exit status other than 0 and 2;
 - hang: the timeout expired;
 - messy error: exit 2 without exactly one ``puppet: error:`` line;
+- silent: a truncated clip re-posed with exit 0 and no warning line;
 - input modified: a file that existed before changed or went away (outputs the case
   names are allowed to change);
 - write outside -o: anything new or changed that is not an output the case names, or
@@ -47,6 +48,7 @@ class Case:
     setup: list = field(default_factory=list)  # callables f(d) run after the template is copied
     outputs: tuple[str, ...] = ()  # paths under {d} the case may create or change
     env: dict | None = None
+    warn: str | None = None  # a success must say this on stderr (a truncated clip)
 
 
 # -- the template every case starts from ---------------------------------------------------------------
@@ -191,7 +193,8 @@ def video_cases() -> list[Case]:
         for o, outs in (("{d}/out/o.mp4", ("out/o.mp4",)), ("{d}/out/f/", ("out/f",))):
             out.append(Case(f"video {sc} -> {os.path.basename(o.rstrip('/'))} + tracks",
                             ["video", f"{{d}}/in/v_{sc}.json", "--pose", "wave", "-o", o,
-                             "--tracks", "{d}/out/t.json"], outputs=outs + ("out/t.json",)))
+                             "--tracks", "{d}/out/t.json"], outputs=outs + ("out/t.json",),
+                            warn="warning" if sc.startswith("cut") else None))
     v = "{d}/in/v_walk_mp4.json"
     base = ["video", v, "--pose", "wave"]
     odd = [
@@ -458,13 +461,14 @@ def judge(case: Case, d: str, before: dict, after: dict, res: dict) -> dict:
     res["traceback"] = "Traceback" in err or (rc not in (0, 2) and not res["hang"])
     lines = [ln for ln in err.splitlines() if ln.strip()]
     res["messy"] = rc == 2 and not (len(lines) == 1 and lines[0].startswith("puppet: error: "))
+    res["silent"] = rc == 0 and case.warn is not None and case.warn not in err
     changed = {p for p in set(before) | set(after) if before.get(p) != after.get(p)}
     res["modified"] = sorted(p for p in changed if p in before and not is_output(p))
     ok = rc == 0
     res["outside"] = sorted(p for p in changed if p not in before and (not is_output(p) or not ok))
     if not ok:  # a failed run leaves nothing: not even an output it may write
         res["outside"] += sorted(p for p in changed if p in before and is_output(p))
-    res["bad"] = res["traceback"] or res["hang"] or res["messy"] or res["modified"] or res["outside"]
+    res["bad"] = res["traceback"] or res["hang"] or res["messy"] or res["silent"] or res["modified"] or res["outside"]
     return res
 
 
@@ -486,7 +490,7 @@ def main() -> int:
         shutil.rmtree(template, ignore_errors=True)
     for r in results:
         if r["bad"] or args.v:
-            flags = [k for k in ("traceback", "hang", "messy") if r[k]]
+            flags = [k for k in ("traceback", "hang", "messy", "silent") if r[k]]
             print(f"{'BAD ' if r['bad'] else 'ok  '}{r['name']}: rc={r['rc']} {' '.join(flags)}"
                   f"{' modified=' + str(r['modified'][:3]) if r['modified'] else ''}"
                   f"{' outside=' + str(r['outside'][:3]) if r['outside'] else ''}")
@@ -494,7 +498,8 @@ def main() -> int:
                 print("     " + r["err"].strip().splitlines()[-1][:200])
     n = len(results)
     print(f"cases {n}, tracebacks {sum(r['traceback'] for r in results)}, hangs {sum(r['hang'] for r in results)}, "
-          f"messy errors {sum(r['messy'] for r in results)}, inputs modified {sum(bool(r['modified']) for r in results)}, "
+          f"messy errors {sum(r['messy'] for r in results)}, silent truncations {sum(r['silent'] for r in results)}, "
+          f"inputs modified {sum(bool(r['modified']) for r in results)}, "
           f"writes outside -o {sum(bool(r['outside']) for r in results)}")
     return 1 if any(r["bad"] for r in results) else 0
 
