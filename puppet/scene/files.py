@@ -49,10 +49,16 @@ class PendingFiles:
 
     def adopt(self, path: str) -> str:
         """Take a copy of a saved pixels file (e.g. in ``NAME.autosave.files/``) as owned:
-        the next save writes it beside its scene. Returns the owned path."""
+        the next save writes it beside its scene. Returns the owned path, or ``path`` itself
+        when it is not a regular file (not read here: loading the scene reports it)."""
         dest = os.path.join(self.folder, os.path.basename(path))
-        if not os.path.exists(dest):
-            shutil.copyfile(path, dest)
+        try:
+            if not stat.S_ISREG(os.stat(path).st_mode):
+                return path
+            if not os.path.exists(dest):
+                shutil.copyfile(path, dest)
+        except OSError:
+            return path
         return dest
 
     def publish(self, paths: set[str], scene_path: str, inputs=()) -> tuple[dict[str, str], Callable[[], None]]:
