@@ -35,26 +35,25 @@ class _Refused(ValueError):
         self.kinds = kinds
 
 
-def read_text(path: str, kind: str = "scene file") -> str:
-    """The text of a scene file (or another JSON file a command reads: ``kind`` names
-    it in messages), refusing anything that is not a readable regular UTF-8 file of at
-    most MAX_SCENE_BYTES (a leading byte-order mark is allowed)."""
+def read_text(path: str) -> str:
+    """The text of a scene file, refusing anything that is not a readable regular
+    UTF-8 file of at most MAX_SCENE_BYTES (a leading byte-order mark is allowed)."""
     def fail(msg: str) -> SceneError:
         return SceneError(msg, file=path)
 
     try:
         st = os.stat(path)
     except FileNotFoundError:
-        raise fail(f"no such {kind}") from None
+        raise fail("no such scene file") from None
     except OSError as e:
         raise fail(f"cannot be read ({e.strerror})") from None
-    _check_stat(st, fail, kind)
+    _check_stat(st, fail)
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
     except OSError as e:
         raise fail(f"cannot be read ({e.strerror})") from None
     try:
-        _check_stat(os.fstat(fd), fail, kind)  # the file may have been swapped since stat
+        _check_stat(os.fstat(fd), fail)  # the file may have been swapped since stat
         with os.fdopen(fd, "rb", closefd=False) as f:
             data = f.read(MAX_SCENE_BYTES + 1)
     except OSError as e:
@@ -62,20 +61,20 @@ def read_text(path: str, kind: str = "scene file") -> str:
     finally:
         os.close(fd)
     if len(data) > MAX_SCENE_BYTES:
-        raise fail(f"too large for a {kind} (more than {MAX_SCENE_BYTES // (1024 * 1024)} MiB)")
+        raise fail(f"too large for a scene file (more than {MAX_SCENE_BYTES // (1024 * 1024)} MiB)")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise fail(f"not a text (UTF-8) file (byte 0x{data[e.start]:02x} at offset {e.start})") from None
 
 
-def _check_stat(st: os.stat_result, fail, kind: str = "scene file") -> None:
+def _check_stat(st: os.stat_result, fail) -> None:
     if stat.S_ISDIR(st.st_mode):
-        raise fail(f"is a folder, not a {kind}")
+        raise fail("is a folder, not a scene file")
     if not stat.S_ISREG(st.st_mode):
-        raise fail(f"is not a regular file (a FIFO, device or socket cannot be a {kind})")
+        raise fail("is not a regular file (a FIFO, device or socket cannot be a scene)")
     if st.st_size > MAX_SCENE_BYTES:
-        raise fail(f"too large for a {kind} ({st.st_size} bytes; at most "
+        raise fail(f"too large for a scene file ({st.st_size} bytes; at most "
                    f"{MAX_SCENE_BYTES // (1024 * 1024)} MiB)")
 
 

@@ -130,13 +130,13 @@ def read_anchors(path: str) -> dict[int, dict[str, tuple[float, float]]]:
     from puppet.scene.reader import parse_text, read_text
     from puppet.scene.schema import Ctx, expect_object, expect_point, join
 
-    raw = parse_text(read_text(path, "anchors file"), path)
+    raw = parse_text(read_text(path), path)
     c = Ctx(path)
     expect_object(c, raw, "", optional=raw.keys() if isinstance(raw, dict) else ())
     out = {}
     for key, joints in raw.items():
-        if not (key.isascii() and key.isdigit() and len(key) <= 9):
-            raise c.fail(join("", key), "expected a frame number (0, 1, ... up to 9 digits) as the key")
+        if not (key.isascii() and key.isdigit() and len(key) <= 9):  # not "²", not 5000 digits
+            raise c.fail(join("", key), "expected a frame number (0, 1, ...) as the key")
         expect_object(c, joints, join("", key), optional=joints.keys() if isinstance(joints, dict) else ())
         out[int(key)] = {n: expect_point(c, xy, join(join("", key), n)) for n, xy in joints.items()}
     return out
