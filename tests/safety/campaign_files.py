@@ -117,19 +117,14 @@ def write(rel, data):
 
 def full_disk(rel="out/full", size="64k"):
     """A tmpfs mounted at ``rel`` and filled to the last byte (root only; unmounted after the case)."""
+    from tests.cli.outputs_helpers import fill
+
     def f(d):
         where = os.path.join(d, rel)
         os.makedirs(where, exist_ok=True)
         subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", where], check=True,
                        capture_output=True)
-        fd = os.open(os.path.join(where, "filler"), os.O_WRONLY | os.O_CREAT)
-        try:
-            while os.write(fd, b"\0" * 4096):
-                pass
-        except OSError:
-            pass
-        finally:
-            os.close(fd)
+        fill(where)
     return f
 
 
