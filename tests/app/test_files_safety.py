@@ -16,10 +16,11 @@ import puppet
 from puppet.app import autosave, masktools
 from puppet.output import OutputError
 from tests.app.harness import Driver, widget
+from tests.cli.outputs_helpers import bounded  # noqa: F401  (the fixture)
 from tests.app.test_files import move_left_pin
 from tests.conftest import bar_image, bar_scene, write_rgba
 
-pytestmark = pytest.mark.gl
+pytestmark = [pytest.mark.gl, pytest.mark.usefixtures("bounded")]
 
 
 def paint_red(d, x0=30, x1=60):

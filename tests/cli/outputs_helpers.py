@@ -108,3 +108,17 @@ class Mount:
 
     def close(self):
         subprocess.run(["umount", "-l", self.where], capture_output=True)
+
+
+@pytest.fixture
+def bounded():
+    """Fail a test that runs in this process for more than 120 s (a hang), instead of waiting for ever."""
+    import signal
+
+    def stop(signum, frame):
+        raise TimeoutError("the test ran for more than 120 s")
+    old = signal.signal(signal.SIGALRM, stop)
+    signal.alarm(120)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)

@@ -12,7 +12,7 @@ import av
 import numpy as np
 import pytest
 
-from tests.cli.outputs_helpers import Mount, cli, make_bar, one_error_line, snapshot
+from tests.cli.outputs_helpers import Mount, bounded, cli, make_bar, one_error_line, snapshot  # noqa: F401
 from tests.conftest import ROOT
 from tests.video.video_helpers import W, H, frame, video_scene, write_scene
 
@@ -198,7 +198,7 @@ def test_bad_anchors_files(tmp_path, text, words):
     assert snapshot(tmp_path) == before
 
 
-def test_tracks_rename_failing_takes_the_video_back(tmp_path, monkeypatch, capsys):
+def test_tracks_rename_failing_takes_the_video_back(tmp_path, monkeypatch, capsys, bounded):
     """The last step (the tracks' rename after the video's) failing leaves neither."""
     import puppet.output
     from puppet.cli import main

@@ -10,8 +10,10 @@ import pytest
 
 import puppet
 from puppet.output import OutputError
-from tests.cli.outputs_helpers import Mount, snapshot
+from tests.cli.outputs_helpers import Mount, bounded, snapshot  # noqa: F401  (bounded: the fixture)
 from tests.conftest import bar_image, bar_scene, write_rgba
+
+pytestmark = pytest.mark.usefixtures("bounded")
 
 
 def test_save_into_a_symlinked_folder_loads_from_both_paths(tmp_path, make_scene):
