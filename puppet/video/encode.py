@@ -62,9 +62,10 @@ def write_frames(path: str, frames: Iterable[np.ndarray], fps: float, kind: str,
 
         try:
             sink = sinks.AVSink(tmp, fmt, codec, pix, size, fps, options, alpha=False, pad=True, threads="AUTO")
+            count = sinks.stream(sink, frames)
         except av.FFmpegError as e:  # sizes are checked at the source; this is the codec's last word
             raise SceneError(f"-o {path!r}: the {codec} encoder refuses {size[0]}x{size[1]} frames "
                              f"({' '.join(str(e).split())[:120]})") from None
-        written[0] = finish(sinks.stream(sink, frames))
+        written[0] = finish(count)
     atomic_write(path, write, inputs=inputs)
     return written[0]

@@ -221,3 +221,13 @@ def test_tracks_rename_failing_takes_the_video_back(tmp_path, monkeypatch, capsy
         assert main(["video", s, "--pose", "wave", "-o", str(out), "--tracks", str(tmp_path / "t.json")]) == 2
         assert "t.json" in capsys.readouterr().err
         assert snapshot(tmp_path) == before
+
+
+def test_an_encoder_refusal_is_one_error_and_leaves_nothing(tmp_path, bounded):
+    """Past the size limit's guard (the API takes any size): libx264 refuses 20000 px frames."""
+    from puppet.errors import SceneError
+    from puppet.video.encode import write_frames
+
+    with pytest.raises(SceneError, match="libx264 encoder refuses 20000x64"):
+        write_frames(str(tmp_path / "o.mp4"), iter([np.zeros((64, 20000, 3), np.uint8)]), 12, "mp4", (20000, 64))
+    assert os.listdir(tmp_path) == []
