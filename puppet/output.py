@@ -25,6 +25,7 @@ import os
 import re
 import shutil
 import signal
+import stat
 import tempfile
 import threading
 from collections.abc import Callable, Iterable
@@ -94,7 +95,7 @@ def _probe(path: str, folder: str) -> None:
     _remove(_temp(path, folder, _make_file))
 
 
-def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
+def check_file(path: str, *, inputs: Inputs = (), probe: bool = False, follow: bool = True) -> str:
     """Check that ``path`` can be written as a file, without writing anything.
 
     Parameters
@@ -102,11 +103,14 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
     path : the output as the user gave it.
     inputs : (path, description) of every file the scene reads; none may be overwritten.
     probe : also create and remove an empty temporary file beside the output.
+    follow : write through a symlink at ``path`` (an output the user named); False for
+        files puppet names itself (``SCENE-mask.png``, ``SCENE.files/...``): a symlink
+        there is refused, never followed.
 
     Returns
     -------
-    The real path that will be written (symlinks resolved: a symlink is kept and its
-    target replaced).
+    The real path that will be written (symlinks resolved: a symlink the user named is
+    kept and its target replaced).
 
     Raises
     ------
@@ -114,6 +118,10 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
         Missing or non-folder parent, read-only or unwritable folder or file, a folder or
         a non-regular file (device, pipe, /proc entry) at the path, or an input.
     """
+    if "\0" in path:
+        raise OutputError(path.replace("\0", "\\0"), "not a valid file name (it holds a NUL byte)")
+    if not follow and os.path.islink(path):
+        raise OutputError(path, "is a symbolic link (puppet writes through a link only when it is named as the output)")
     target = os.path.realpath(path)
     if os.path.isdir(target):
         raise OutputError(path, "is a folder")
@@ -121,8 +129,6 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False) -> str:
     if why:
         raise OutputError(path, why)
     if os.path.lexists(target):
-        import stat
-
         st = os.stat(target)
         if not stat.S_ISREG(st.st_mode):
             raise OutputError(path, "not a regular file")
@@ -141,6 +147,8 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     are replaced as a whole. Any other file in it is refused rather than deleted
     (``contents=False`` skips looking inside, for a first check before the inputs are known).
     """
+    if "\0" in path:
+        raise OutputError(path.replace("\0", "\\0"), "not a valid folder name (it holds a NUL byte)")
     target = os.path.realpath(path.rstrip("/" + os.sep) or os.sep)
     if os.path.lexists(target) and not os.path.isdir(target):
         raise OutputError(path, "exists and is not a folder")
@@ -152,7 +160,7 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     _check_inputs(path, target, inputs, folder=True)
     if contents and os.path.isdir(target):
         try:
-            others = sorted(n for n in os.listdir(target) if not FRAME_NAME.fullmatch(n))
+            others = sorted(n for n in os.listdir(target) if not _is_frame(target, n))
         except OSError as e:
             raise OutputError(path, _reason(e)) from None
         if others:
@@ -163,6 +171,11 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     if probe:
         _probe(path, os.path.dirname(target))
     return target
+
+
+def _is_frame(folder: str, name: str) -> bool:
+    """A frame of an earlier run: a regular file (not a folder, not a link) named ``frame_N.png``."""
+    return bool(FRAME_NAME.fullmatch(name)) and stat.S_ISREG(os.lstat(os.path.join(folder, name)).st_mode)
 
 
 # -- temporaries ----------------------------------------------------------------------
@@ -239,10 +252,10 @@ def _failed(path: str, exc: BaseException) -> BaseException:
 
 
 # -- writing --------------------------------------------------------------------------
-def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()) -> None:
+def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = (), follow: bool = True) -> None:
     """Call ``write(tmp_path)``, flush it to disk, then rename it onto ``path``.
 
-    ``path`` is checked first (:func:`check_file`). On any failure, and on a signal,
+    ``path`` is checked first (:func:`check_file`, ``follow`` as there). On any failure, and on a signal,
     the temporary file is removed, so no partial output is ever left behind.
 
     Raises
@@ -251,20 +264,61 @@ def atomic_write(path: str, write: Callable[[str], None], *, inputs: Inputs = ()
         The output cannot be written (see :func:`check_file`), or writing failed with an
         operating-system error (no space left, I/O error, ...).
     """
-    target = check_file(path, inputs=inputs)
-    tmp = _temp(path, os.path.dirname(target), _make_file)
-    with _removed_on_failure(path, tmp):
-        write(tmp)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)  # a full disk may only show here (delayed allocation, NFS)
-        finally:
-            os.close(fd)
-        os.chmod(tmp, _mode(target, 0o666))
-        with _signals_blocked():
-            os.replace(tmp, target)
+    Staged(path, write, inputs=inputs, follow=follow).commit()
+
+
+class Staged:
+    """A file written in full beside ``path`` now, put in place by :meth:`commit` (or
+    dropped by :meth:`discard`): two outputs that must exist both or neither are each
+    staged first, then committed (a rename each).
+
+    ``path`` is checked (:func:`check_file`, ``follow`` as there); ``write(tmp_path)`` fills the temporary,
+    which is flushed to disk. Failures raise :class:`OutputError` like :func:`atomic_write`
+    and leave nothing behind.
+    """
+
+    def __init__(self, path: str, write: Callable[[str], None], *, inputs: Inputs = (), follow: bool = True):
+        self.path = path
+        self.target = check_file(path, inputs=inputs, follow=follow)
+        self.existed = os.path.lexists(self.target)
+        self.tmp = _temp(path, os.path.dirname(self.target), _make_file)
+        with _removed_on_failure(path, self.tmp):
+            write(self.tmp)
+            fd = os.open(self.tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)  # a full disk may only show here (delayed allocation, NFS)
+            finally:
+                os.close(fd)
+            os.chmod(self.tmp, _mode(self.target, 0o666))
+
+    def commit(self) -> None:
+        """Rename the temporary onto the output."""
+        with _removed_on_failure(self.path, self.tmp), _signals_blocked():
+            os.replace(self.tmp, self.target)
             with _lock:
-                _live.discard(tmp)
+                _live.discard(self.tmp)
+
+    def discard(self) -> None:
+        """Remove the temporary (nothing was written at the output)."""
+        _remove(self.tmp)
+
+
+def commit_all(staged: list[Staged]) -> None:
+    """Commit every staged file in turn; when one fails, the rest are discarded and the
+    ones already committed that are new (no file was there before) are removed again."""
+    done = []
+    try:
+        for s in staged:
+            s.commit()
+            done.append(s)
+    except BaseException:
+        for s in staged[len(done):]:
+            s.discard()
+        for s in done:
+            if not s.existed:
+                with contextlib.suppress(OSError):
+                    os.remove(s.target)
+        raise
 
 
 @contextlib.contextmanager
@@ -337,7 +391,7 @@ def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = ()) 
     return n
 
 
-def save_png(path: str, rgba, *, inputs: Inputs = ()) -> None:
+def save_png(path: str, rgba, *, inputs: Inputs = (), follow: bool = True) -> None:
     """Write an (h, w, 4) or (h, w, 3) uint8 array as PNG, atomically (see :func:`atomic_write`).
 
     Encoded by OpenCV's libpng with its default settings (zlib level 1, run-length
@@ -356,13 +410,13 @@ def save_png(path: str, rgba, *, inputs: Inputs = ()) -> None:
     def write(tmp: str) -> None:
         with open(tmp, "wb") as f:
             f.write(png.data)
-    atomic_write(path, write, inputs=inputs)
+    atomic_write(path, write, inputs=inputs, follow=follow)
 
 
-def write_text(path: str, text: str, *, inputs: Inputs = ()) -> None:
+def write_text(path: str, text: str, *, inputs: Inputs = (), follow: bool = True) -> None:
     """Write UTF-8 text atomically (see :func:`atomic_write`)."""
 
     def write(tmp: str) -> None:
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
-    atomic_write(path, write, inputs=inputs)
+    atomic_write(path, write, inputs=inputs, follow=follow)

@@ -64,6 +64,8 @@ def parse_background(text: str) -> str | tuple[int, int, int, int]:
     except ValueError:
         raise SceneError(f"{text!r} is not a colour: give transparent, #rrggbb, #rrggbbaa or a colour "
                          "name such as white") from None
+    if not all(0 <= v <= 255 for v in (r, g, b, a)):  # Pillow passes rgb(300,0,0), hsl(0,0%,150%) through
+        raise SceneError(f"{text!r} is out of range: channels are 0..255 (0..100% for percentages)")
     return int(r), int(g), int(b), int(a)
 
 

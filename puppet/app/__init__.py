@@ -20,7 +20,27 @@ def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headles
 
         raise SceneError("puppet app needs a display (DISPLAY is not set; try xvfb-run -a -s "
                          "'-screen 0 1280x1024x24' puppet app ...)")
+    else:
+        _connect_display()
     from puppet.app.window import AppWindow, print_ready
 
     AppWindow(path, size=size, ready=print_ready).run()
     return 0
+
+
+def _connect_display() -> None:
+    """Open the display named by DISPLAY now: one line (SceneError) when no server answers
+    there, instead of pyglet's NoSuchDisplayException from deep in the window's making."""
+    import pyglet
+
+    from puppet.errors import SceneError
+
+    module = getattr(pyglet, "display", None) or pyglet.canvas  # pyglet 2.1 renamed canvas
+    try:
+        module.get_display()
+    except Exception as e:
+        if type(e).__name__ != "NoSuchDisplayException":
+            raise
+        raise SceneError(f"puppet app cannot open the display {os.environ.get('DISPLAY', '')!r} (no X server "
+                         "answers there); check DISPLAY, or try xvfb-run -a -s '-screen 0 1280x1024x24' "
+                         "puppet app ...") from None

@@ -322,6 +322,7 @@ class App:
 
             if picture and recover_from is not None:  # the autosave of a scene made from this picture
                 scene = puppet.load_scene(recover_from)
+                scene.adopt_files(os.path.splitext(recover_from)[0] + ".files")  # saved into SCENE.files/
                 scene.file = os.path.splitext(path)[0] + ".json"
                 scene.built
                 w.set_scene(scene, None)
@@ -340,6 +341,7 @@ class App:
             saved = scene.to_dict()
             if recover_from is not None:
                 scene = puppet.load_scene(recover_from)
+                scene.adopt_files(os.path.splitext(recover_from)[0] + ".files")  # saved into SCENE.files/
                 scene.file = path
             scene.built  # build (images, meshes, groups) here, not in the first frame
             w.set_scene(scene, saved)

@@ -116,9 +116,12 @@ class AppWindow:
             self.open_scene(path)
 
     # -- files and dialogs ------------------------------------------------------------
-    def open_scene(self, path: str) -> None:
+    def open_scene(self, path: str, *, ask: bool = True) -> None:
+        """Open ``path``; first ask about unsaved changes (unless ``ask`` is False: the
+        answer was given) and about a newer autosave. The open scene stays until the new
+        one has loaded: a file that fails to open changes nothing."""
         app = self.app
-        if app.snap.loaded and app.snap.dirty:
+        if ask and app.snap.loaded and app.snap.dirty:
             app.dialog, app.after_dialog = "unsaved", ("open", path)
             return
         pending = autosave.pending(path) if os.path.isfile(path) else None
@@ -317,8 +320,7 @@ class AppWindow:
         if then == "quit":
             self.app.quit_now = True
         elif isinstance(then, tuple) and then[0] == "open":
-            self.app.worker.submit(lambda w: w.set_scene(None, None))
-            self.open_scene(then[1])
+            self.open_scene(then[1], ask=False)
 
     def _autosave(self) -> None:
         snap = self.app.snap

@@ -123,7 +123,16 @@ class FrameSource:
             box.close()
         if w < 1 or h < 1 or n < 1:
             raise self.fail("holds no frames")
+        self._check_size(int(w), int(h))
         self.size, self.count = (int(w), int(h)), n
+
+    def _check_size(self, w: int, h: int) -> None:
+        """Frames are held to the limits of every image (:data:`~puppet.imaging.io.MAX_SIDE`,
+        :data:`~puppet.imaging.io.MAX_PIXELS`), checked before a pixel is decoded."""
+        from puppet.imaging.io import MAX_PIXELS, MAX_SIDE
+
+        if w > MAX_SIDE or h > MAX_SIDE or w * h > MAX_PIXELS:
+            raise self.fail(f"frames too large ({w}x{h}; at most {MAX_SIDE} per side and {MAX_PIXELS} pixels)")
 
     # -- reading --------------------------------------------------------------------------
     def _load(self, i: int) -> np.ndarray:
@@ -135,11 +144,18 @@ class FrameSource:
                             f"{self.size[0]}x{self.size[1]}", what=repr(self.files[i]))
         return rgba
 
-    def frames(self, start: int = 0, stop: int | None = None) -> Iterator[np.ndarray]:
+    def frames(self, start: int = 0, stop: int | None = None, *, partial: bool = False) -> Iterator[np.ndarray]:
         """Frames ``start, start + 1, ... stop - 1`` (to the end when ``stop`` is None),
         decoded one at a time: (H, W, 4) uint8 each. A video is decoded from its beginning
-        (frame-exact); frames before ``start`` are decoded and dropped."""
+        (frame-exact); frames before ``start`` are decoded and dropped.
+
+        A video that ends before ``stop`` (truncated: fewer frames than its header declares)
+        or cannot be decoded from some frame on raises ImageError; with ``partial=True`` the
+        frames decoded up to there are the whole stream instead (``self.ended`` then says
+        ``(first frame missing, reason)``), unless not one frame was yielded.
+        """
         stop = self.count if stop is None else stop
+        self.ended = None
         if self.folder:
             for i in range(start, min(stop, self.count)):
                 yield self._load(i)
@@ -147,18 +163,26 @@ class FrameSource:
         import av
 
         box, st = self._open()
+        i, reason = 0, ""
         try:
-            i = 0
             for frame in box.decode(st):
                 if i >= stop:
                     break
                 if i >= start:
+                    self._check_size(frame.width, frame.height)
                     yield self._rgba(frame)
                 i += 1
         except (av.FFmpegError, OSError, ValueError) as e:
-            raise self.fail(f"cannot be decoded at frame {i} ({_reason(e)})") from None
+            reason = _reason(e)
+            if not partial or i <= start:
+                raise self.fail(f"cannot be decoded at frame {i} ({reason})") from None
         finally:
             box.close()
+        if i < min(stop, self.count):
+            if not partial or i <= start:
+                raise self.fail(f"ends at frame {i} although it declares {self.count} frames "
+                                f"(truncated{': ' + reason if reason else ''})")
+            self.ended = (i, reason or "truncated")
 
     def _rgba(self, frame) -> np.ndarray:
         rgba = frame.to_ndarray(format="rgba")

@@ -40,6 +40,8 @@ def _check_stat(st: os.stat_result, fail) -> None:
         raise fail("is a folder, not an image")
     if not stat.S_ISREG(st.st_mode):
         raise fail("is not a regular file (a FIFO, device or socket cannot be an image)")
+    if st.st_size == 0:  # also what /proc and other pseudo files say of themselves
+        raise fail("is empty (0 bytes; a file under /proc is not an image either)")
 
 
 def _check_size(w: int, h: int, fail) -> None:
@@ -59,6 +61,8 @@ def _open_regular(path: str, fail):
         raise fail("no such file") from None
     except OSError as e:
         raise fail(f"cannot be read ({e.strerror})") from None
+    except ValueError:  # os.stat: "embedded null byte"
+        raise fail("not a valid file name (it holds a NUL byte)") from None
     try:
         _check_stat(os.fstat(fd), fail)
     except BaseException:
@@ -127,6 +131,13 @@ def decode_image(path: str, *, scene_file: str | None = None,
         the header, before any pixel is decoded).
     """
     fail = _fail_for(path, scene_file, json_path)
+    try:
+        return _decode(path, scene_file, json_path, fail)
+    except OSError as e:  # reading failed under the decoder (EIO, a file shrinking, ...)
+        raise fail(f"cannot be read ({e.strerror or e})") from None
+
+
+def _decode(path: str, scene_file, json_path, fail) -> tuple[np.ndarray, bool]:
     with _open_regular(path, fail) as f:
         plain = _plain_png(f)
     if plain is not None:

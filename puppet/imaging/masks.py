@@ -143,21 +143,11 @@ def rect_mask(shape: tuple[int, int], rect, offset=(0.0, 0.0)) -> np.ndarray:
 
 
 def grabcut_mask(rgba: np.ndarray, rect, offset=(0.0, 0.0), iterations: int = 5) -> np.ndarray:
-    """Foreground of a photo inside ``[x, y, w, h]`` by OpenCV's GrabCut."""
-    import cv2
+    """Foreground of a photo inside ``[x, y, w, h]`` by GrabCut, with bounded work on any
+    picture and any rectangle (:func:`puppet.imaging.grabcut.grabcut`)."""
+    from puppet.imaging.grabcut import grabcut
 
-    h, w = rgba.shape[:2]
     x0 = int(round(rect[0] - offset[0]))
     y0 = int(round(rect[1] - offset[1]))
     rw, rh = int(round(rect[2])), int(round(rect[3]))
-    x0, y0 = max(x0, 0), max(y0, 0)
-    rw, rh = min(rw, w - x0), min(rh, h - y0)
-    mask = np.zeros((h, w), np.uint8)
-    if rw < 2 or rh < 2:
-        return mask.astype(bool)
-    bgr = np.ascontiguousarray(rgba[..., 2::-1])
-    bgd = np.zeros((1, 65), np.float64)
-    fgd = np.zeros((1, 65), np.float64)
-    cv2.setRNGSeed(0)
-    cv2.grabCut(bgr, mask, (x0, y0, rw, rh), bgd, fgd, iterations, cv2.GC_INIT_WITH_RECT)
-    return (mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)
+    return grabcut(np.ascontiguousarray(rgba[..., 2::-1]), (x0, y0, rw, rh), iterations)

@@ -63,8 +63,19 @@ def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
 
 
 def _relative_to(folder: str) -> Callable[[str], str]:
-    """A path as written in a scene saved in ``folder``: relative, with forward slashes."""
-    return lambda p: os.path.relpath(p, folder).replace(os.sep, "/")
+    """A path as written in a scene saved in ``folder``: relative to it as the loader
+    resolves it (lexically, from the path as given: a symlinked folder stays in the
+    path), with forward slashes; absolute when the relative path would name another file
+    from the folder's real place (it climbs out of a symlinked folder)."""
+    folder = os.path.abspath(folder)
+    real = os.path.realpath(folder)
+
+    def rel(p: str) -> str:
+        r = os.path.relpath(p, folder)
+        if os.path.realpath(os.path.join(real, r)) != os.path.realpath(p):
+            r = p
+        return r.replace(os.sep, "/")
+    return rel
 
 
 class Document(Edits, KeyEdits):
@@ -348,24 +359,40 @@ class Document(Edits, KeyEdits):
         """The scene JSON as it is now, with every file path relative to ``folder``."""
         return map_paths(self.to_dict(), _relative_to(folder))
 
-    def save(self, path: str) -> None:
+    def save(self, path: str, *, copy: bool = False, follow: bool = True) -> None:
         """Write the scene as it is now, atomically; file paths inside are written relative
         to the new location, so the saved scene loads and renders the same pixels.
 
         Pixels painted since loading (:meth:`set_mask_pixels`, :meth:`set_layer_pixels`)
-        are written beside the scene, in ``SCENE.files/``, first. Goes through
-        :mod:`puppet.output`: an image the scene reads is never overwritten (the scene
-        file itself may be), and a write failure raises an OutputError."""
+        are written beside the scene, in ``SCENE.files/``, first; the scene then reads them
+        there, unless ``copy`` (an autosave: the next save writes them beside its own
+        scene again). Goes through :mod:`puppet.output`: an image the scene reads is never
+        overwritten (the scene file itself may be), a symlink at ``path`` is written
+        through only with ``follow``, and a write failure raises an OutputError and leaves
+        nothing of this save behind (no new ``SCENE.files/``)."""
         inputs = input_files(self.data, scene_file=False)
         used: set[str] = set()
         map_paths(self._doc, lambda p: used.add(p) or p)
-        moved = self.pending.publish({p for p in used if self.pending.owns(p)}, path, inputs)
+        moved, undo = self.pending.publish({p for p in used if self.pending.owns(p)}, path, inputs)
         doc = map_paths(self._doc, lambda p: moved.get(p, p))
-        folder = os.path.dirname(os.path.realpath(path))
-        text = json.dumps(map_paths(doc, _relative_to(folder)), indent=1)
-        write_text(path, text + "\n", inputs=inputs)
-        if moved:  # from now on the scene reads the saved copies (same pixels, same keys)
+        text = json.dumps(map_paths(doc, _relative_to(os.path.dirname(os.path.abspath(path)))), indent=1)
+        try:
+            write_text(path, text + "\n", inputs=inputs, follow=follow)
+        except BaseException:
+            undo()
+            raise
+        if moved and not copy:  # from now on the scene reads the saved copies (same pixels, same keys)
             self._set(doc, self._active)
+
+    def adopt_files(self, folder: str) -> None:
+        """Own again the pixels this scene reads from ``folder`` (an autosave's
+        ``NAME.autosave.files/``), so that saving writes them into ``SCENE.files/``."""
+        folder = os.path.realpath(folder)
+        used: set[str] = set()
+        map_paths(self._doc, lambda p: used.add(p) or p)
+        mine = {p: self.pending.adopt(p) for p in used if os.path.dirname(os.path.realpath(p)) == folder}
+        if mine:
+            self._set(map_paths(self._doc, lambda p: mine.get(p, p)), self._active)
 
     def write_mesh(self, path: str, pose: PoseLike = None, time: float | None = None) -> None:
         """Write :meth:`mesh` as JSON (``puppet mesh``), through :mod:`puppet.output`."""

@@ -5,16 +5,19 @@ ones it still uses beside the scene file (``SCENE.files/``) and points the scene
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import re
 import shutil
+import stat
 import tempfile
 import weakref
+from collections.abc import Callable
 
 import numpy as np
 
-from puppet.output import atomic_write, save_png
+from puppet.output import OutputError, atomic_write, save_png
 
 
 class PendingFiles:
@@ -44,20 +47,74 @@ class PendingFiles:
     def owns(self, path: str) -> bool:
         return self._folder is not None and os.path.dirname(path) == self._folder
 
-    def publish(self, paths: set[str], scene_path: str, inputs=()) -> dict[str, str]:
-        """Copy ``paths`` (owned files) beside the scene at ``scene_path``; returns old -> new."""
+    def adopt(self, path: str) -> str:
+        """Take a copy of a saved pixels file (e.g. in ``NAME.autosave.files/``) as owned:
+        the next save writes it beside its scene. Returns the owned path, or ``path`` itself
+        when it is not a regular file (not read here: loading the scene reports it)."""
+        dest = os.path.join(self.folder, os.path.basename(path))
+        try:
+            if not stat.S_ISREG(os.stat(path).st_mode):
+                return path
+            if not os.path.exists(dest):
+                shutil.copyfile(path, dest)
+        except OSError:
+            return path
+        return dest
+
+    def publish(self, paths: set[str], scene_path: str, inputs=()) -> tuple[dict[str, str], Callable[[], None]]:
+        """Copy ``paths`` (owned files) beside the scene at ``scene_path``, into
+        ``SCENE.files/``; returns (old -> new, undo). ``undo()`` removes what this call
+        wrote (and the folder when it made it): the caller calls it when the scene itself
+        cannot be written. On a failure here, the same is undone before raising.
+
+        Files there are named by their content: one present already is kept when it is a
+        regular file with these bytes; a link or a different file there is replaced only
+        when it is a regular file (links are refused: :func:`puppet.output.check_file`).
+        """
         if not paths:
-            return {}
+            return {}, lambda: None
         stem = os.path.splitext(os.path.basename(scene_path))[0]
         folder = os.path.join(os.path.dirname(os.path.abspath(scene_path)), f"{stem}.files")
-        os.makedirs(folder, exist_ok=True)
+        if os.path.islink(folder):
+            raise OutputError(folder, "is a symbolic link (puppet writes its files folder only as a real folder)")
+        made = not os.path.lexists(folder)
+        written: list[str] = []
+
+        def undo() -> None:
+            for p in written:
+                with contextlib.suppress(OSError):
+                    os.remove(p)
+            if made:
+                with contextlib.suppress(OSError):
+                    os.rmdir(folder)
         moved = {}
-        for p in sorted(paths):
-            dest = os.path.join(folder, os.path.basename(p))
-            if not os.path.exists(dest):
-                atomic_write(dest, lambda tmp, p=p: shutil.copyfile(p, tmp), inputs=inputs)
-            moved[p] = dest
-        return moved
+        try:
+            if made:
+                os.mkdir(folder)
+            for p in sorted(paths):
+                dest = os.path.join(folder, os.path.basename(p))
+                if not _same_bytes(p, dest):
+                    atomic_write(dest, lambda tmp, p=p: shutil.copyfile(p, tmp), inputs=inputs, follow=False)
+                    written.append(dest)
+                moved[p] = dest
+        except BaseException as e:
+            undo()
+            if isinstance(e, OSError) and not isinstance(e, OutputError):
+                raise OutputError(folder, e.strerror or str(e)) from None
+            raise
+        return moved, undo
+
+
+def _same_bytes(a: str, b: str) -> bool:
+    """``b`` is a regular file (not a link) holding the bytes of ``a``."""
+    try:
+        st = os.lstat(b)
+        if not stat.S_ISREG(st.st_mode) or st.st_size != os.path.getsize(a):
+            return False
+        with open(a, "rb") as fa, open(b, "rb") as fb:
+            return fa.read() == fb.read()
+    except OSError:
+        return False
 
 
 def mask_rgba(mask: np.ndarray) -> np.ndarray:

@@ -132,7 +132,7 @@ def init_scene(image: str, scene: str, *, rule: str = "default", threshold: floa
         written (nothing is written then).
     """
     from puppet.imaging.io import load_rgba
-    from puppet.output import atomic_write, check_file, write_text
+    from puppet.output import Staged, check_file, commit_all
 
     shown = scene
     image = os.path.abspath(image)
@@ -140,7 +140,7 @@ def init_scene(image: str, scene: str, *, rule: str = "default", threshold: floa
     mask_file = mask_path_for(scene)
     inputs = [(image, "the picture")]
     check_file(scene, inputs=inputs, probe=True)
-    check_file(mask_file, inputs=inputs, probe=True)
+    check_file(mask_file, inputs=inputs, probe=True, follow=False)  # a name puppet chose: never through a link
     rgba = load_rgba(image)
     mask, how = make_mask(rgba, rule, threshold=threshold, rect=rect)
     if not mask.any():
@@ -152,36 +152,29 @@ def init_scene(image: str, scene: str, *, rule: str = "default", threshold: floa
 
         found = auto_pins(mask, max_pins=max_pins)
     name = layer_name(image)
-    folder = os.path.dirname(scene)
-    text = scene_text(scene_doc(image, mask_file, name, found, folder))
-    existed = os.path.lexists(scene)
+    text = scene_text(scene_doc(image, mask_file, name, found, os.path.dirname(scene)))
 
-    def write_mask_then_scene(tmp_mask: str) -> None:
+    def write_mask(tmp: str) -> None:
         from PIL import Image
 
-        Image.fromarray(mask.astype(np.uint8) * 255, mode="L").save(tmp_mask, format="PNG")
-        _validate(scene_doc(image, tmp_mask, name, found, None), scene)
-        write_text(scene, text, inputs=inputs)
+        Image.fromarray(mask.astype(np.uint8) * 255, mode="L").save(tmp, format="PNG")
+        _validate(scene_doc(image, tmp, name, found, None), scene)
 
+    def write_scene(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+
+    staged = [Staged(mask_file, write_mask, inputs=inputs, follow=False)]
     try:
-        atomic_write(mask_file, write_mask_then_scene, inputs=inputs)
+        staged.append(Staged(scene, write_scene, inputs=inputs + [(mask_file, "the mask")]))
     except BaseException:
-        # the scene is put in place just before the mask: if the mask's rename failed, take it back
-        if not existed and os.path.exists(scene) and _written_by_us(scene, text):
-            os.remove(scene)
+        staged[0].discard()
         raise
+    commit_all(staged)  # both written in full: two renames
     h, w = mask.shape
     return InitResult(scene=shown, mask_file=mask_path_for(shown), layer=name, size=(w, h), rule=how,
                       area=int(mask.sum()), components=count_components(mask),
                       pins={p.name: list(p.at) for p in found})
-
-
-def _written_by_us(path: str, text: str) -> bool:
-    try:
-        with open(path, encoding="utf-8") as f:
-            return f.read() == text
-    except OSError:
-        return False
 
 
 def _validate(doc: dict, scene: str) -> None:

@@ -50,7 +50,10 @@ def parse_scene(raw, file: str) -> m.SceneData:
         raise c.fail("puppet", f"unsupported format version {short(raw['puppet'])} (this puppet reads version 1)")
 
     def file_path(v, p):
-        return os.path.normpath(os.path.join(folder, expect_string(c, v, p)))
+        name = expect_string(c, v, p)
+        if "\0" in name:
+            raise c.fail(p, "a file path cannot hold a NUL byte")
+        return os.path.normpath(os.path.join(folder, name))
 
     canvas = None
     if "canvas" in raw:

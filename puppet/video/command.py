@@ -34,11 +34,9 @@ def _ranges(frames: list[int]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Validate everything, then stream the re-posed frames to the output; 0 on success."""
-    import json
-
     import numpy as np
 
-    from puppet.output import check_file, check_folder, write_text
+    from puppet.output import check_file, check_folder, commit_all
     from puppet.video.encode import output_kind, write_frames
 
     kind = output_kind(args.output)
@@ -89,13 +87,63 @@ def run(args: argparse.Namespace) -> int:
             if bar is not None:
                 bar.close()
 
-    written = write_frames(args.output, frames(), plan.fps, kind, plan.size, inputs=inputs)
-    if args.tracks:
-        from puppet.video.track import Tracks
+    staged = []
 
-        doc = Tracks(joints=joints, confidence=conf, lost_frames=lost).to_json(plan.fps, plan.size)
-        write_text(args.tracks, json.dumps(doc) + "\n", inputs=inputs + [(args.output, "-o")])
+    def then(count: int) -> None:  # every frame is written; the output is not in place yet
+        if count == 0:
+            raise SceneError(f"video {plan.data.source!r}: ends before frame {plan.first} (--from)",
+                             file=plan.data.file, path="source")
+        if args.tracks:
+            staged.append(_stage_tracks(args.tracks, plan, joints, conf, lost, count,
+                                        inputs + [(args.output, "-o")]))
+
+    try:
+        written = write_frames(args.output, frames(), plan.fps, kind, plan.size, inputs=inputs, then=then)
+    except BaseException:
+        for s in staged:
+            s.discard()
+        raise
+    try:
+        commit_all(staged)
+    except BaseException:  # the video is in place, its tracks are not: take it back
+        _take_back(args.output, kind)
+        raise
+    if plan.ended is not None:
+        print(f"puppet: warning: {plan.data.file}: video {plan.data.source!r} ends at frame {plan.ended[0]} "
+              f"although it declares {plan.data.video['count']} frames ({plan.ended[1]}): wrote frames "
+              f"{plan.first}-{plan.first + written - 1} only", file=sys.stderr)
     if lost:
         print(f"puppet: tracking lost on {len(lost)} of {written} frames: {_ranges(lost)} "
               f"(the skeleton was held; re-place it there with --anchors)", file=sys.stderr)
     return 0
+
+
+def _take_back(path: str, kind: str) -> None:
+    """Remove the output just put in place (where a symlink named as ``-o`` points)."""
+    import contextlib
+    import os
+    import shutil
+
+    real = os.path.realpath(path.rstrip("/" + os.sep) or os.sep)
+    with contextlib.suppress(OSError):
+        if kind == "dir":
+            shutil.rmtree(real)
+        else:
+            os.remove(real)
+
+
+def _stage_tracks(path: str, plan, joints: dict, conf: dict, lost: list[int], count: int, inputs):
+    """The ``--tracks`` file of the ``count`` frames written, staged (:class:`puppet.output.Staged`)."""
+    import json
+
+    from puppet.output import Staged
+    from puppet.video.track import Tracks
+
+    doc = Tracks(joints={n: xy[:count] for n, xy in joints.items()}, confidence={n: c[:count] for n, c in conf.items()},
+                 lost_frames=lost).to_json(plan.fps, plan.size)
+    text = json.dumps(doc) + "\n"
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+    return Staged(path, write, inputs=inputs)

@@ -8,7 +8,7 @@ export's encoder thread, :func:`puppet.anim.pipeline.run`).
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
@@ -37,21 +37,35 @@ def output_kind(path: str) -> str:
 
 
 def write_frames(path: str, frames: Iterable[np.ndarray], fps: float, kind: str, size: tuple[int, int], *,
-                 inputs=()) -> int:
+                 inputs=(), then: Callable[[int], None] | None = None) -> int:
     """Write (H, W, 3) uint8 RGB frames of ``size`` (W, H) to ``path`` as ``kind`` (``mp4``,
     ``webm``, ``dir``), through the animation export's sinks (:mod:`puppet.anim.sinks`) with
     this tool's codec settings (:data:`CODECS`: faster than the export's, for a stream of
     camera frames).
 
     Returns the number of frames written. Odd sizes are padded to even for the video codecs.
+    ``then(count)``, when given, runs after the last frame is written and before the output
+    is put in place: when it raises, nothing is written.
     """
+    def finish(count: int) -> int:
+        if then is not None:
+            then(count)
+        return count
+
     if kind == "dir":
-        return write_folder(path, lambda tmp: sinks.stream(sinks.DirSink(tmp), frames), inputs=inputs)
+        return write_folder(path, lambda tmp: finish(sinks.stream(sinks.DirSink(tmp), frames)), inputs=inputs)
     fmt, codec, pix, options = CODECS[kind]
     written = [0]
 
     def write(tmp: str) -> None:
-        sink = sinks.AVSink(tmp, fmt, codec, pix, size, fps, options, alpha=False, pad=True, threads="AUTO")
-        written[0] = sinks.stream(sink, frames)
+        import av
+
+        try:
+            sink = sinks.AVSink(tmp, fmt, codec, pix, size, fps, options, alpha=False, pad=True, threads="AUTO")
+            count = sinks.stream(sink, frames)
+        except av.FFmpegError as e:  # sizes are checked at the source; this is the codec's last word
+            raise SceneError(f"-o {path!r}: the {codec} encoder refuses {size[0]}x{size[1]} frames "
+                             f"({' '.join(str(e).split())[:120]})") from None
+        written[0] = finish(count)
     atomic_write(path, write, inputs=inputs)
     return written[0]

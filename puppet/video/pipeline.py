@@ -51,6 +51,8 @@ class VideoPlan:
     fps: float = 24.0
     size: tuple[int, int] = (0, 0)
     inpaint: str = "telea"
+    #: Set by :func:`run_video` when the clip ended early: (first frame missing, reason).
+    ended: tuple[int, str] | None = None
 
     @property
     def count(self) -> int:
@@ -133,7 +135,7 @@ def read_anchors(path: str) -> dict[int, dict[str, tuple[float, float]]]:
     expect_object(c, raw, "", optional=raw.keys() if isinstance(raw, dict) else ())
     out = {}
     for key, joints in raw.items():
-        if not key.isdigit():
+        if not (key.isascii() and key.isdigit() and len(key) <= 9):  # not "²", not 5000 digits
             raise c.fail(join("", key), "expected a frame number (0, 1, ...) as the key")
         expect_object(c, joints, join("", key), optional=joints.keys() if isinstance(joints, dict) else ())
         out[int(key)] = {n: expect_point(c, xy, join(join("", key), n)) for n, xy in joints.items()}
@@ -144,7 +146,9 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
               plate: bool = True, timer: dict | None = None) -> Iterator[FrameResult]:
     """Re-posed frames ``plan.first .. plan.last``, streamed.
 
-    Frames from the start frame to ``first - 1`` are tracked but not warped.
+    Frames from the start frame to ``first - 1`` are tracked but not warped. A clip that
+    ends before ``last`` (truncated, or undecodable from some frame on) ends the stream
+    there and sets ``plan.ended``; one that yields no frame at all raises ImageError.
 
     Parameters
     ----------
@@ -176,7 +180,7 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
     clean = Plate() if plate else None
     names, k = plan.names, len(plan.names)
     seg = trk = None
-    frames = prefetch(src, plan.start, plan.last + 1)
+    frames = prefetch(src, plan.start, plan.last + 1, partial=True)
     t = time.perf_counter()
     for i, rgba in frames:
         t = add("decode", t)
@@ -211,6 +215,7 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
         t = add("deform", t)
         yield FrameResult(index=i, rgb=out, joints=J + HALF, confidence=conf, lost=lost, reason=reason)
         t = time.perf_counter()
+    plan.ended = src.ended
 
 
 def _deform(rgb, mask, J, plan, step, out_step, skeleton_maps, background_fill, composite, clean=None) -> np.ndarray:

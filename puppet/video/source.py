@@ -25,11 +25,13 @@ def clip_source(data) -> FrameSource:
     return FrameSource(data.source, scene_file=data.file, json_path="source", fps=data.video["fps"])
 
 
-def prefetch(src: FrameSource, start: int, stop: int, *, ahead: int = AHEAD) -> Iterator[tuple[int, np.ndarray]]:
+def prefetch(src: FrameSource, start: int, stop: int, *, ahead: int = AHEAD,
+             partial: bool = False) -> Iterator[tuple[int, np.ndarray]]:
     """``(index, rgba)`` for frames ``start .. stop - 1``, decoded by a helper thread.
 
-    An error in the decoder is raised here, at the frame where it happened; leaving the
-    loop early stops the thread.
+    An error in the decoder is raised here, at the frame where it happened (with
+    ``partial``, a clip that ends early ends the stream: see :meth:`FrameSource.frames`);
+    leaving the loop early stops the thread.
     """
     q: queue.Queue = queue.Queue(maxsize=max(1, ahead))
     stop_flag = threading.Event()
@@ -45,7 +47,7 @@ def prefetch(src: FrameSource, start: int, stop: int, *, ahead: int = AHEAD) -> 
 
     def work() -> None:
         try:
-            for i, f in enumerate(src.frames(start, stop), start):
+            for i, f in enumerate(src.frames(start, stop, partial=partial), start):
                 if not put((i, f)):
                     return
             put(_END)

@@ -73,6 +73,18 @@ def make_bar(folder, *, mask=False, source=False, background=False, seconds=1.0,
     return path
 
 
+def fill(where: str) -> None:
+    """Write zeros to ``where/filler`` until the disk holding it is full."""
+    fd = os.open(os.path.join(where, "filler"), os.O_WRONLY | os.O_CREAT)
+    try:
+        while os.write(fd, b"\0" * 4096):
+            pass
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
 class Mount:
     """A small tmpfs mounted for one test (root only); skips when mounting is not allowed."""
 
@@ -92,14 +104,21 @@ class Mount:
 
     def fill(self):
         """Leave no free byte: write zeros until the disk is full."""
-        fd = os.open(os.path.join(self.where, "filler"), os.O_WRONLY | os.O_CREAT)
-        try:
-            while os.write(fd, b"\0" * 4096):
-                pass
-        except OSError:
-            pass
-        finally:
-            os.close(fd)
+        fill(self.where)
 
     def close(self):
         subprocess.run(["umount", "-l", self.where], capture_output=True)
+
+
+@pytest.fixture
+def bounded():
+    """Fail a test that runs in this process for more than 120 s (a hang), instead of waiting for ever."""
+    import signal
+
+    def stop(signum, frame):
+        raise TimeoutError("the test ran for more than 120 s")
+    old = signal.signal(signal.SIGALRM, stop)
+    signal.alarm(120)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)

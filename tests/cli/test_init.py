@@ -219,8 +219,22 @@ def test_init_writes_both_or_neither(tmp_path, monkeypatch):
     import puppet.output
     from puppet.output import OutputError
 
-    def fail(path, text, **kw):
-        raise OutputError(path, "No space left on device")
-    monkeypatch.setattr(puppet.output, "write_text", fail)
+    real = puppet.output.Staged.__init__
+
+    def fail(self, path, write, **kw):  # the scene (staged after the mask) finds the disk full
+        if path.endswith(".json"):
+            raise OutputError(path, "No space left on device")
+        real(self, path, write, **kw)
+    monkeypatch.setattr(puppet.output.Staged, "__init__", fail)
+    code, out = run_init(tmp_path, HORSE, "--threshold", "128")
+    assert code == 2 and os.listdir(tmp_path) == []
+    monkeypatch.undo()
+    commit = puppet.output.Staged.commit
+
+    def fail_second(self):  # the mask is in place, the scene's rename fails: the mask is taken back
+        if self.path.endswith(".json"):
+            raise OutputError(self.path, "Input/output error")
+        commit(self)
+    monkeypatch.setattr(puppet.output.Staged, "commit", fail_second)
     code, out = run_init(tmp_path, HORSE, "--threshold", "128")
     assert code == 2 and os.listdir(tmp_path) == []
