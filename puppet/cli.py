@@ -135,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="validate a scene, build its meshes and print a summary")
     c.add_argument("scene")
 
-    i = sub.add_parser("init", help="write a one-layer scene (and its mask) from a picture")
+    i = sub.add_parser("init", help="write a scene from a picture (one layer and its mask) or from layered art (.psd .psb .ora .kra)")
     i.add_argument("image")
     i.add_argument("-o", "--output", required=True, metavar="SCENE.json")
     g = i.add_mutually_exclusive_group()
@@ -144,6 +144,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--grabcut", type=_rect, metavar="X,Y,W,H", help="mask: GrabCut foreground inside the rectangle")
     i.add_argument("--pins", choices=("auto", "none"), default="none",
                    help="auto: pins at the skeleton's end points and junctions")
+    i.add_argument("--links", choices=("auto", "none"), default="none",
+                   help="layered art (.psd .psb .ora .kra): auto: a link where two layers overlap")
+    i.add_argument("--update", action="store_true",
+                   help="layered art: re-import into the existing scene, keeping its pins, links and poses")
 
     w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
     w.add_argument("scene", nargs="?", help="a scene, or a picture (PNG, JPEG...): a new puppet made from it")
@@ -230,6 +234,30 @@ def _stdout_to_devnull() -> None:
         pass
 
 
+def _layered(args) -> bool:
+    """Whether ``puppet init`` was given layered art (else --links and --update are refused)."""
+    from puppet.imaging.layered import is_layered
+
+    if is_layered(args.image):
+        if args.threshold is not None or args.alpha or args.grabcut:
+            raise UsageError(f"{args.image}: --threshold, --alpha and --grabcut are for flat pictures; "
+                             "layered art keeps each layer's own alpha")
+        return True
+    if args.update or args.links != "none":
+        raise UsageError(f"{args.image}: --update and --links are for layered art (.psd .psb .ora .kra)")
+    return False
+
+
+def _init_layered(args, out: str) -> int:
+    from puppet.scene.artimport import import_art
+
+    res = import_art(args.image, out, pins=args.pins, links=args.links, update=args.update)
+    for note in res.notes:
+        print(f"puppet: note: {args.image}: {note}", file=sys.stderr)
+    _print(res.summary())
+    return 0
+
+
 def run(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "app":  # imported here only: render and mesh never load pyglet
@@ -242,6 +270,8 @@ def run(argv: list[str] | None = None) -> int:
         from puppet.scene.init import init_scene
 
         out = _output_file(args.output, (".json",))
+        if _layered(args):
+            return _init_layered(args, out)
         rule = "threshold" if args.threshold is not None else "alpha" if args.alpha else \
             "grabcut" if args.grabcut else "default"
         res = init_scene(args.image, out, rule=rule, threshold=args.threshold, rect=args.grabcut, pins=args.pins)

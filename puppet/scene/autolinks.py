@@ -1,0 +1,96 @@
+"""Links proposed where imported layers overlap (``puppet init ART --links auto``).
+
+For two layers whose pixels overlap (an arm drawn over the body), the smaller one is
+"the part" and the overlap is where it meets the other. The link is one short segment
+across the part, centred at the point of the overlap that lies deepest in the part's
+end: among the overlap's points at least half as deep as its deepest (distance to the
+overlap's edge), the one farthest from the part's free pixels (those outside the other
+layer). The segment is perpendicular to the direction from there to the free pixels'
+centroid and shorter than the overlap's depth there, so it lies inside both layers.
+Layers covering nearly the whole canvas (a backdrop) get no links, and neither do
+overlaps thinner than a few pixels.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from puppet.imaging.layered import ArtLayer
+
+#: Overlaps less deep than this (pixels from their edge) get no link.
+MIN_DEPTH = 3.0
+#: Longest half-segment, in pixels.
+MAX_HALF = 12.0
+
+
+def propose_links(layers: list[ArtLayer], *, skip=(), canvas: tuple[int, int]) -> list[dict]:
+    """One link ``{"layers": [A, B], "segments": [[p, q]]}`` per overlapping pair (A
+    behind B) not in ``skip`` (a set of frozensets of two names)."""
+    W, H = canvas
+    usable = [lay for lay in layers if _area(lay.bounds) < 0.9 * W * H]
+    out = []
+    for i, a in enumerate(usable):
+        for b in usable[i + 1:]:
+            if frozenset((a.name, b.name)) in skip:
+                continue
+            seg = link_segment(a, b)
+            if seg is not None:
+                out.append({"layers": [a.name, b.name], "segments": [seg]})
+    return out
+
+
+def _area(box) -> int:
+    return max(box[2] - box[0], 0) * max(box[3] - box[1], 0)
+
+
+def _crop(lay: ArtLayer, box) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    ox, oy = lay.offset
+    return lay.rgba[y0 - oy:y1 - oy, x0 - ox:x1 - ox, 3] > 0
+
+
+def link_segment(a: ArtLayer, b: ArtLayer) -> list[list[float]] | None:
+    """The proposed segment [[x0, y0], [x1, y1]] (canvas) joining ``a`` and ``b``, or None."""
+    import cv2
+
+    ax0, ay0, ax1, ay1 = a.bounds
+    bx0, by0, bx1, by1 = b.bounds
+    box = (max(ax0, bx0), max(ay0, by0), min(ax1, bx1), min(ay1, by1))
+    if box[0] >= box[2] or box[1] >= box[3]:
+        return None
+    both = _crop(a, box) & _crop(b, box)
+    if both.sum() < 16:
+        return None
+    depth = cv2.distanceTransform(np.pad(both, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
+    if depth.max() < MIN_DEPTH:
+        return None
+    part, other = (a, b) if (a.rgba[..., 3] > 0).sum() <= (b.rgba[..., 3] > 0).sum() else (b, a)
+    px0, py0, px1, py1 = part.bounds
+    free = (part.rgba[..., 3] > 0) & ~_in_other(other, part.bounds)
+    ys, xs = np.nonzero(depth >= max(0.5 * depth.max(), MIN_DEPTH))
+    if free.any():
+        far = cv2.distanceTransform(np.pad(~free, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
+        score = far[ys + box[1] - py0, xs + box[0] - px0]
+        fy, fx = np.nonzero(free)
+        towards = np.array([fx.mean() + px0, fy.mean() + py0])
+    else:
+        score = depth[ys, xs]
+        towards = None
+    i = int(np.argmax(score))
+    centre = np.array([xs[i] + box[0] + 0.5, ys[i] + box[1] + 0.5])
+    axis = np.array([1.0, 0.0]) if towards is None else towards - centre
+    n = np.hypot(*axis)
+    across = np.array([-axis[1], axis[0]]) / n if n > 1e-6 else np.array([1.0, 0.0])
+    half = min(0.6 * float(depth[ys[i], xs[i]]), MAX_HALF)
+    p, q = centre - half * across, centre + half * across
+    return [[round(float(p[0]), 2), round(float(p[1]), 2)], [round(float(q[0]), 2), round(float(q[1]), 2)]]
+
+
+def _in_other(other: ArtLayer, box) -> np.ndarray:
+    """(h, w) bool over ``box``: pixels of ``other``."""
+    x0, y0, x1, y1 = box
+    out = np.zeros((y1 - y0, x1 - x0), bool)
+    ox0, oy0, ox1, oy1 = other.bounds
+    cx0, cy0, cx1, cy1 = max(x0, ox0), max(y0, oy0), min(x1, ox1), min(y1, oy1)
+    if cx0 < cx1 and cy0 < cy1:
+        out[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = _crop(other, (cx0, cy0, cx1, cy1))
+    return out
