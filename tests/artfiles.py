@@ -14,12 +14,12 @@ CANVAS = (420, 600)
 
 #: (name in the file, group or None, file under assets/kenney-character, offset), back to front.
 PARTS = [
-    ("arm_back", None, "mirrored/tint1_arm.png", (40, 190)),
+    ("arm_back", None, "mirrored/tint1_arm.png", (6, 226)),
     ("left", "legs", "tint1_leg.png", (122, 380)),
     ("right", "legs", "mirrored/tint1_leg.png", (205, 380)),
     ("body", None, "blueShirt1.png", (133, 222)),
-    ("neck", None, "tint1_neck.png", (162, 196)),
-    ("head", None, "tint1_head.png", (123, 40)),
+    ("neck", None, "tint1_neck.png", (162, 224)),
+    ("head", None, "tint1_head.png", (123, 66)),
     ("arm_front", None, "tint1_arm.png", (236, 226)),
 ]
 #: The scene's layer names for PARTS, back to front.

@@ -7,8 +7,11 @@ end: among the overlap's points at least half as deep as its deepest (distance t
 overlap's edge), the one farthest from the part's free pixels (those outside the other
 layer). The segment is perpendicular to the direction from there to the free pixels'
 centroid and shorter than the overlap's depth there, so it lies inside both layers.
-Layers covering nearly the whole canvas (a backdrop) get no links, and neither do
-overlaps thinner than a few pixels.
+The links make a tree, as bones would: the overlapping pairs are taken largest overlap
+first, and a pair already joined through other links gets none (Kruskal's maximum
+spanning tree), so an arm links to the body, not also to the head it touches. Layers
+covering nearly the whole canvas (a backdrop) get no links, and neither do overlaps
+thinner than a few pixels.
 """
 from __future__ import annotations
 
@@ -27,15 +30,37 @@ def propose_links(layers: list[ArtLayer], *, skip=(), canvas: tuple[int, int]) -
     behind B) not in ``skip`` (a set of frozensets of two names)."""
     W, H = canvas
     usable = [lay for lay in layers if _area(lay.bounds) < 0.9 * W * H]
-    out = []
+    found = []  # (overlap area, order, link)
     for i, a in enumerate(usable):
-        for b in usable[i + 1:]:
+        for j, b in enumerate(usable[i + 1:], i + 1):
             if frozenset((a.name, b.name)) in skip:
                 continue
-            seg = link_segment(a, b)
-            if seg is not None:
-                out.append({"layers": [a.name, b.name], "segments": [seg]})
-    return out
+            hit = link_segment(a, b)
+            if hit is not None:
+                found.append((hit[2], i * len(usable) + j, {"layers": [a.name, b.name], "segments": [hit[0]]}))
+    root = {lay.name: lay.name for lay in usable}
+    for pair in skip:
+        _join(root, *pair)
+
+    kept = [(order, link) for area, order, link in sorted(found, key=lambda t: (-t[0], t[1]))
+            if _join(root, *link["layers"])]
+    return [link for _, link in sorted(kept, key=lambda t: t[0])]
+
+
+def _find(root: dict, x: str) -> str:
+    while root.setdefault(x, x) != x:
+        root[x] = root[root[x]]
+        x = root[x]
+    return x
+
+
+def _join(root: dict, a: str, b: str) -> bool:
+    """Union of a's and b's sets; False when they were one already."""
+    ra, rb = _find(root, a), _find(root, b)
+    if ra == rb:
+        return False
+    root[ra] = rb
+    return True
 
 
 def _area(box) -> int:
@@ -48,8 +73,10 @@ def _crop(lay: ArtLayer, box) -> np.ndarray:
     return lay.rgba[y0 - oy:y1 - oy, x0 - ox:x1 - ox, 3] > 0
 
 
-def link_segment(a: ArtLayer, b: ArtLayer) -> list[list[float]] | None:
-    """The proposed segment [[x0, y0], [x1, y1]] (canvas) joining ``a`` and ``b``, or None."""
+def link_segment(a: ArtLayer, b: ArtLayer):
+    """The proposed segment [[x0, y0], [x1, y1]] (canvas) joining ``a`` and ``b``, the name
+    of the part (the smaller layer) and the overlap's area in pixels; None when they do
+    not overlap enough."""
     import cv2
 
     ax0, ay0, ax1, ay1 = a.bounds
@@ -82,7 +109,8 @@ def link_segment(a: ArtLayer, b: ArtLayer) -> list[list[float]] | None:
     across = np.array([-axis[1], axis[0]]) / n if n > 1e-6 else np.array([1.0, 0.0])
     half = min(0.6 * float(depth[ys[i], xs[i]]), MAX_HALF)
     p, q = centre - half * across, centre + half * across
-    return [[round(float(p[0]), 2), round(float(p[1]), 2)], [round(float(q[0]), 2), round(float(q[1]), 2)]]
+    seg = [[round(float(p[0]), 2), round(float(p[1]), 2)], [round(float(q[0]), 2), round(float(q[1]), 2)]]
+    return seg, part.name, int(both.sum())
 
 
 def _in_other(other: ArtLayer, box) -> np.ndarray:
