@@ -120,7 +120,7 @@ def read_kra(path: str) -> LayeredArt:
         layers = image.find("layers")
         if layers is not None:
             walk.layers(layers, "", 1.0)
-        if not art.layers and not art.hidden:
+        if not art.layers and (walk.unread or not art.hidden):
             rgba = png_member(zf, "mergedimage.png", path)
             art.notes.append("no layer could be read (only 8-bit RGBA paint layers are): "
                              "the merged image is one layer")
@@ -132,6 +132,7 @@ def read_kra(path: str) -> LayeredArt:
 class _Walk:
     def __init__(self, zf, art: LayeredArt, path: str, doc: str):
         self.zf, self.art, self.path, self.doc, self.taken = zf, art, path, doc, set()
+        self.unread = 0  # visible layers of a kind or colour space not read
 
     def layers(self, el, prefix: str, opacity: float) -> None:
         from puppet.imaging.io import MAX_PIXELS
@@ -152,6 +153,7 @@ class _Walk:
                 continue
             if kind != "paintlayer" or node.get("colorspacename", "RGBA") != "RGBA":
                 self.art.notes.append(f"{full}: {kind or 'layer'} ({node.get('colorspacename', '?')}) skipped")
+                self.unread += 1
                 continue
             if node.get("compositeop", "normal") not in ("normal", "svg:src-over"):
                 self.art.notes.append(f"{full}: blend mode {node.get('compositeop')} not read; drawn as normal")
