@@ -90,22 +90,26 @@ def test_blend_mode_is_baked_into_the_layer_below(tmp_path):
     psd.create_pixel_layer(block(30, 5, (128, 128, 128)), name="shade", left=0, top=12,
                            blend_mode=BlendMode.MULTIPLY)
     art = read_layered(saved(psd, tmp_path))
-    assert [lay.name for lay in art.layers] == ["body"]
-    body = art.layers[0]
+    assert [lay.name for lay in art.layers] == ["body", "shade"]
+    body, rest = art.layers
     assert tuple(body.rgba[4, 5]) == (100, 50, 25, 255)  # multiplied by 128/255
     assert tuple(body.rgba[0, 0]) == (200, 100, 50, 255)
+    # the shade's part beyond the body stays, drawn normal: x 0..9 and 30..29 (none) of rows 12..16
+    assert rest.offset == (0, 12) and rest.rgba.shape[:2] == (5, 10)
+    assert tuple(rest.rgba[0, 0]) == (128, 128, 128, 255)
     assert len(art.notes) == 1 and "multiply baked into 'body'" in art.notes[0]
 
 
-def test_blend_mode_with_nothing_below_is_refused_with_a_note(tmp_path):
+def test_blend_mode_over_nothing_is_normal(tmp_path):
     from psd_tools.constants import BlendMode
 
     psd = new_psd()
     psd.create_pixel_layer(block(30, 5, (128, 128, 128)), name="glow", blend_mode=BlendMode.SCREEN)
     psd.create_pixel_layer(block(20, 20, (200, 100, 50)), name="body", left=10, top=10)
     art = read_layered(saved(psd, tmp_path))
-    assert [lay.name for lay in art.layers] == ["body"]
-    assert "glow: blend mode screen refused (no layer below)" in art.notes[0]
+    assert [lay.name for lay in art.layers] == ["glow", "body"]  # over nothing, screen is normal
+    assert tuple(art.layers[0].rgba[0, 0]) == (128, 128, 128, 255)
+    assert "glow: blend mode screen over nothing is normal" in art.notes[0]
 
 
 def test_sixteen_bit_document_imports(tmp_path):
@@ -147,9 +151,10 @@ def write(tmp_path, name, data):
     (lambda t: write(t, "png.psd", open(os.path.join(os.path.dirname(__file__), "..", "..", "assets", "horse",
                                                      "horse.png"), "rb").read()), "not a Photoshop file"),
     (lambda t: write(t, "empty.psd", b""), "not a Photoshop file"),
-    (lambda t: write(t, "cmyk.psd", psd_header(10, 10, mode=4) + b"\0" * 64), "CMYK"),
+    (lambda t: write(t, "cmyk.psd", psd_header(10, 10, mode=4) + b"\0" * 64), "corrupt"),
     (lambda t: write(t, "lab.psd", psd_header(10, 10, mode=9) + b"\0" * 64), "Lab"),
-    (lambda t: write(t, "hdr.psd", psd_header(10, 10, depth=32) + b"\0" * 64), "32-bit"),
+    (lambda t: write(t, "hdr.psd", psd_header(10, 10, depth=7) + b"\0" * 64), "bit depth 7"),
+    (lambda t: write(t, "duo.psd", psd_header(10, 10, mode=8) + b"\0" * 64), "duotone colour mode"),
     (lambda t: write(t, "huge.psb", psd_header(30000, 30000, version=2) + b"\0" * 64), "too large (30000x30000"),
     (lambda t: write(t, "zero.psd", psd_header(0, 10)), "empty (0x10)"),
     (lambda t: write(t, "v3.psd", psd_header(10, 10, version=3)), "version 3"),

@@ -6,10 +6,14 @@ What becomes of each kind of layer (see docs/import.md):
   vector mask, clipping layers and the effects psd-tools draws baked in (through its
   compositor); a plain pixel layer is read directly (faster, same pixels);
 - opacity and fill opacity, and the opacity of enclosing groups: multiplied into alpha;
-- a blend mode other than normal: baked into the imported layer just below (clipped to
-  it, as a clipping mask would be), or skipped with a note when there is none below;
+- a blend mode other than normal: where the layer covers the imported layer just below,
+  baked into it (as a clipping mask would be); the rest stays a layer of its own, drawn
+  normal (over nothing a blend mode draws as normal);
 - adjustment layers: skipped with a note (they change every layer below them);
-- hidden layers and groups: skipped; ``[ignore]``: skipped; ``[merge]`` groups: one layer.
+- hidden layers and groups: skipped; ``[ignore]``: skipped; ``[merge]`` groups: one layer;
+- 16-bit documents: rounded to 8 bits; 32-bit (linear light): sRGB-encoded as psd-tools'
+  ``topil`` does; CMYK: converted to RGB with the document's colour profile by psd-tools;
+  Lab: converted to sRGB (D50 white, Bradford). Duotone and multichannel are refused.
 """
 from __future__ import annotations
 
@@ -21,9 +25,14 @@ from puppet.errors import ImageError
 from puppet.imaging.layered import (ArtLayer, LayeredArt, check_size, cropped, scale_alpha, split_tags,
                                     to_rgba, to_uint8, unique)
 
-#: Colour modes read (PSD header codes): bitmap, grayscale, indexed, RGB.
-_MODES = {0: "bitmap", 1: "grayscale", 2: "indexed", 3: "RGB"}
-_OTHER_MODES = {4: "CMYK", 7: "multichannel", 8: "duotone", 9: "Lab"}
+#: Colour modes read (PSD header codes): bitmap, grayscale, indexed, RGB, CMYK.
+_MODES = {0: "bitmap", 1: "grayscale", 2: "indexed", 3: "RGB", 4: "CMYK", 9: "Lab"}
+_OTHER_MODES = {7: "multichannel", 8: "duotone"}
+#: XYZ (D50, Photoshop's Lab white) to linear sRGB, Bradford-adapted (Lindbloom's table).
+_XYZ50_TO_SRGB = np.array([[3.1338561, -1.6168667, -0.4906146],
+                           [-0.9787684, 1.9161415, 0.0334540],
+                           [0.0719453, -0.2289914, 1.4052427]], np.float32)
+_D50 = np.array([0.96422, 1.0, 0.82521], np.float32)
 _PLAIN_KINDS = ("pixel", "type", "shape", "smartobject")
 
 
@@ -44,9 +53,7 @@ def read_header(path: str) -> tuple[int, int, int, int]:
     if mode not in _MODES:
         name = _OTHER_MODES.get(mode, f"mode {mode}")
         raise ImageError(f"{name} colour mode is not supported; convert the document to RGB", file=path)
-    if depth == 32:
-        raise ImageError("32-bit (HDR) documents are not supported; convert to 8 or 16 bits", file=path)
-    if depth not in (1, 8, 16):
+    if depth not in (1, 8, 16, 32):
         raise ImageError(f"unsupported bit depth {depth}", file=path)
     return w, h, depth, mode
 
@@ -58,7 +65,7 @@ def read_psd(path: str) -> LayeredArt:
     w, h, _, _ = read_header(path)
     psd = _open(path, max_alloc=MAX_PIXELS * 4 * 8)
     art = LayeredArt(path, (w, h))
-    reader = _Reader(art, path)
+    reader = _Reader(art, path, psd)
     try:
         reader.group(psd, "", 1.0)
     except ImageError:
@@ -66,7 +73,7 @@ def read_psd(path: str) -> LayeredArt:
     except Exception as e:  # psd-tools on a damaged file: any error is "cannot be read"
         raise ImageError(f"corrupt or unsupported layer data ({type(e).__name__}: {e})", file=path) from None
     if not art.layers and not art.hidden and not reader.seen:
-        art.layers.extend(_flat(psd, path, art))
+        art.layers.extend(_flat(psd, path, art, reader))
     return art
 
 
@@ -84,10 +91,12 @@ def _open(path: str, max_alloc: int):
         raise ImageError(f"corrupt or truncated PSD ({type(e).__name__}: {e})", file=path) from None
 
 
-def _flat(psd, path: str, art: LayeredArt) -> list[ArtLayer]:
+def _flat(psd, path: str, art: LayeredArt, reader) -> list[ArtLayer]:
     """A document without layers: its merged image as one layer."""
     try:
-        rgba = to_rgba(to_uint8(psd.numpy()))
+        a = psd.numpy()
+        rgba = to_rgba(to_uint8(reader._colour(a, alpha=a.shape[2] in (2, 4, 5) and not reader.cmyk
+                                               or a.shape[2] == 5)))
     except Exception as e:
         raise ImageError(f"corrupt image data ({type(e).__name__}: {e})", file=path) from None
     art.notes.append("the document has no layers: its merged image is one layer")
@@ -98,8 +107,12 @@ def _flat(psd, path: str, art: LayeredArt) -> list[ArtLayer]:
 class _Reader:
     """Walks the layer tree bottom to top, appending to ``art.layers``."""
 
-    def __init__(self, art: LayeredArt, path: str):
+    def __init__(self, art: LayeredArt, path: str, psd):
         self.art, self.path, self.taken, self.seen = art, path, set(), 0
+        self.depth, self.cmyk = psd.depth, int(psd.color_mode) == 4
+        self.lab = int(psd.color_mode) == 9
+        self.rgb = not (self.cmyk or self.lab)  # RGB, grey, bitmap, indexed: numpy() gives the colours
+        self.icc = _icc(psd) if self.cmyk else None
 
     def note(self, text: str) -> None:
         self.art.notes.append(text)
@@ -132,10 +145,11 @@ class _Reader:
         if rgba is None:
             return
         scale_alpha(rgba, opacity)
-        if mode not in ("normal", "pass_through", "passthrough"):
-            self._bake(name, mode, rgba, offset)
-            return
-        lay = cropped(unique(name, self.taken), rgba, offset)
+        if mode not in ("normal", "pass_through", "passthrough") and self.art.layers:
+            rgba = self._bake(name, mode, rgba, offset)
+        elif mode not in ("normal", "pass_through", "passthrough"):
+            self.note(f"{name}: blend mode {mode} over nothing is normal: imported as is")
+        lay = cropped(unique(name, self.taken), rgba, offset) if rgba is not None else None
         if lay is not None:
             self.art.layers.append(lay)
 
@@ -147,16 +161,49 @@ class _Reader:
         check_size(x1 - x0, y1 - y0, f"layer {name!r}", self.path)
         plain = (layer.kind == "pixel" and not layer.has_mask() and not layer.has_vector_mask()
                  and not layer.has_clip_layers() and not layer.has_effects())
-        if plain:
-            a = layer.numpy()
-            if a is None:
-                return None, None
-            rgba = to_rgba(to_uint8(a))
-            return scale_alpha(rgba, layer.opacity / 255.0 * layer.fill_opacity / 255.0), (x0, y0)
+        if plain and self.rgb:
+            return self._raster(layer), (x0, y0)
         if layer.has_effects():
             self.note(f"{name}: layer effects drawn as psd-tools renders them (some, e.g. shadows "
                       "and glows, may be missing)")
-        return self._composite(layer, (x0, y0, x1, y1))
+        try:
+            return self._composite(layer, (x0, y0, x1, y1))
+        except ImportError:  # vector shapes and fills need aggdraw (psd-tools[composite])
+            if layer.is_group():
+                self.note(f"{name}: group not drawn (its vector shapes need aggdraw); skipped")
+                return None, None
+            self.note(f"{name}: vector shape or fill not drawn (needs aggdraw): its stored pixels imported")
+            return self._raster(layer), (x0, y0)
+
+    def _raster(self, layer) -> np.ndarray | None:
+        """The layer's stored pixels with its opacity and fill opacity."""
+        a = layer.numpy()
+        if a is None:
+            return None
+        rgba = to_rgba(to_uint8(self._colour(a, alpha=a.shape[2] in (2, 4, 5))))
+        return scale_alpha(rgba, layer.opacity / 255.0 * layer.fill_opacity / 255.0)
+
+    def _colour(self, a: np.ndarray, *, alpha: bool) -> np.ndarray:
+        """Floats as the document stores them to sRGB-encoded RGB(A) floats: 32-bit
+        documents hold linear light (encoded here as psd-tools' ``topil`` does), CMYK is
+        converted with the document's colour profile (psd-tools' own conversion)."""
+        if self.cmyk:
+            return self._from_cmyk(a, alpha=alpha)
+        if self.lab:
+            return np.concatenate([srgb_encode(lab_to_linear(a[..., :3])), a[..., 3:4]], axis=2)
+        if self.depth == 32:
+            c = a.shape[2] - alpha
+            a = a.copy()
+            a[..., :c] = srgb_encode(a[..., :c])
+        return a
+
+    def _from_cmyk(self, a: np.ndarray, *, alpha: bool) -> np.ndarray:
+        from PIL import Image
+        from psd_tools.api.pil_io import post_process
+
+        im = post_process(Image.fromarray(to_uint8(a[..., :4]), "CMYK"), None, self.icc)
+        rgb = np.asarray(im.convert("RGB"), np.float32) / 255.0
+        return np.concatenate([rgb, a[..., 4:5]], axis=2) if alpha else rgb
 
     def _composite(self, layer, box):
         from psd_tools.composite import composite
@@ -167,23 +214,50 @@ class _Reader:
         check_size(box[2] - box[0], box[3] - box[1], f"layer {layer.name!r}", self.path)
         colour, _, alpha = composite(layer, color=0.0, alpha=0.0, viewport=box, force=False)
         a = np.concatenate([np.atleast_3d(colour), np.atleast_3d(alpha)], axis=2)
-        rgba = to_rgba(to_uint8(a))
+        rgba = to_rgba(to_uint8(self._colour(a, alpha=True)))
         if layer.is_group():  # a group's own opacity is not in its composite
             scale_alpha(rgba, layer.opacity / 255.0)
         return rgba, (box[0], box[1])
 
-    def _bake(self, name: str, mode: str, rgba: np.ndarray, offset) -> None:
+    def _bake(self, name: str, mode: str, rgba: np.ndarray, offset) -> np.ndarray | None:
+        """Blend the part over the layer below into it; returns the rest (None if nothing)."""
         from psd_tools.composite.blend import BLEND_FUNC
         from psd_tools.constants import BlendMode
 
         func = BLEND_FUNC.get(getattr(BlendMode, mode.upper(), None))
-        below = self.art.layers[-1] if self.art.layers else None
-        if func is None or below is None:
-            why = "no blend function" if func is None else "no layer below"
-            self.note(f"{name}: blend mode {mode} refused ({why}); layer skipped")
-            return
-        bake_onto(below, rgba, offset, func)
-        self.note(f"{name}: blend mode {mode} baked into {below.name!r} (clipped to it)")
+        below = self.art.layers[-1]
+        if func is None:
+            self.note(f"{name}: blend mode {mode} refused (no blend function); layer skipped")
+            return None
+        rest = bake_onto(below, rgba, offset, func)
+        kept = " (the rest kept as a normal layer)" if rest[..., 3].any() else ""
+        self.note(f"{name}: blend mode {mode} baked into {below.name!r} where it covers it{kept}")
+        return rest
+
+
+def srgb_encode(lin: np.ndarray) -> np.ndarray:
+    """Linear light in [0, 1] to sRGB-encoded values (IEC 61966-2-1)."""
+    lin = np.clip(lin, 0.0, 1.0)
+    return np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * np.power(lin, 1 / 2.4) - 0.055)
+
+
+def lab_to_linear(lab: np.ndarray) -> np.ndarray:
+    """(..., 3) Lab as psd-tools gives it (L/100, (a + 128)/255, (b + 128)/255 in [0, 1])
+    to linear sRGB (D50 -> D65 by Bradford)."""
+    L = lab[..., 0] * 100.0
+    a, b = lab[..., 1] * 255.0 - 128.0, lab[..., 2] * 255.0 - 128.0
+    fy = (L + 16.0) / 116.0
+    f = np.stack([fy + a / 500.0, fy, fy - b / 200.0], axis=-1)
+    d = 6.0 / 29.0
+    xyz = np.where(f > d, f ** 3, 3 * d * d * (f - 4.0 / 29.0)) * _D50
+    return xyz @ _XYZ50_TO_SRGB.T
+
+
+def _icc(psd) -> bytes | None:
+    from psd_tools.constants import Resource
+
+    res = psd.image_resources
+    return res.get_data(Resource.ICC_PROFILE) if Resource.ICC_PROFILE in res else None
 
 
 def _blend(layer) -> str:
@@ -197,19 +271,24 @@ def _is_adjustment(layer) -> bool:
     return isinstance(layer, AdjustmentLayer)
 
 
-def bake_onto(below: ArtLayer, rgba: np.ndarray, offset, func) -> None:
+def bake_onto(below: ArtLayer, rgba: np.ndarray, offset, func) -> np.ndarray:
     """Blend ``rgba`` at ``offset`` into ``below`` with ``func(Cb, Cs)`` (floats in [0, 1],
     (h, w, 3)), inside ``below``'s pixels only: C = (1 - a_s) Cb + a_s B(Cb, Cs); the
-    alpha of ``below`` is unchanged."""
+    alpha of ``below`` is unchanged. Returns the rest: ``rgba`` (a copy) with its
+    pixels over ``below`` made transparent (over nothing, a blend mode draws as normal)."""
+    rest = rgba.copy()
     bx0, by0, bx1, by1 = below.bounds
     sx0, sy0 = offset
     sx1, sy1 = sx0 + rgba.shape[1], sy0 + rgba.shape[0]
     x0, y0, x1, y1 = max(bx0, sx0), max(by0, sy0), min(bx1, sx1), min(by1, sy1)
     if x0 >= x1 or y0 >= y1:
-        return
+        return rest
     dst = below.rgba[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0]
     src = rgba[y0 - sy0:y1 - sy0, x0 - sx0:x1 - sx0].astype(np.float32) / 255.0
     cb = dst[..., :3].astype(np.float32) / 255.0
     a = src[..., 3:]
     mixed = (1 - a) * cb + a * np.asarray(func(cb, src[..., :3]), np.float32)
-    dst[..., :3] = to_uint8(mixed)
+    covered = dst[..., 3] > 0
+    dst[..., :3] = np.where(covered[..., None], to_uint8(mixed), dst[..., :3])
+    rest[y0 - sy0:y1 - sy0, x0 - sx0:x1 - sx0, 3][covered] = 0
+    return rest
