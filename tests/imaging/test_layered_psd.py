@@ -152,7 +152,7 @@ def write(tmp_path, name, data):
                                                      "horse.png"), "rb").read()), "not a Photoshop file"),
     (lambda t: write(t, "empty.psd", b""), "not a Photoshop file"),
     (lambda t: write(t, "cmyk.psd", psd_header(10, 10, mode=4) + b"\0" * 64), "corrupt"),
-    (lambda t: write(t, "lab.psd", psd_header(10, 10, mode=9) + b"\0" * 64), "Lab"),
+    (lambda t: write(t, "multi.psd", psd_header(10, 10, mode=7) + b"\0" * 64), "multichannel colour mode"),
     (lambda t: write(t, "hdr.psd", psd_header(10, 10, depth=7) + b"\0" * 64), "bit depth 7"),
     (lambda t: write(t, "duo.psd", psd_header(10, 10, mode=8) + b"\0" * 64), "duotone colour mode"),
     (lambda t: write(t, "huge.psb", psd_header(30000, 30000, version=2) + b"\0" * 64), "too large (30000x30000"),
