@@ -248,6 +248,30 @@ def _layered(args) -> bool:
     return False
 
 
+def _is_art(path: str) -> bool:
+    from puppet.imaging.layered import is_layered
+
+    return is_layered(path)
+
+
+def _scene_from_art(art: str) -> str:
+    """``puppet app ART.psd``: the scene ``ART.json`` made from the art (pins and links
+    proposed), or, when it exists and was made from it, updated from it (its rig kept)."""
+    from puppet.scene.artimport import import_art, made_from
+
+    scene = os.path.splitext(art)[0] + ".json"
+    update = os.path.exists(scene)
+    if update and not made_from(scene):
+        raise SceneError(f"{scene} exists and was not made from the art; open it, or make a new scene "
+                         f"with 'puppet init {art} -o OTHER.json'", file=art)
+    auto = "none" if update else "auto"
+    res = import_art(art, scene, pins=auto, links=auto, update=update)
+    for note in res.notes:
+        print(f"puppet: note: {art}: {note}", file=sys.stderr)
+    print(res.summary(), file=sys.stderr)
+    return scene
+
+
 def _init_layered(args, out: str) -> int:
     from puppet.scene.artimport import import_art
 
@@ -263,7 +287,10 @@ def run(argv: list[str] | None = None) -> int:
     if args.command == "app":  # imported here only: render and mesh never load pyglet
         import puppet.app
 
-        return puppet.app.run(args.scene, size=args.size)
+        scene = args.scene
+        if scene and _is_art(scene):
+            scene = _scene_from_art(scene)
+        return puppet.app.run(scene, size=args.size)
     if args.command in _PLUGGED:
         return _PLUGGED[args.command].run(args)
     if args.command == "init":

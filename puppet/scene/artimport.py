@@ -57,6 +57,20 @@ def layers_folder(scene: str) -> str:
     return os.path.splitext(scene)[0] + "-layers"
 
 
+def made_from(scene: str) -> bool:
+    """Whether every layer of the scene file takes its image from the scene's layers folder
+    (as :func:`import_art` writes it); False for an unreadable file."""
+    from puppet.scene.load import read_json
+
+    try:
+        doc = read_json(scene)
+        images = [L.get("image") for L in doc["layers"]]
+    except Exception:  # any unreadable or foreign file is "not made from the art"
+        return False
+    folder = os.path.basename(layers_folder(scene))
+    return bool(images) and all(isinstance(p, str) and p.split("/")[0] == folder for p in images)
+
+
 def file_stem(name: str, taken: set[str]) -> str:
     """A file name (without ``.png``) for a layer name, unique (case-insensitively) in ``taken``."""
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", name.replace("/", "__")).strip("._") or "layer"
