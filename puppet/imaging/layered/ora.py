@@ -3,8 +3,9 @@
 ``stack.xml`` lists layers top first; ``<stack>`` elements are groups. Read: each
 ``<layer>``'s PNG at its ``x``, ``y``, with its ``opacity`` (times its groups'),
 ``visibility`` and name; ``composite-op`` other than ``svg:src-over`` is baked into the
-layer below with the matching separable blend (multiply, screen, overlay, darken,
-lighten, ...), else the layer is skipped with a note.
+layers below with the matching separable blend (multiply, screen, overlay, darken,
+lighten, ...; see :mod:`puppet.imaging.layered.blend`), else the layer is skipped
+with a note.
 """
 from __future__ import annotations
 
@@ -98,16 +99,18 @@ class _Walk:
             self.art.layers.append(lay)
 
     def blend(self, name: str, op: str, rgba: np.ndarray, offset) -> None:
-        from puppet.imaging.layered.psd import bake_onto
+        from puppet.imaging.layered.blend import bake_down
 
         func = _BLENDS.get(op)
-        below = self.art.layers[-1] if self.art.layers else None
-        if func is None or below is None:
-            why = "not supported" if func is None else "no layer below"
-            self.art.notes.append(f"{name}: composite-op {op} refused ({why}); layer skipped")
+        if func is None:
+            self.art.notes.append(f"{name}: composite-op {op} refused (not supported); layer skipped")
             return
-        bake_onto(below, rgba, offset, func)
-        self.art.notes.append(f"{name}: composite-op {op} baked into {below.name!r} (clipped to it)")
+        rest, into = bake_down(self.art.layers, rgba, offset, func)
+        kept = "; the rest kept as a normal layer" if rest[..., 3].any() else ""
+        self.art.notes.append(f"{name}: composite-op {op} baked into {', '.join(map(repr, into)) or 'nothing'}{kept}")
+        lay = cropped(unique(name, self.taken), rest, offset) if rest[..., 3].any() else None
+        if lay is not None:
+            self.art.layers.append(lay)
 
     def merged(self, el, name: str, alpha: float, x: int, y: int) -> None:
         inner = LayeredArt(self.path, self.art.size)

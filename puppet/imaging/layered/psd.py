@@ -10,7 +10,9 @@ What becomes of each kind of layer (see docs/import.md):
   baked into it (as a clipping mask would be); the rest stays a layer of its own, drawn
   normal (over nothing a blend mode draws as normal);
 - adjustment layers: skipped with a note (they change every layer below them);
-- hidden layers and groups: skipped; ``[ignore]``: skipped; ``[merge]`` groups: one layer;
+- hidden layers and groups: skipped; ``[ignore]``: skipped; ``[merge]`` groups, and
+  groups that have clipping layers over them: one layer; a group's pixel mask: applied
+  to each of its layers;
 - 16-bit documents: rounded to 8 bits; 32-bit (linear light): sRGB-encoded as psd-tools'
   ``topil`` does; CMYK: converted to RGB with the document's colour profile by psd-tools;
   Lab: converted to sRGB (D50 white, Bradford). Duotone and multichannel are refused.
@@ -24,6 +26,7 @@ import numpy as np
 from puppet.errors import ImageError
 from puppet.imaging.layered import (ArtLayer, LayeredArt, check_size, cropped, scale_alpha, split_tags,
                                     to_rgba, to_uint8, unique)
+from puppet.imaging.layered.blend import bake_down, bake_onto
 
 #: Colour modes read (PSD header codes): bitmap, grayscale, indexed, RGB, CMYK.
 _MODES = {0: "bitmap", 1: "grayscale", 2: "indexed", 3: "RGB", 4: "CMYK", 9: "Lab"}
@@ -117,7 +120,7 @@ class _Reader:
     def note(self, text: str) -> None:
         self.art.notes.append(text)
 
-    def group(self, group, prefix: str, opacity: float) -> None:
+    def group(self, group, prefix: str, opacity: float, masks: tuple = ()) -> None:
         for layer in group:  # psd-tools iterates a group bottom to top
             if getattr(layer, "clipping", False):
                 continue  # drawn by its base layer's composite
@@ -130,21 +133,28 @@ class _Reader:
                 self.art.hidden.append(full)
                 continue
             alpha = opacity * layer.opacity / 255.0
-            if layer.is_group() and "merge" not in tags:
-                if layer.has_mask():
-                    self.note(f"{full}: the group's mask is not applied to its layers")
-                self.group(layer, full + "/", alpha)
+            if layer.is_group() and "merge" not in tags and layer.has_clip_layers(visible=True):
+                self.note(f"{full}: a group with clipping layers over it is imported as one layer")
+                self.pixels(layer, full, opacity, masks)
+            elif layer.is_group() and "merge" not in tags:
+                if layer.has_vector_mask():
+                    self.note(f"{full}: the group's vector mask is not applied to its layers")
+                self.group(layer, full + "/", alpha, masks + _mask(layer))
             elif layer.kind == "adjustment" or _is_adjustment(layer):
                 self.note(f"{full}: adjustment layer skipped (it would change every layer below it)")
             else:
-                self.pixels(layer, full, opacity)
+                self.pixels(layer, full, opacity, masks)
 
-    def pixels(self, layer, name: str, opacity: float) -> None:
+    def pixels(self, layer, name: str, opacity: float, masks: tuple = ()) -> None:
         mode = _blend(layer)
         rgba, offset = self._render(layer, name)
         if rgba is None:
             return
+        if layer.is_group() and layer.has_clip_layers(visible=True):
+            self._clip_group(layer, rgba, offset)
         scale_alpha(rgba, opacity)
+        for mask in masks:
+            apply_mask(rgba, offset, *mask)
         if mode not in ("normal", "pass_through", "passthrough") and self.art.layers:
             rgba = self._bake(name, mode, rgba, offset)
         elif mode not in ("normal", "pass_through", "passthrough"):
@@ -152,6 +162,21 @@ class _Reader:
         lay = cropped(unique(name, self.taken), rgba, offset) if rgba is not None else None
         if lay is not None:
             self.art.layers.append(lay)
+
+    def _clip_group(self, group, rgba: np.ndarray, offset) -> None:
+        """Draw the clipping layers over a group into its pixels (psd-tools' group
+        composite leaves them out)."""
+        from psd_tools.composite.blend import BLEND_FUNC
+        from psd_tools.constants import BlendMode
+
+        base = ArtLayer(group.name, rgba, offset)
+        for clip in group.clip_layers:
+            if not clip.is_visible():
+                continue
+            c, at = self._raster(clip), clip.bbox[:2]  # (psd-tools composites a clip layer alone as empty)
+            func = BLEND_FUNC.get(getattr(BlendMode, _blend(clip).upper(), None), BLEND_FUNC[BlendMode.NORMAL])
+            if c is not None:
+                bake_onto(base, c, at, func, atop=True)
 
     def _render(self, layer, name: str):
         """(rgba (h, w, 4) uint8 with the layer's own opacity, offset) or (None, None)."""
@@ -220,19 +245,19 @@ class _Reader:
         return rgba, (box[0], box[1])
 
     def _bake(self, name: str, mode: str, rgba: np.ndarray, offset) -> np.ndarray | None:
-        """Blend the part over the layer below into it; returns the rest (None if nothing)."""
+        """Blend the layer into the imported layers below it, each pixel into the topmost
+        one that has it; returns the rest (drawn normal: over nothing), None if none."""
         from psd_tools.composite.blend import BLEND_FUNC
         from psd_tools.constants import BlendMode
 
         func = BLEND_FUNC.get(getattr(BlendMode, mode.upper(), None))
-        below = self.art.layers[-1]
         if func is None:
             self.note(f"{name}: blend mode {mode} refused (no blend function); layer skipped")
             return None
-        rest = bake_onto(below, rgba, offset, func)
-        kept = " (the rest kept as a normal layer)" if rest[..., 3].any() else ""
-        self.note(f"{name}: blend mode {mode} baked into {below.name!r} where it covers it{kept}")
-        return rest
+        rest, into = bake_down(self.art.layers, rgba, offset, func)
+        kept = "; the rest kept as a normal layer" if rest[..., 3].any() else ""
+        self.note(f"{name}: blend mode {mode} baked into {', '.join(map(repr, into)) or 'nothing'}{kept}")
+        return rest if rest[..., 3].any() else None
 
 
 def srgb_encode(lin: np.ndarray) -> np.ndarray:
@@ -253,6 +278,30 @@ def lab_to_linear(lab: np.ndarray) -> np.ndarray:
     return xyz @ _XYZ50_TO_SRGB.T
 
 
+def _mask(group) -> tuple:
+    """A group's enabled pixel mask as ((h, w) uint8, (x, y), value outside), in a tuple."""
+    if not group.has_mask() or group.mask.disabled:
+        return ()
+    m = group.mask
+    img = m.topil()
+    x0, y0, _, _ = m.bbox
+    inside = np.asarray(img.convert("L"), np.uint8) if img is not None else np.zeros((0, 0), np.uint8)
+    return ((inside, (x0, y0), int(m.background_color)),)
+
+
+def apply_mask(rgba: np.ndarray, offset, mask: np.ndarray, at, outside: int) -> None:
+    """Multiply the alpha of ``rgba`` (at ``offset``) by a mask: ``mask`` (values 0-255)
+    placed at ``at``, ``outside`` everywhere else."""
+    h, w = rgba.shape[:2]
+    factor = np.full((h, w), outside, np.float32)
+    x0, y0 = at[0] - offset[0], at[1] - offset[1]
+    cx0, cy0 = max(x0, 0), max(y0, 0)
+    cx1, cy1 = min(x0 + mask.shape[1], w), min(y0 + mask.shape[0], h)
+    if cx0 < cx1 and cy0 < cy1:
+        factor[cy0:cy1, cx0:cx1] = mask[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+    rgba[..., 3] = np.rint(rgba[..., 3] * (factor / 255.0)).astype(np.uint8)
+
+
 def _icc(psd) -> bytes | None:
     from psd_tools.constants import Resource
 
@@ -269,26 +318,3 @@ def _is_adjustment(layer) -> bool:
     from psd_tools.api.layers import AdjustmentLayer
 
     return isinstance(layer, AdjustmentLayer)
-
-
-def bake_onto(below: ArtLayer, rgba: np.ndarray, offset, func) -> np.ndarray:
-    """Blend ``rgba`` at ``offset`` into ``below`` with ``func(Cb, Cs)`` (floats in [0, 1],
-    (h, w, 3)), inside ``below``'s pixels only: C = (1 - a_s) Cb + a_s B(Cb, Cs); the
-    alpha of ``below`` is unchanged. Returns the rest: ``rgba`` (a copy) with its
-    pixels over ``below`` made transparent (over nothing, a blend mode draws as normal)."""
-    rest = rgba.copy()
-    bx0, by0, bx1, by1 = below.bounds
-    sx0, sy0 = offset
-    sx1, sy1 = sx0 + rgba.shape[1], sy0 + rgba.shape[0]
-    x0, y0, x1, y1 = max(bx0, sx0), max(by0, sy0), min(bx1, sx1), min(by1, sy1)
-    if x0 >= x1 or y0 >= y1:
-        return rest
-    dst = below.rgba[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0]
-    src = rgba[y0 - sy0:y1 - sy0, x0 - sx0:x1 - sx0].astype(np.float32) / 255.0
-    cb = dst[..., :3].astype(np.float32) / 255.0
-    a = src[..., 3:]
-    mixed = (1 - a) * cb + a * np.asarray(func(cb, src[..., :3]), np.float32)
-    covered = dst[..., 3] > 0
-    dst[..., :3] = np.where(covered[..., None], to_uint8(mixed), dst[..., :3])
-    rest[y0 - sy0:y1 - sy0, x0 - sx0:x1 - sx0, 3][covered] = 0
-    return rest
