@@ -208,3 +208,28 @@ def test_update_and_links_are_refused_for_a_flat_picture(tmp_path, capsys):
 
     rc, scene, out, err = init(tmp_path, capsys, os.path.join(ASSETS, "horse", "horse.png"), "--update")
     assert rc == 2 and "layered art" in err and not os.path.exists(scene)
+
+
+def test_app_on_art_makes_then_updates_the_scene_beside_it(tmp_path, capsys):
+    from puppet.cli import _scene_from_art
+    from puppet.errors import SceneError
+
+    art = tmp_path / "gbot.psd"
+    artfiles.write_psd(str(art))
+    scene = _scene_from_art(str(art))
+    assert scene == str(tmp_path / "gbot.json")
+    doc = load(scene)
+    assert [L["name"] for L in doc["layers"]] == NAMES and doc["pins"] and doc["links"]
+    doc["poses"] = {"p": {doc["pins"][0]["name"]: [1, 1]}}
+    open(scene, "w").write(json.dumps(doc))
+    artfiles.write_psd(str(art), recolour="head")
+    assert _scene_from_art(str(art)) == scene  # the second time: updated, the rig kept
+    after = load(scene)
+    assert after["pins"] == doc["pins"] and after["poses"] == doc["poses"] and after["links"] == doc["links"]
+    assert "7 replaced" in capsys.readouterr().err
+    # a scene of that name not made from the art is never overwritten
+    other = tmp_path / "other.psd"
+    artfiles.write_psd(str(other))
+    (tmp_path / "other.json").write_text(json.dumps({"puppet": 1, "layers": [{"name": "x", "image": "x.png"}]}))
+    with pytest.raises(SceneError, match="not made from the art"):
+        _scene_from_art(str(other))

@@ -217,3 +217,22 @@ def test_the_art_file_is_never_modified(tmp_path, capsys):
         assert main(["init", path, "-o", str(tmp_path / "s.json"), *flags]) in (0, 2)
     assert hashlib.sha256(open(path, "rb").read()).hexdigest() == digest
     assert os.stat(path).st_mtime_ns == mtime
+
+
+def test_cmyk_document_is_converted_to_rgb(tmp_path):
+    from psd_tools import PSDImage
+
+    psd = PSDImage.new("CMYK", (20, 10))
+    psd.create_pixel_layer(Image.new("CMYK", (8, 6), (0, 255, 255, 0)), name="red", left=2, top=3)
+    psd.create_pixel_layer(Image.new("CMYK", (4, 4), (0, 0, 0, 128)), name="grey", left=12, top=1)
+    path = saved(psd, tmp_path, "cmyk.psd")
+    art = read_layered(path)
+    red, grey = art.layers
+    assert red.offset == (2, 3) and tuple(red.rgba[0, 0]) == (255, 0, 0, 255)
+    assert abs(int(grey.rgba[0, 0, 0]) - 127) <= 1 and grey.rgba[0, 0, 0] == grey.rgba[0, 0, 2]
+    ref = np.asarray(PSDImage.open(path).composite().convert("RGBA"))
+    from puppet.imaging.layered import over
+
+    mine = over(None, art.layers, art.size)
+    shown = ref[..., 3] == 255
+    assert np.abs(mine[shown, :3].astype(int) - ref[shown, :3]).max() <= 2
