@@ -75,6 +75,21 @@ def write_psd(path: str, recolour: str | None = None) -> None:
     psd.save(path)
 
 
+def tree_xml(items, open_group, close: str, leaf) -> list[str]:
+    """XML lines for ``items`` (from :func:`parts`) top first, the group's element opened
+    (``open_group(name)``) before its first layer and closed (``close``) after its last;
+    ``leaf(k, name, rgba, x, y)`` gives a layer's element."""
+    out, group_open = [], False
+    for k, (name, group, rgba, (x, y)) in enumerate(reversed(items)):
+        if bool(group) != group_open:
+            out.append(open_group(group) if group else close)
+            group_open = bool(group)
+        out.append(leaf(k, name, rgba, x, y))
+    if group_open:
+        out.append(close)
+    return out
+
+
 def write_ora(path: str, recolour: str | None = None, *, extra: dict | None = None) -> None:
     """An OpenRaster file; ``extra``: more members (name -> bytes) for broken-file tests."""
     from PIL import Image
@@ -87,19 +102,11 @@ def write_ora(path: str, recolour: str | None = None, *, extra: dict | None = No
     items = parts(recolour)
     xml = ['<?xml version="1.0" encoding="UTF-8"?>', f'<image version="0.0.3" w="{CANVAS[0]}" h="{CANVAS[1]}">', "<stack>"]
     members = {}
-    top_first = list(reversed(items))
-    in_group = False
-    for name, group, rgba, (x, y) in top_first:
-        if group and not in_group:
-            xml.append(f'<stack name="{group}">')
-            in_group = True
-        if not group and in_group:
-            xml.append("</stack>")
-            in_group = False
+
+    def leaf(k, name, rgba, x, y):
         members[f"data/{name}.png"] = png(rgba)
-        xml.append(f'<layer name="{name}" src="data/{name}.png" x="{x}" y="{y}" opacity="1.0" visibility="visible"/>')
-    if in_group:
-        xml.append("</stack>")
+        return f'<layer name="{name}" src="data/{name}.png" x="{x}" y="{y}" opacity="1.0" visibility="visible"/>'
+    xml += tree_xml(items, lambda g: f'<stack name="{g}">', "</stack>", leaf)
     members["data/sketch.png"] = png(sketch())
     xml.append('<layer name="sketch" src="data/sketch.png" x="0" y="0" visibility="hidden"/>')
     xml += ["</stack>", "</image>"]

@@ -87,18 +87,14 @@ def tile_file(rgba: np.ndarray, tw=64, th=64) -> bytes:
 
 def write_kra(path, *, colorspace="RGBA"):
     items = artfiles.parts()
-    xml, files = [], {}
-    in_group = False
-    for k, (name, group, rgba, (x, y)) in enumerate(reversed(items)):
-        if group and not in_group:
-            xml.append(f'<layer name="{group}" nodetype="grouplayer" visible="1" opacity="255"><layers>')
-            in_group = True
-        if not group and in_group:
-            xml.append("</layers></layer>")
-            in_group = False
+    files = {}
+
+    def leaf(k, name, rgba, x, y):
         files[f"char/layers/layer{k}"] = tile_file(rgba)
-        xml.append(f'<layer name="{name}" filename="layer{k}" nodetype="paintlayer" visible="1" opacity="255" '
-                   f'x="{x}" y="{y}" compositeop="normal" colorspacename="{colorspace}"/>')
+        return (f'<layer name="{name}" filename="layer{k}" nodetype="paintlayer" visible="1" opacity="255" '
+                f'x="{x}" y="{y}" compositeop="normal" colorspacename="{colorspace}"/>')
+    xml = artfiles.tree_xml(items, lambda g: f'<layer name="{g}" nodetype="grouplayer" visible="1" '
+                            'opacity="255"><layers>', "</layers></layer>", leaf)
     files["char/layers/sketch"] = tile_file(artfiles.sketch())
     xml.append('<layer name="sketch" filename="sketch" nodetype="paintlayer" visible="0" x="0" y="0"/>')
     w, h = artfiles.CANVAS
