@@ -134,8 +134,9 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
     names, taken = {}, set()
     for lay in art.layers:
         names[lay.name] = file_stem(lay.name, taken) + ".png"
-    tmp = tempfile.mkdtemp(prefix="." + os.path.basename(folder) + ".", dir=os.path.dirname(scene))
+    tmp = None
     try:
+        tmp = tempfile.mkdtemp(prefix="." + os.path.basename(folder) + ".", dir=os.path.dirname(scene))
         doc, res = _document(art, old, tmp, names, pins=pins, links=links, max_pins=max_pins)
         res.scene, res.folder = shown, os.path.relpath(folder)
         _write_pngs(art.layers, tmp, names)
@@ -143,8 +144,13 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
         final = _final(doc, tmp, folder, os.path.dirname(scene))
         _move_in(tmp, folder, names.values())
         _write_scene(scene, final, inputs)
+    except OSError as e:  # a full disk or a folder that went away while writing
+        from puppet.output import OutputError
+
+        raise OutputError(folder, e.strerror or str(e)) from None
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
     return res
 
 

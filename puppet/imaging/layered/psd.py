@@ -97,9 +97,8 @@ def _open(path: str, max_alloc: int):
 def _flat(psd, path: str, art: LayeredArt, reader) -> list[ArtLayer]:
     """A document without layers: its merged image as one layer."""
     try:
-        a = psd.numpy()
-        rgba = to_rgba(to_uint8(reader._colour(a, alpha=a.shape[2] in (2, 4, 5) and not reader.cmyk
-                                               or a.shape[2] == 5)))
+        a = np.atleast_3d(psd.numpy())
+        rgba = to_rgba(to_uint8(reader._colour(a, alpha=reader.has_alpha(a))))
     except Exception as e:
         raise ImageError(f"corrupt image data ({type(e).__name__}: {e})", file=path) from None
     art.notes.append("the document has no layers: its merged image is one layer")
@@ -205,8 +204,12 @@ class _Reader:
         a = layer.numpy()
         if a is None:
             return None
-        rgba = to_rgba(to_uint8(self._colour(a, alpha=a.shape[2] in (2, 4, 5))))
+        rgba = to_rgba(to_uint8(self._colour(a, alpha=self.has_alpha(a))))
         return scale_alpha(rgba, layer.opacity / 255.0 * layer.fill_opacity / 255.0)
+
+    def has_alpha(self, a: np.ndarray) -> bool:
+        """Whether an array from psd-tools' ``numpy()`` ends with an alpha channel."""
+        return a.shape[2] == 5 if self.cmyk else a.shape[2] in (2, 4)
 
     def _colour(self, a: np.ndarray, *, alpha: bool) -> np.ndarray:
         """Floats as the document stores them to sRGB-encoded RGB(A) floats: 32-bit
