@@ -76,10 +76,11 @@ def tile_file(rgba: np.ndarray, tw=64, th=64) -> bytes:
     tiles = []
     for y in range(0, H, th):
         for x in range(0, W, tw):
-            t = pad[y:y + th, x:x + tw][..., [2, 1, 0, 3]].transpose(2, 0, 1).tobytes()
-            if not t.strip(b"\0"):
+            bgra = pad[y:y + th, x:x + tw][..., [2, 1, 0, 3]]
+            if not bgra.any():
                 continue
-            blob = b"\x01" + lzf_compress(t) if (x // tw) % 2 == 0 else b"\x00" + t  # both kinds
+            planar = bgra.transpose(2, 0, 1).tobytes()  # compressed tiles are planar, raw ones not
+            blob = b"\x01" + lzf_compress(planar) if (x // tw) % 2 == 0 else b"\x00" + bgra.tobytes()
             tiles.append(f"{x},{y},LZF,{len(blob)}\n".encode() + blob)
     head = f"VERSION 2\nTILEWIDTH {tw}\nTILEHEIGHT {th}\nPIXELSIZE 4\nDATA {len(tiles)}\n".encode()
     return head + b"".join(tiles)

@@ -3,9 +3,9 @@ per paint layer and ``mergedimage.png`` (the composite).
 
 Paint layers in 8-bit RGBA are read from their tiles: a text header (``VERSION 2``,
 ``TILEWIDTH``, ``TILEHEIGHT``, ``PIXELSIZE``, ``DATA n``) then ``n`` tiles, each a line
-``x,y,LZF,size`` and ``size`` bytes: a flag (1: LZF-compressed, 0: raw) and the tile's
-pixels, stored plane by plane (every pixel's first byte, then every second byte...),
-BGRA. Group layers give names ``group/layer`` (``[merge]``, ``[ignore]`` as in PSD);
+``x,y,LZF,size`` and ``size`` bytes: a flag and the tile's pixels, BGRA: flag 1, LZF
+over the pixels stored plane by plane (every pixel's first byte, then every second
+byte...); flag 0, the pixels raw, one after the other (as Krita's KisTileCompressor2). Group layers give names ``group/layer`` (``[merge]``, ``[ignore]`` as in PSD);
 other kinds (filter, fill, vector, clone, file layers, masks) are skipped with a note. A
 document none of whose layers can be read this way (another colour depth or model) is
 imported as its merged image, one layer, with a note.
@@ -95,11 +95,14 @@ def read_tiles(data: bytes, offset: tuple[int, int], name: str, path: str):
     out = np.zeros((y1 - y0, x1 - x0, 4), np.uint8)
     n = tw * th * px
     for x, y, blob in tiles:
-        raw = lzf_decompress(blob[1:], n) if blob[:1] == b"\x01" else blob[1:1 + n]
-        if len(raw) != n:
-            raise ValueError("short raw tile")
-        planes = np.frombuffer(raw, np.uint8).reshape(px, th, tw)  # B, G, R, A planes
-        out[y - y0:y - y0 + th, x - x0:x - x0 + tw] = planes[[2, 1, 0, 3]].transpose(1, 2, 0)
+        if blob[:1] == b"\x01":  # LZF over the planes: every B, then every G, R, A
+            planes = np.frombuffer(lzf_decompress(blob[1:], n), np.uint8).reshape(px, th, tw)
+            bgra = planes.transpose(1, 2, 0)
+        else:  # raw: the tile's pixels as they are, BGRA
+            if len(blob) != n + 1:
+                raise ValueError("short raw tile")
+            bgra = np.frombuffer(blob[1:], np.uint8).reshape(th, tw, px)
+        out[y - y0:y - y0 + th, x - x0:x - x0 + tw] = bgra[..., [2, 1, 0, 3]]
     return out, (x0 + offset[0], y0 + offset[1])
 
 
