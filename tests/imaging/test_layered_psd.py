@@ -236,3 +236,13 @@ def test_cmyk_document_is_converted_to_rgb(tmp_path):
     mine = over(None, art.layers, art.size)
     shown = ref[..., 3] == 255
     assert np.abs(mine[shown, :3].astype(int) - ref[shown, :3]).max() <= 2
+
+
+def test_a_30000_px_layer_is_refused_by_the_image_limits(tmp_path, capsys):
+    psd = new_psd((100, 80))
+    layer = psd.create_pixel_layer(block(10, 10, (255, 0, 0)), name="wide")
+    layer._record.right = 30000  # the record claims 30000 px; no pixel of it is ever decoded
+    path = saved(psd, tmp_path, "wide.psb")
+    rc, err, out = run(tmp_path, capsys, path)
+    assert rc == 2 and err.count("\n") == 1
+    assert "layer 'wide': too large (30000x10; at most 16384 per side" in err and not os.path.exists(out)
