@@ -55,7 +55,7 @@ def composite(items) -> np.ndarray:
     """Straight-alpha composite (h, w, 4) uint8 of (rgba, offset) pairs, back to front."""
     from puppet.imaging.layered import ArtLayer, over
 
-    return over(None, [ArtLayer(str(i), rgba, off) for i, (rgba, off) in enumerate(items)], CANVAS)
+    return over([ArtLayer(str(i), rgba, off) for i, (rgba, off) in enumerate(items)], CANVAS)
 
 
 def write_psd(path: str, recolour: str | None = None) -> None:

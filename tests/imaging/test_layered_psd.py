@@ -233,7 +233,7 @@ def test_cmyk_document_is_converted_to_rgb(tmp_path):
     ref = np.asarray(PSDImage.open(path).composite().convert("RGBA"))
     from puppet.imaging.layered import over
 
-    mine = over(None, art.layers, art.size)
+    mine = over(art.layers, art.size)
     shown = ref[..., 3] == 255
     assert np.abs(mine[shown, :3].astype(int) - ref[shown, :3]).max() <= 2
 
@@ -246,3 +246,14 @@ def test_a_30000_px_layer_is_refused_by_the_image_limits(tmp_path, capsys):
     rc, err, out = run(tmp_path, capsys, path)
     assert rc == 2 and err.count("\n") == 1
     assert "layer 'wide': too large (30000x10; at most 16384 per side" in err and not os.path.exists(out)
+
+
+def test_over_hand_checked():
+    from puppet.imaging.layered import ArtLayer, over
+
+    back = ArtLayer("b", np.array([[[0, 0, 255, 255]]], np.uint8), (0, 0))
+    front = ArtLayer("f", np.array([[[255, 0, 0, 128], [255, 0, 0, 128]]], np.uint8), (0, 0))
+    out = over([back, front], (3, 1))
+    assert tuple(out[0, 0]) == (128, 0, 127, 255)  # 128/255 red over opaque blue
+    assert tuple(out[0, 1]) == (255, 0, 0, 128)  # over nothing: unchanged
+    assert tuple(out[0, 2]) == (0, 0, 0, 0)

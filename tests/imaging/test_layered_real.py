@@ -30,7 +30,7 @@ def test_real_file_imports_as_its_layers_and_composite(name):
     path = os.path.join(DATA, name)
     art = read_layered(path)
     assert [lay.name for lay in art.layers] == CASES[name]
-    mine = over(None, art.layers, art.size).astype(float)
+    mine = over(art.layers, art.size).astype(float)
     ref = np.asarray(PSDImage.open(path).composite().convert("RGBA")).astype(float)
     assert np.abs(mine[..., 3] - ref[..., 3]).mean() < 1.0
     opaque = ref[..., 3] == 255

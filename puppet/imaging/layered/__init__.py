@@ -170,12 +170,11 @@ def cropped(name: str, rgba: np.ndarray, offset: tuple[int, int]) -> ArtLayer | 
     return ArtLayer(name, np.ascontiguousarray(rgba[y0:y1, x0:x1]), (int(offset[0] + x0), int(offset[1] + y0)))
 
 
-def over(rgba: np.ndarray, layers: list[ArtLayer], size: tuple[int, int]) -> np.ndarray:
-    """Layers composited back to front with normal blending on a transparent (h, w, 4)
-    canvas of ``size`` (w, h): straight-alpha uint8 out. ``rgba`` is ignored when None."""
+def over(layers: list[ArtLayer], size: tuple[int, int]) -> np.ndarray:
+    """Layers composited back to front with normal blending on a transparent canvas of
+    ``size`` (w, h): (h, w, 4) straight-alpha uint8."""
     w, h = size
-    acc = np.zeros((h, w, 4), np.float32) if rgba is None else rgba.astype(np.float32) / 255.0
-    acc[..., :3] *= acc[..., 3:]
+    acc = np.zeros((h, w, 4), np.float32)
     for lay in layers:
         x0, y0, x1, y1 = lay.bounds
         cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)

@@ -124,7 +124,7 @@ class _Walk:
         y1 = max(lay.bounds[3] for lay in inner.layers)
         check_size(x1 - x0, y1 - y0, f"group {name!r}", self.path)
         shifted = [type(lay)(lay.name, lay.rgba, (lay.offset[0] - x0, lay.offset[1] - y0)) for lay in inner.layers]
-        rgba = scale_alpha(over(None, shifted, (x1 - x0, y1 - y0)), alpha)
+        rgba = scale_alpha(over(shifted, (x1 - x0, y1 - y0)), alpha)
         lay = cropped(unique(name, self.taken), rgba, (x0, y0))
         if lay is not None:
             self.art.layers.append(lay)
