@@ -234,11 +234,15 @@ def _stdout_to_devnull() -> None:
         pass
 
 
-def _layered(args) -> bool:
-    """Whether ``puppet init`` was given layered art (else --links and --update are refused)."""
+def _is_art(path: str) -> bool:
     from puppet.imaging.layered import is_layered
 
-    if is_layered(args.image):
+    return is_layered(path)
+
+
+def _layered(args) -> bool:
+    """Whether ``puppet init`` was given layered art (else --links and --update are refused)."""
+    if _is_art(args.image):
         if args.threshold is not None or args.alpha or args.grabcut:
             raise UsageError(f"{args.image}: --threshold, --alpha and --grabcut are for flat pictures; "
                              "layered art keeps each layer's own alpha")
@@ -248,36 +252,27 @@ def _layered(args) -> bool:
     return False
 
 
-def _is_art(path: str) -> bool:
-    from puppet.imaging.layered import is_layered
-
-    return is_layered(path)
+def _notes(art: str, res) -> None:
+    for note in res.notes:
+        print(f"puppet: note: {art}: {note}", file=sys.stderr)
 
 
 def _scene_from_art(art: str) -> str:
-    """``puppet app ART.psd``: the scene ``ART.json`` made from the art (pins and links
-    proposed), or, when it exists and was made from it, updated from it (its rig kept)."""
-    from puppet.scene.artimport import import_art, made_from
+    """``puppet app ART.psd``: the scene beside the art, made or updated from it (notes and
+    the summary on stderr: stdout is the app's)."""
+    from puppet.scene.artimport import import_beside
 
-    scene = os.path.splitext(art)[0] + ".json"
-    update = os.path.exists(scene)
-    if update and not made_from(scene):
-        raise SceneError(f"{scene} exists and was not made from the art; open it, or make a new scene "
-                         f"with 'puppet init {art} -o OTHER.json'", file=art)
-    auto = "none" if update else "auto"
-    res = import_art(art, scene, pins=auto, links=auto, update=update)
-    for note in res.notes:
-        print(f"puppet: note: {art}: {note}", file=sys.stderr)
+    res = import_beside(art)
+    _notes(art, res)
     print(res.summary(), file=sys.stderr)
-    return scene
+    return res.scene
 
 
 def _init_layered(args, out: str) -> int:
     from puppet.scene.artimport import import_art
 
     res = import_art(args.image, out, pins=args.pins, links=args.links, update=args.update)
-    for note in res.notes:
-        print(f"puppet: note: {args.image}: {note}", file=sys.stderr)
+    _notes(args.image, res)
     _print(res.summary())
     return 0
 

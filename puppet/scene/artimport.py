@@ -154,6 +154,19 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
     return res
 
 
+def import_beside(art_file: str) -> ImportResult:
+    """``puppet app ART.psd``: the scene ``ART.json`` beside the art, made from it with
+    pins and links proposed, or, when it exists and was made from it (:func:`made_from`),
+    updated from it (its rig kept). A scene of that name made otherwise is refused."""
+    scene = os.path.splitext(art_file)[0] + ".json"
+    update = os.path.exists(scene)
+    if update and not made_from(scene):
+        raise SceneError(f"{scene} exists and was not made from the art; open it, or make a new scene "
+                         f"with 'puppet init {art_file} -o OTHER.json'", file=art_file)
+    auto = "none" if update else "auto"
+    return import_art(art_file, scene, pins=auto, links=auto, update=update)
+
+
 def _old_scene(scene: str, shown: str) -> dict:
     from puppet.scene.document import Document
 
