@@ -5,7 +5,8 @@ ellipse of about 1000x1400 px with a colour gradient and a painted texture, spre
 over the canvas, two in a group. Prints one row per run: the file's size, the time
 to read the layers (``read_layered``, in process), and the wall time of the whole
 command (``puppet init ART.psd -o SCENE.json`` as a new process: start-up, reading,
-PNG encoding, validation, writing).
+PNG encoding, validation, writing), and of ``--pins auto --links auto`` (which also
+meshes every layer to check the pins and link segments).
 
     .venv/bin/python benchmarks/bench_import.py [--runs 2] [--size 4000] [--layers 20]
 """
@@ -66,22 +67,24 @@ def main() -> int:
         t0 = time.perf_counter()
         make_psd(art, args.size, args.layers)
         print(f"made {art}: {os.path.getsize(art) / 1e6:.1f} MB in {time.perf_counter() - t0:.1f} s")
-        print("| run | document | layers | file MB | read_layered s | puppet init s |")
-        print("|---|---|---|---|---|---|")
+        print("| run | document | layers | file MB | read_layered s | puppet init s | --pins auto --links auto s |")
+        print("|---|---|---|---|---|---|---|")
         for run in range(args.runs):
             t0 = time.perf_counter()
             got = read_layered(art)
             read = time.perf_counter() - t0
             scene = os.path.join(tmp, f"s{run}.json")
-            t0 = time.perf_counter()
-            p = subprocess.run([sys.executable, "-m", "puppet", "init", art, "-o", scene], capture_output=True,
-                               text=True, cwd=ROOT)
-            wall = time.perf_counter() - t0
-            if p.returncode != 0:
-                print(p.stderr)
-                return 1
+            walls = []
+            for flags in ([], ["--pins", "auto", "--links", "auto"]):
+                t0 = time.perf_counter()
+                p = subprocess.run([sys.executable, "-m", "puppet", "init", art, "-o", scene, *flags],
+                                   capture_output=True, text=True, cwd=ROOT)
+                walls.append(time.perf_counter() - t0)
+                if p.returncode != 0:
+                    print(p.stderr)
+                    return 1
             print(f"| {run + 1} | {args.size}x{args.size} | {len(got.layers)} | {os.path.getsize(art) / 1e6:.1f} | "
-                  f"{read:.2f} | {wall:.2f} |", flush=True)
+                  f"{read:.2f} | {walls[0]:.2f} | {walls[1]:.2f} |", flush=True)
     return 0
 
 
