@@ -170,14 +170,20 @@ def test_ora_opacity_blend_merge_and_ignore(tmp_path):
            '<layer name="body" src="body.png" x="0" y="0" opacity="1.0"/>')
     path = ora(tmp_path, xml, {"n.png": png((1, 1, 1)), "a.png": png((0, 0, 255)), "b.png": png((0, 255, 0)),
                                "s.png": png((128, 128, 128), (5, 5)), "body.png": png((200, 100, 50))})
-    art = read_layered(path)
+    check_body_and_arm(read_layered(path))
+
+
+def check_body_and_arm(art):
+    """A 10x10 body (200, 100, 50) multiplied by 128 grey on its 5x5 corner, and a merged
+    half-opaque arm: a blue 10x10 at (20, 0) over a green one at (25, 5)."""
     assert [lay.name for lay in art.layers] == ["body", "arm"]
     body, arm = art.layers
     assert tuple(body.rgba[2, 2]) == (100, 50, 25, 255) and tuple(body.rgba[7, 7]) == (200, 100, 50, 255)
     assert arm.offset == (20, 0) and arm.rgba.shape[:2] == (15, 15)
-    # stack.xml lists the top first: a (blue) is over b (green)
+    # the file lists the top first: a (blue) is over b (green)
     assert tuple(arm.rgba[2, 2]) == (0, 0, 255, 128) and tuple(arm.rgba[12, 12]) == (0, 255, 0, 128)
     assert tuple(arm.rgba[7, 7]) == (0, 0, 255, 128) and arm.rgba[12, 2, 3] == 0
+    assert any("multiply baked into 'body'" in n for n in art.notes)
 
 
 @pytest.mark.parametrize("make, words", [
@@ -222,3 +228,33 @@ def test_zip_members_are_read_with_a_bound(tmp_path):
     with zipfile.ZipFile(path) as z:
         with pytest.raises(ImageError, match="big"):
             member(z, "big", 1000, str(path))
+
+
+def kra(tmp_path, layers_xml, files, w=50, h=40):
+    path = tmp_path / "t.kra"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("maindoc.xml", f'<DOC><IMAGE name="d" width="{w}" height="{h}"><layers>{layers_xml}'
+                                  '</layers></IMAGE></DOC>')
+        for k, v in files.items():
+            z.writestr(f"d/layers/{k}", v)
+    return str(path)
+
+
+def kra_layer(name, file, x=0, y=0, op="normal"):
+    return (f'<layer name="{name}" filename="{file}" nodetype="paintlayer" visible="1" opacity="255" '
+            f'x="{x}" y="{y}" compositeop="{op}" colorspacename="RGBA"/>')
+
+
+def solid(colour, w=10, h=10):
+    a = np.zeros((h, w, 4), np.uint8)
+    a[..., :3], a[..., 3] = colour, 255
+    return tile_file(a)
+
+
+def test_kra_merge_group_and_blend_mode(tmp_path):
+    xml = ('<layer name="arm [merge]" nodetype="grouplayer" visible="1" opacity="128"><layers>'
+           + kra_layer("a", "a", 20, 0) + kra_layer("b", "b", 25, 5) + "</layers></layer>"
+           + kra_layer("shade", "s", 0, 0, op="multiply") + kra_layer("body", "body"))
+    path = kra(tmp_path, xml, {"a": solid((0, 0, 255)), "b": solid((0, 255, 0)), "s": solid((128, 128, 128), 5, 5),
+                               "body": solid((200, 100, 50))})
+    check_body_and_arm(read_layered(path))

@@ -170,6 +170,19 @@ def cropped(name: str, rgba: np.ndarray, offset: tuple[int, int]) -> ArtLayer | 
     return ArtLayer(name, np.ascontiguousarray(rgba[y0:y1, x0:x1]), (int(offset[0] + x0), int(offset[1] + y0)))
 
 
+def flatten(name: str, layers: list[ArtLayer], opacity: float, path: str) -> ArtLayer | None:
+    """``layers`` composited into one layer named ``name`` (a ``[merge]`` group), with
+    ``opacity``; None when they have no pixels. The group's box is checked against the
+    image limits."""
+    if not layers:
+        return None
+    x0, y0 = min(lay.bounds[0] for lay in layers), min(lay.bounds[1] for lay in layers)
+    x1, y1 = max(lay.bounds[2] for lay in layers), max(lay.bounds[3] for lay in layers)
+    check_size(x1 - x0, y1 - y0, f"group {name!r}", path)
+    shifted = [ArtLayer(lay.name, lay.rgba, (lay.offset[0] - x0, lay.offset[1] - y0)) for lay in layers]
+    return cropped(name, scale_alpha(over(shifted, (x1 - x0, y1 - y0)), opacity), (x0, y0))
+
+
 def over(layers: list[ArtLayer], size: tuple[int, int]) -> np.ndarray:
     """Layers composited back to front with normal blending on a transparent canvas of
     ``size`` (w, h): (h, w, 4) straight-alpha uint8."""

@@ -5,7 +5,41 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.imaging.layered import ArtLayer, to_uint8
+from puppet.imaging.layered import ArtLayer, LayeredArt, cropped, to_uint8, unique
+
+#: Separable blends over floats (backdrop Cb, source Cs), by ORA composite-op and Krita
+#: compositeop names.
+SEPARABLE = {
+    "multiply": lambda b, s: b * s,
+    "screen": lambda b, s: b + s - b * s,
+    "darken": np.minimum,
+    "lighten": np.maximum,
+    "overlay": lambda b, s: np.where(b <= 0.5, 2 * b * s, 1 - 2 * (1 - b) * (1 - s)),
+    "hard-light": lambda b, s: np.where(s <= 0.5, 2 * b * s, 1 - 2 * (1 - b) * (1 - s)),
+    "difference": lambda b, s: np.abs(b - s),
+    "plus": lambda b, s: np.minimum(b + s, 1.0),
+}
+_KRITA = {"hard_light": "hard-light", "diff": "difference", "add": "plus"}
+
+
+def separable(op: str):
+    """The blend of an ORA ``svg:...`` or Krita composite op, None when not one of these."""
+    op = op.removeprefix("svg:")
+    return SEPARABLE.get(_KRITA.get(op, op))
+
+
+def add_blended(art: LayeredArt, taken: set, name: str, op: str, func, rgba: np.ndarray, offset) -> None:
+    """A layer with blend ``func`` (None: refused, skipped): baked into ``art.layers``
+    (:func:`bake_down`), what covers none of them appended as a layer; one note."""
+    if func is None:
+        art.notes.append(f"{name}: blend mode {op} refused (not supported); layer skipped")
+        return
+    rest, into = bake_down(art.layers, rgba, offset, func)
+    kept = "; the rest kept as a normal layer" if rest[..., 3].any() else ""
+    art.notes.append(f"{name}: blend mode {op} baked into {', '.join(map(repr, into)) or 'nothing'}{kept}")
+    lay = cropped(unique(name, taken), rest, offset) if rest[..., 3].any() else None
+    if lay is not None:
+        art.layers.append(lay)
 
 
 def bake_down(layers: list[ArtLayer], rgba: np.ndarray, offset, func) -> tuple[np.ndarray, list[str]]:

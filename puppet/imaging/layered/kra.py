@@ -5,8 +5,10 @@ Paint layers in 8-bit RGBA are read from their tiles: a text header (``VERSION 2
 ``TILEWIDTH``, ``TILEHEIGHT``, ``PIXELSIZE``, ``DATA n``) then ``n`` tiles, each a line
 ``x,y,LZF,size`` and ``size`` bytes: a flag and the tile's pixels, BGRA: flag 1, LZF
 over the pixels stored plane by plane (every pixel's first byte, then every second
-byte...); flag 0, the pixels raw, one after the other (as Krita's KisTileCompressor2). Group layers give names ``group/layer`` (``[merge]``, ``[ignore]`` as in PSD);
-other kinds (filter, fill, vector, clone, file layers, masks) are skipped with a note. A
+byte...); flag 0, the pixels raw, one after the other (as Krita's KisTileCompressor2).
+
+Group layers give names ``group/layer`` (``[merge]``, ``[ignore]`` as in PSD); the
+separable blend modes (multiply, screen, overlay, ...) are baked as in ORA; other kinds (filter, fill, vector, clone, file layers, masks) are skipped with a note. A
 document none of whose layers can be read this way (another colour depth or model) is
 imported as its merged image, one layer, with a note.
 """
@@ -15,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import LayeredArt, check_size, cropped, scale_alpha, split_tags, unique
+from puppet.imaging.layered import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique
+from puppet.imaging.layered.blend import add_blended, separable
 from puppet.imaging.layered.zipped import member, open_zip, png_member, xml_member
 
 
@@ -149,25 +152,38 @@ class _Walk:
                 self.art.hidden.append(full)
                 continue
             alpha = opacity * min(max(int(node.get("opacity", "255") or 255), 0), 255) / 255.0
+            if kind == "grouplayer" and node.find("layers") is not None and "merge" in tags:
+                self.merged(node.find("layers"), full, alpha)
+                continue
             if kind == "grouplayer" and node.find("layers") is not None:
-                if "merge" in tags:
-                    self.art.notes.append(f"{full}: [merge] is not read in Krita files; its layers are imported")
                 self.layers(node.find("layers"), full + "/", alpha)
                 continue
             if kind != "paintlayer" or node.get("colorspacename", "RGBA") != "RGBA":
                 self.art.notes.append(f"{full}: {kind or 'layer'} ({node.get('colorspacename', '?')}) skipped")
                 self.unread += 1
                 continue
-            if node.get("compositeop", "normal") not in ("normal", "svg:src-over"):
-                self.art.notes.append(f"{full}: blend mode {node.get('compositeop')} not read; drawn as normal")
             data = member(self.zf, f"{self.doc}/layers/{node.get('filename')}", MAX_PIXELS * 6 + (16 << 20), self.path)
             try:
                 xy = (int(node.get("x", 0)), int(node.get("y", 0)))
                 rgba, offset = read_tiles(data, xy, full, self.path)
             except (ValueError, IndexError) as e:
                 raise ImageError(f"layer {full!r}: corrupt tile data ({e})", file=self.path) from None
-            if rgba is None:
-                continue
-            lay = cropped(unique(full, self.taken), scale_alpha(rgba, alpha), offset)
-            if lay is not None:
-                self.art.layers.append(lay)
+            if rgba is not None:
+                self.add(full, node.get("compositeop", "normal"), scale_alpha(rgba, alpha), offset)
+
+    def add(self, name: str, op: str, rgba: np.ndarray, offset) -> None:
+        if op not in ("normal", "svg:src-over"):
+            add_blended(self.art, self.taken, name, op, separable(op), rgba, offset)
+            return
+        lay = cropped(unique(name, self.taken), rgba, offset)
+        if lay is not None:
+            self.art.layers.append(lay)
+
+    def merged(self, el, name: str, alpha: float) -> None:
+        inner = _Walk(self.zf, LayeredArt(self.path, self.art.size), self.path, self.doc)
+        inner.layers(el, "", 1.0)
+        self.art.notes.extend(f"{name}/{n}" for n in inner.art.notes)
+        self.unread += inner.unread
+        lay = flatten(unique(name, self.taken), inner.art.layers, alpha, self.path)
+        if lay is not None:
+            self.art.layers.append(lay)

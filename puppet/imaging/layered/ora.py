@@ -12,22 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import (LayeredArt, check_size, cropped, over, scale_alpha, split_tags,
-                                    unique)
+from puppet.imaging.layered import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique
+from puppet.imaging.layered.blend import add_blended, separable
 from puppet.imaging.layered.zipped import open_zip, png_member, xml_member
-
-#: ORA composite-op -> blend function over floats (backdrop Cb, source Cs).
-_BLENDS = {
-    "svg:multiply": lambda b, s: b * s,
-    "svg:screen": lambda b, s: b + s - b * s,
-    "svg:darken": np.minimum,
-    "svg:lighten": np.maximum,
-    "svg:overlay": lambda b, s: np.where(b <= 0.5, 2 * b * s, 1 - 2 * (1 - b) * (1 - s)),
-    "svg:hard-light": lambda b, s: np.where(s <= 0.5, 2 * b * s, 1 - 2 * (1 - b) * (1 - s)),
-    "svg:difference": lambda b, s: np.abs(b - s),
-    "svg:plus": lambda b, s: np.minimum(b + s, 1.0),
-}
-
 
 def _float(el, key: str, default: float) -> float:
     try:
@@ -92,23 +79,9 @@ class _Walk:
         rgba = scale_alpha(png_member(self.zf, src, self.path), alpha)
         op = el.get("composite-op", "svg:src-over")
         if op != "svg:src-over":
-            self.blend(name, op, rgba, (x, y))
+            add_blended(self.art, self.taken, name, op, separable(op), rgba, (x, y))
             return
         lay = cropped(unique(name, self.taken), rgba, (x, y))
-        if lay is not None:
-            self.art.layers.append(lay)
-
-    def blend(self, name: str, op: str, rgba: np.ndarray, offset) -> None:
-        from puppet.imaging.layered.blend import bake_down
-
-        func = _BLENDS.get(op)
-        if func is None:
-            self.art.notes.append(f"{name}: composite-op {op} refused (not supported); layer skipped")
-            return
-        rest, into = bake_down(self.art.layers, rgba, offset, func)
-        kept = "; the rest kept as a normal layer" if rest[..., 3].any() else ""
-        self.art.notes.append(f"{name}: composite-op {op} baked into {', '.join(map(repr, into)) or 'nothing'}{kept}")
-        lay = cropped(unique(name, self.taken), rest, offset) if rest[..., 3].any() else None
         if lay is not None:
             self.art.layers.append(lay)
 
@@ -116,15 +89,6 @@ class _Walk:
         inner = LayeredArt(self.path, self.art.size)
         _Walk(self.zf, inner, self.path).stack(el, "", 1.0, x, y)
         self.art.notes.extend(f"{name}/{n}" for n in inner.notes)
-        if not inner.layers:
-            return
-        x0 = min(lay.bounds[0] for lay in inner.layers)
-        y0 = min(lay.bounds[1] for lay in inner.layers)
-        x1 = max(lay.bounds[2] for lay in inner.layers)
-        y1 = max(lay.bounds[3] for lay in inner.layers)
-        check_size(x1 - x0, y1 - y0, f"group {name!r}", self.path)
-        shifted = [type(lay)(lay.name, lay.rgba, (lay.offset[0] - x0, lay.offset[1] - y0)) for lay in inner.layers]
-        rgba = scale_alpha(over(shifted, (x1 - x0, y1 - y0)), alpha)
-        lay = cropped(unique(name, self.taken), rgba, (x0, y0))
+        lay = flatten(unique(name, self.taken), inner.layers, alpha, self.path)
         if lay is not None:
             self.art.layers.append(lay)
