@@ -20,6 +20,9 @@ CASES = {
     "hidden-layer.psd": ["Background", "Shape 1"],
     "masks-2.psd": ["ellipse1", "ellipse2", "ellipse3"],  # layer masks
     "blend-multiply.psd": ["Ellipse 1", "Ellipse 2", "Ellipse 3"],  # multiply, 50 % opacity
+    # four levels adjustments (two masked) over a picture and colour swatches
+    "adjustments-levels_rgb.psd": ["orion", "color palettes/Layer 1", "color palettes/Layer 8 copy",
+                                   "color palettes/Layer 8 copy 2", "color palettes/Layer 8 copy 3"],
 }
 
 
@@ -39,6 +42,12 @@ def test_real_file_imports_as_its_layers_and_composite(name):
     shown = ref[..., 3] > 0  # premultiplied colours where anything shows
     pm = lambda a: a[shown, :3] * a[shown, 3:] / 255  # noqa: E731
     assert np.abs(pm(mine) - pm(ref)).mean() < 2.0
+
+
+def test_adjustments_are_baked_into_the_layers_below():
+    art = read_layered(os.path.join(DATA, "adjustments-levels_rgb.psd"))
+    baked = [n for n in art.notes if "adjustment (levels) baked into" in n]
+    assert len(baked) == 4, art.notes  # without them the composite differs by ~40 grey levels
 
 
 def test_lab_file_is_converted_to_srgb():

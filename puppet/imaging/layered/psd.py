@@ -9,7 +9,8 @@ What becomes of each kind of layer (see docs/import.md):
 - a blend mode other than normal: where the layer covers the imported layer just below,
   baked into it (as a clipping mask would be); the rest stays a layer of its own, drawn
   normal (over nothing a blend mode draws as normal);
-- adjustment layers: skipped with a note (they change every layer below them);
+- adjustment layers: baked into the layers below them with psd-tools' adjustment
+  functions (:mod:`puppet.imaging.layered.adjust`), or skipped with a note;
 - hidden layers and groups: skipped; ``[ignore]``: skipped; ``[merge]`` groups, and
   groups that have clipping layers over them: one layer; a group's pixel mask: applied
   to each of its layers;
@@ -119,7 +120,9 @@ class _Reader:
     def note(self, text: str) -> None:
         self.art.notes.append(text)
 
-    def group(self, group, prefix: str, opacity: float, masks: tuple = ()) -> None:
+    def group(self, group, prefix: str, opacity: float, masks: tuple = (), start: int = 0) -> None:
+        """Import ``group``'s layers; ``start``: the first imported layer its adjustment
+        layers reach (the group's own when it is isolated, else its parent's)."""
         for layer in group:  # psd-tools iterates a group bottom to top
             if getattr(layer, "clipping", False):
                 continue  # drawn by its base layer's composite
@@ -138,11 +141,22 @@ class _Reader:
             elif layer.is_group() and "merge" not in tags:
                 if layer.has_vector_mask():
                     self.note(f"{full}: the group's vector mask is not applied to its layers")
-                self.group(layer, full + "/", alpha, masks + _mask(layer))
+                inner = start if _blend(layer) in ("pass_through", "passthrough") else len(self.art.layers)
+                self.group(layer, full + "/", alpha, masks + _mask(layer), inner)
             elif layer.kind == "adjustment" or _is_adjustment(layer):
-                self.note(f"{full}: adjustment layer skipped (it would change every layer below it)")
+                self.adjust(layer, full, start)
             else:
                 self.pixels(layer, full, opacity, masks)
+
+    def adjust(self, layer, name: str, start: int) -> None:
+        from puppet.imaging.layered.adjust import adjustment_function, bake_adjustment
+
+        fn = adjustment_function(layer)
+        if fn is None or not self.rgb or self.depth == 32:
+            self.note(f"{name}: adjustment layer ({layer.kind}) skipped (not drawn for this kind or document)")
+            return
+        n = bake_adjustment(layer, fn, self.art.layers[start:], _mask(layer))
+        self.note(f"{name}: adjustment ({layer.kind}) baked into the {n} layer(s) below it")
 
     def pixels(self, layer, name: str, opacity: float, masks: tuple = ()) -> None:
         mode = _blend(layer)
