@@ -159,6 +159,19 @@ def scale_alpha(rgba: np.ndarray, opacity: float) -> np.ndarray:
     return rgba
 
 
+def apply_mask(rgba: np.ndarray, offset, mask: np.ndarray, at, outside: int) -> None:
+    """Multiply the alpha of ``rgba`` (at ``offset``) by a mask: ``mask`` (values 0-255)
+    placed at ``at``, ``outside`` everywhere else."""
+    h, w = rgba.shape[:2]
+    factor = np.full((h, w), outside, np.float32)
+    x0, y0 = at[0] - offset[0], at[1] - offset[1]
+    cx0, cy0 = max(x0, 0), max(y0, 0)
+    cx1, cy1 = min(x0 + mask.shape[1], w), min(y0 + mask.shape[0], h)
+    if cx0 < cx1 and cy0 < cy1:
+        factor[cy0:cy1, cx0:cx1] = mask[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+    rgba[..., 3] = np.rint(rgba[..., 3] * (factor / 255.0)).astype(np.uint8)
+
+
 def cropped(name: str, rgba: np.ndarray, offset: tuple[int, int]) -> ArtLayer | None:
     """The layer cropped to its pixels with alpha > 0 (None when it has none)."""
     alpha = rgba[..., 3]

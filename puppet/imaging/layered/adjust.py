@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.imaging.layered import ArtLayer, to_uint8
+from puppet.imaging.layered import ArtLayer, apply_mask, to_uint8
 
 
 def adjustment_function(layer):
@@ -28,8 +28,6 @@ def bake_adjustment(layer, fn, targets: list[ArtLayer], mask: tuple = ()) -> int
     """Apply the adjustment ``layer`` (psd-tools' ``fn``) to ``targets`` in place; ``mask``
     as :func:`puppet.imaging.layered.psd._mask` gives it. Returns how many layers changed."""
     from psd_tools.constants import ColorMode
-
-    from puppet.imaging.layered.psd import apply_mask
 
     changed = 0
     for lay in targets:

@@ -25,8 +25,8 @@ import struct
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import (ArtLayer, LayeredArt, check_size, cropped, scale_alpha, split_tags,
-                                    to_rgba, to_uint8, unique)
+from puppet.imaging.layered import (ArtLayer, LayeredArt, apply_mask, check_size, cropped, scale_alpha,
+                                    split_tags, to_rgba, to_uint8, unique)
 from puppet.imaging.layered.blend import bake_down, bake_onto
 
 #: Colour modes read (PSD header codes): bitmap, grayscale, indexed, RGB, CMYK.
@@ -304,19 +304,6 @@ def _mask(group) -> tuple:
     x0, y0, _, _ = m.bbox
     inside = np.asarray(img.convert("L"), np.uint8) if img is not None else np.zeros((0, 0), np.uint8)
     return ((inside, (x0, y0), int(m.background_color)),)
-
-
-def apply_mask(rgba: np.ndarray, offset, mask: np.ndarray, at, outside: int) -> None:
-    """Multiply the alpha of ``rgba`` (at ``offset``) by a mask: ``mask`` (values 0-255)
-    placed at ``at``, ``outside`` everywhere else."""
-    h, w = rgba.shape[:2]
-    factor = np.full((h, w), outside, np.float32)
-    x0, y0 = at[0] - offset[0], at[1] - offset[1]
-    cx0, cy0 = max(x0, 0), max(y0, 0)
-    cx1, cy1 = min(x0 + mask.shape[1], w), min(y0 + mask.shape[0], h)
-    if cx0 < cx1 and cy0 < cy1:
-        factor[cy0:cy1, cx0:cx1] = mask[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
-    rgba[..., 3] = np.rint(rgba[..., 3] * (factor / 255.0)).astype(np.uint8)
 
 
 def _icc(psd) -> bytes | None:
