@@ -2,7 +2,8 @@
 
 Each file is imported by ``puppet init FILE -o SCENE.json`` in its own process with a
 time limit. A file passes when it imports (exit 0) or fails with one line
-``puppet: error: FILE: ...`` (exit 2), within the limit, and when it holds several
+``puppet: error: FILE: ...`` (exit 2), within the limit, with nothing else on stderr
+than ``puppet: note:`` lines, and when it holds several
 visible pixel layers (counted independently with psd-tools: visible leaf layers with
 pixels, not clipped, not adjustments, inside visible groups) it imports as several
 layers. Prints one row per file that does not pass, then the counts.
@@ -53,7 +54,10 @@ def run(path: str, timeout: float, out: str) -> dict:
         return {"file": path, "status": "hang", "seconds": timeout}
     row = {"file": path, "rc": p.returncode, "seconds": round(time.perf_counter() - t0, 2)}
     err_lines = [line for line in p.stderr.splitlines() if line and not line.startswith("puppet: note:")]
-    if p.returncode == 0:
+    if p.returncode == 0 and err_lines:  # imported, but something else reached the terminal
+        row["status"] = "chatter"
+        row["error"] = err_lines[0]
+    elif p.returncode == 0:
         row["layers"] = len(json.load(open(out))["layers"])
         row["status"] = "imported"
         row["notes"] = sum(line.startswith("puppet: note:") for line in p.stderr.splitlines())
@@ -85,11 +89,11 @@ def main() -> int:
                 several += 1
                 row["flattened"] = row["status"] != "imported" or row["layers"] < 2
                 flat += row["flattened"]
-            if args.list or row["status"] in ("hang", "crash") or row.get("flattened"):
+            if args.list or row["status"] in ("hang", "crash", "chatter") or row.get("flattened"):
                 print(json.dumps(row), flush=True)
     print(f"{len(files)} files: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
     print(f"{several} hold several visible pixel layers; {several - flat} of them import as several layers")
-    bad = counts.get("hang", 0) + counts.get("crash", 0) + flat
+    bad = counts.get("hang", 0) + counts.get("crash", 0) + counts.get("chatter", 0) + flat
     return 1 if bad else 0
 
 

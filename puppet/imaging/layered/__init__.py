@@ -93,6 +93,12 @@ def read_layered(path: str) -> LayeredArt:
     return art
 
 
+def why(e: BaseException) -> str:
+    """An exception from a reader library as a short single line: ``Type: first line``."""
+    text = (str(e).strip().splitlines() or [""])[0][:200]
+    return f"{type(e).__name__}: {text}" if text else type(e).__name__
+
+
 def check_regular(path: str) -> None:
     """Refuse a missing file, a folder, a FIFO or a device (never opened, never blocks)."""
     try:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique
+from puppet.imaging.layered import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique, why
 from puppet.imaging.layered.blend import add_blended, separable
 from puppet.imaging.layered.zipped import member, open_zip, png_member, xml_member
 
@@ -167,7 +167,7 @@ class _Walk:
                 xy = (int(node.get("x", 0)), int(node.get("y", 0)))
                 rgba, offset = read_tiles(data, xy, full, self.path)
             except (ValueError, IndexError) as e:
-                raise ImageError(f"layer {full!r}: corrupt tile data ({e})", file=self.path) from None
+                raise ImageError(f"layer {full!r}: corrupt tile data ({why(e)})", file=self.path) from None
             if rgba is not None:
                 self.add(full, node.get("compositeop", "normal"), scale_alpha(rgba, alpha), offset)
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from puppet.errors import ImageError
 from puppet.imaging.layered import (ArtLayer, LayeredArt, apply_mask, check_size, cropped, scale_alpha,
-                                    split_tags, to_rgba, to_uint8, unique)
+                                    split_tags, to_rgba, to_uint8, unique, why)
 from puppet.imaging.layered.blend import bake_down, bake_onto
 
 #: Colour modes read (PSD header codes): bitmap, grayscale, indexed, RGB, CMYK.
@@ -64,6 +64,16 @@ def read_header(path: str) -> tuple[int, int, int, int]:
 
 def read_psd(path: str) -> LayeredArt:
     """Read a PSD/PSB as layers (see the module docstring). Raises ImageError."""
+    import logging
+    import warnings
+
+    logging.getLogger("psd_tools").setLevel(logging.CRITICAL + 1)  # its chatter must not reach the terminal
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return _read_psd(path)
+
+
+def _read_psd(path: str) -> LayeredArt:
     from puppet.imaging.io import MAX_PIXELS
 
     w, h, _, _ = read_header(path)
@@ -75,24 +85,21 @@ def read_psd(path: str) -> LayeredArt:
     except ImageError:
         raise
     except Exception as e:  # psd-tools on a damaged file: any error is "cannot be read"
-        raise ImageError(f"corrupt or unsupported layer data ({type(e).__name__}: {e})", file=path) from None
+        raise ImageError(f"corrupt or unsupported layer data ({why(e)})", file=path) from None
     if not art.layers and not art.hidden and not reader.seen:
         art.layers.extend(_flat(psd, path, art, reader))
     return art
 
 
 def _open(path: str, max_alloc: int):
-    import logging
-
     from psd_tools import PSDImage
 
-    logging.getLogger("psd_tools").setLevel(logging.ERROR)  # its warnings must not reach the terminal
     try:
         return PSDImage.open(path, max_alloc_bytes=max_alloc)
     except MemoryError:
         raise ImageError("too large to read", file=path) from None
     except Exception as e:  # truncated or damaged: psd-tools raises many kinds
-        raise ImageError(f"corrupt or truncated PSD ({type(e).__name__}: {e})", file=path) from None
+        raise ImageError(f"corrupt or truncated PSD ({why(e)})", file=path) from None
 
 
 def _flat(psd, path: str, art: LayeredArt, reader) -> list[ArtLayer]:
@@ -101,7 +108,7 @@ def _flat(psd, path: str, art: LayeredArt, reader) -> list[ArtLayer]:
         a = np.atleast_3d(psd.numpy())
         rgba = to_rgba(to_uint8(reader._colour(a, alpha=reader.has_alpha(a))))
     except Exception as e:
-        raise ImageError(f"corrupt image data ({type(e).__name__}: {e})", file=path) from None
+        raise ImageError(f"corrupt image data ({why(e)})", file=path) from None
     art.notes.append("the document has no layers: its merged image is one layer")
     lay = cropped("image", rgba, (0, 0))
     return [lay] if lay is not None else []

@@ -12,6 +12,7 @@ import zipfile
 import numpy as np
 
 from puppet.errors import ImageError
+from puppet.imaging.layered import why
 
 #: Largest XML member (stack.xml, maindoc.xml).
 MAX_XML = 16 << 20
@@ -22,7 +23,7 @@ def open_zip(path: str, kind: str) -> zipfile.ZipFile:
     try:
         return zipfile.ZipFile(path)
     except (zipfile.BadZipFile, EOFError, OSError, ValueError) as e:
-        raise ImageError(f"not a readable {kind} file (not a zip archive: {e})", file=path) from None
+        raise ImageError(f"not a readable {kind} file (not a zip archive: {why(e)})", file=path) from None
 
 
 def member(zf: zipfile.ZipFile, name: str, limit: int, path: str, *, required: bool = True) -> bytes | None:
@@ -39,7 +40,7 @@ def member(zf: zipfile.ZipFile, name: str, limit: int, path: str, *, required: b
         with zf.open(info) as f:
             data = f.read(limit + 1)
     except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as e:
-        raise ImageError(f"{name}: cannot be read ({e})", file=path) from None
+        raise ImageError(f"{name}: cannot be read ({why(e)})", file=path) from None
     if len(data) > limit:
         raise ImageError(f"{name}: larger than its header says (more than {limit} bytes)", file=path)
     return data
@@ -55,7 +56,7 @@ def xml_member(zf: zipfile.ZipFile, name: str, path: str):
     try:
         return ET.fromstring(data)
     except ET.ParseError as e:
-        raise ImageError(f"{name}: not valid XML ({e})", file=path) from None
+        raise ImageError(f"{name}: not valid XML ({why(e)})", file=path) from None
 
 
 def png_member(zf: zipfile.ZipFile, name: str, path: str) -> np.ndarray:
@@ -76,4 +77,4 @@ def png_member(zf: zipfile.ZipFile, name: str, path: str) -> np.ndarray:
     except ImageError:
         raise
     except Exception as e:  # Pillow on damaged data: any error is "cannot be read"
-        raise ImageError(f"{name}: not a readable image ({type(e).__name__}: {e})", file=path) from None
+        raise ImageError(f"{name}: not a readable image ({why(e)})", file=path) from None
