@@ -6,9 +6,9 @@ What becomes of each kind of layer (see docs/import.md):
   vector mask, clipping layers and the effects psd-tools draws baked in (through its
   compositor); a plain pixel layer is read directly (faster, same pixels);
 - opacity and fill opacity, and the opacity of enclosing groups: multiplied into alpha;
-- a blend mode other than normal: where the layer covers the imported layer just below,
-  baked into it (as a clipping mask would be); the rest stays a layer of its own, drawn
-  normal (over nothing a blend mode draws as normal);
+- a blend mode other than normal: baked into the imported layers below, each pixel into
+  the frontmost one that has it (:mod:`puppet.imaging.layered.blend`); what covers none
+  stays a layer of its own, drawn normal (over nothing a blend mode draws as normal);
 - adjustment layers: baked into the layers below them with psd-tools' adjustment
   functions (:mod:`puppet.imaging.layered.adjust`), or skipped with a note;
 - hidden layers and groups: skipped; ``[ignore]``: skipped; ``[merge]`` groups, and
