@@ -4,8 +4,8 @@ For two layers whose pixels overlap (an arm drawn over the body), the smaller on
 "the part" and the overlap is where it meets the other. The link is one short segment
 across the part, centred at the point of the overlap that lies deepest in the part's
 end: among the overlap's points at least half as deep as its deepest (distance to the
-overlap's edge), the one farthest from the part's free pixels (those outside the other
-layer). The segment is perpendicular to the direction from there to the free pixels'
+overlap's edge), those farthest (within a pixel) from the part's free pixels (those
+outside the other layer), and of these the deepest (ties: the middle one). The segment is perpendicular to the direction from there to the free pixels'
 centroid and shorter than the overlap's depth there, so it lies inside both layers.
 The links make a tree, as bones would: the overlapping pairs are taken largest overlap
 first, and a pair already joined through other links gets none (Kruskal's maximum
@@ -94,15 +94,15 @@ def link_segment(a: ArtLayer, b: ArtLayer):
     px0, py0, px1, py1 = part.bounds
     free = (part.rgba[..., 3] > 0) & ~_in_other(other, part.bounds)
     ys, xs = np.nonzero(depth >= max(0.5 * depth.max(), MIN_DEPTH))
+    towards, deep = None, depth[ys, xs]
     if free.any():
-        far = cv2.distanceTransform(np.pad(~free, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
-        score = far[ys + box[1] - py0, xs + box[0] - px0]
+        inside = np.pad(~free, 1, constant_values=True).astype(np.uint8)  # the box edge is no free pixel
+        far = cv2.distanceTransform(inside, cv2.DIST_L2, 5)[1:-1, 1:-1][ys + box[1] - py0, xs + box[0] - px0]
+        deep = np.where(far >= far.max() - 1.0, deep, -1.0)  # the farthest (within a pixel), then the deepest
         fy, fx = np.nonzero(free)
         towards = np.array([fx.mean() + px0, fy.mean() + py0])
-    else:
-        score = depth[ys, xs]
-        towards = None
-    i = int(np.argmax(score))
+    top = np.flatnonzero(deep >= deep.max() - 1e-6)  # ties: the one nearest their middle
+    i = int(top[np.argmin((xs[top] - xs[top].mean()) ** 2 + (ys[top] - ys[top].mean()) ** 2)])
     centre = np.array([xs[i] + box[0] + 0.5, ys[i] + box[1] + 0.5])
     axis = np.array([1.0, 0.0]) if towards is None else towards - centre
     n = np.hypot(*axis)
