@@ -257,3 +257,14 @@ def test_over_hand_checked():
     assert tuple(out[0, 0]) == (128, 0, 127, 255)  # 128/255 red over opaque blue
     assert tuple(out[0, 1]) == (255, 0, 0, 128)  # over nothing: unchanged
     assert tuple(out[0, 2]) == (0, 0, 0, 0)
+
+
+def test_a_file_larger_than_the_bound_is_refused_before_reading(tmp_path, monkeypatch):
+    import puppet.imaging.layered.psd as P
+
+    psd = new_psd()
+    psd.create_pixel_layer(block(10, 10, (1, 2, 3)), name="a")
+    path = saved(psd, tmp_path)
+    monkeypatch.setattr(P, "MAX_FILE", 1000)
+    with pytest.raises(ImageError, match=r"file too large \(\d+ bytes; at most 0 MiB\)"):
+        read_layered(path)

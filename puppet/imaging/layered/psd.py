@@ -20,6 +20,7 @@ What becomes of each kind of layer (see docs/import.md):
 """
 from __future__ import annotations
 
+import os
 import struct
 
 import numpy as np
@@ -29,6 +30,9 @@ from puppet.imaging.layered import (ArtLayer, LayeredArt, apply_mask, check_size
                                     split_tags, to_rgba, to_uint8, unique, why)
 from puppet.imaging.layered.blend import bake_down, bake_onto
 
+#: Largest PSD/PSB file read: psd-tools reads a whole file into memory (a document within
+#: the image limits with many full-size layers stays well below).
+MAX_FILE = 2 << 30
 #: Colour modes read (PSD header codes): bitmap, grayscale, indexed, RGB, CMYK.
 _MODES = {0: "bitmap", 1: "grayscale", 2: "indexed", 3: "RGB", 4: "CMYK", 9: "Lab"}
 _OTHER_MODES = {7: "multichannel", 8: "duotone"}
@@ -46,8 +50,11 @@ def read_header(path: str) -> tuple[int, int, int, int]:
     try:
         with open(path, "rb") as f:
             head = f.read(26)
+            size = os.fstat(f.fileno()).st_size
     except OSError as e:
         raise ImageError(f"cannot be read ({e.strerror})", file=path) from None
+    if size > MAX_FILE:  # psd-tools holds the whole file in memory
+        raise ImageError(f"file too large ({size} bytes; at most {MAX_FILE >> 20} MiB)", file=path)
     if len(head) < 26 or head[:4] != b"8BPS":
         raise ImageError("not a Photoshop file (no PSD signature)", file=path)
     version, channels, h, w, depth, mode = struct.unpack(">H6xHIIHH", head[4:26])
