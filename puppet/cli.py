@@ -139,7 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="validate a scene, build its meshes and print a summary")
     c.add_argument("scene")
 
-    i = sub.add_parser("init", help="write a one-layer scene (and its mask) from a picture")
+    i = sub.add_parser("init", help="write a scene from a picture (one layer and its mask) or from layered art (.psd .psb .ora .kra)")
     i.add_argument("image")
     i.add_argument("-o", "--output", required=True, metavar="SCENE.json")
     g = i.add_mutually_exclusive_group()
@@ -148,6 +148,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--grabcut", type=_rect, metavar="X,Y,W,H", help="mask: GrabCut foreground inside the rectangle")
     i.add_argument("--pins", choices=("auto", "none"), default="none",
                    help="auto: pins at the skeleton's end points and junctions")
+    i.add_argument("--links", choices=("auto", "none"), default="none",
+                   help="layered art (.psd .psb .ora .kra): auto: a link where two layers overlap")
+    i.add_argument("--update", action="store_true",
+                   help="layered art: re-import into the existing scene, keeping its pins, links and poses")
 
     w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
     w.add_argument("scene", nargs="?", help="a scene, or a picture (PNG, JPEG...): a new puppet made from it")
@@ -234,18 +238,66 @@ def _stdout_to_devnull() -> None:
         pass
 
 
+def _is_art(path: str) -> bool:
+    from puppet.imaging.layered import is_layered
+
+    return is_layered(path)
+
+
+def _layered(args) -> bool:
+    """Whether ``puppet init`` was given layered art (else --links and --update are refused)."""
+    if _is_art(args.image):
+        if args.threshold is not None or args.alpha or args.grabcut:
+            raise UsageError(f"{args.image}: --threshold, --alpha and --grabcut are for flat pictures; "
+                             "layered art keeps each layer's own alpha")
+        return True
+    if args.update or args.links != "none":
+        raise UsageError(f"{args.image}: --update and --links are for layered art (.psd .psb .ora .kra)")
+    return False
+
+
+def _notes(art: str, res) -> None:
+    for note in res.notes:
+        print(f"puppet: note: {art}: {note}", file=sys.stderr)
+
+
+def _scene_from_art(art: str) -> str:
+    """``puppet app ART.psd``: the scene beside the art, made or updated from it (notes and
+    the summary on stderr: stdout is the app's)."""
+    from puppet.scene.artimport import import_beside
+
+    res = import_beside(art)
+    _notes(art, res)
+    print(res.summary(), file=sys.stderr)
+    return res.scene
+
+
+def _init_layered(args, out: str) -> int:
+    from puppet.scene.artimport import import_art
+
+    res = import_art(args.image, out, pins=args.pins, links=args.links, update=args.update)
+    _notes(args.image, res)
+    _print(res.summary())
+    return 0
+
+
 def run(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "app":  # imported here only: render and mesh never load pyglet
         import puppet.app
 
-        return puppet.app.run(args.scene, size=args.size)
+        scene = args.scene
+        if scene and _is_art(scene):
+            scene = _scene_from_art(scene)
+        return puppet.app.run(scene, size=args.size)
     if args.command in _PLUGGED:
         return _PLUGGED[args.command].run(args)
     if args.command == "init":
         from puppet.scene.init import init_scene
 
         out = _output_file(args.output, (".json",))
+        if _layered(args):
+            return _init_layered(args, out)
         rule = "threshold" if args.threshold is not None else "alpha" if args.alpha else \
             "grabcut" if args.grabcut else "default"
         res = init_scene(args.image, out, rule=rule, threshold=args.threshold, rect=args.grabcut, pins=args.pins)

@@ -1,0 +1,124 @@
+"""Links proposed where imported layers overlap (``puppet init ART --links auto``).
+
+For two layers whose pixels overlap (an arm drawn over the body), the smaller one is
+"the part" and the overlap is where it meets the other. The link is one short segment
+across the part, centred at the point of the overlap that lies deepest in the part's
+end: among the overlap's points at least half as deep as its deepest (distance to the
+overlap's edge), those farthest (within a pixel) from the part's free pixels (those
+outside the other layer), and of these the deepest (ties: the middle one). The segment is perpendicular to the direction from there to the free pixels'
+centroid and shorter than the overlap's depth there, so it lies inside both layers.
+The links make a tree, as bones would: the overlapping pairs are taken largest overlap
+first, and a pair already joined through other links gets none (Kruskal's maximum
+spanning tree), so an arm links to the body, not also to the head it touches. Layers
+covering nearly the whole canvas (a backdrop) get no links, and neither do overlaps
+thinner than a few pixels.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from puppet.imaging.layered import ArtLayer
+
+#: Overlaps less deep than this (pixels from their edge) get no link.
+MIN_DEPTH = 3.0
+#: Longest half-segment, in pixels.
+MAX_HALF = 12.0
+
+
+def propose_links(layers: list[ArtLayer], *, skip=(), canvas: tuple[int, int]) -> list[dict]:
+    """One link ``{"layers": [A, B], "segments": [[p, q]]}`` per overlapping pair (A
+    behind B) not in ``skip`` (a set of frozensets of two names)."""
+    W, H = canvas
+    usable = [lay for lay in layers if _area(lay.bounds) < 0.9 * W * H]
+    found = []  # (overlap area, order, link)
+    for i, a in enumerate(usable):
+        for j, b in enumerate(usable[i + 1:], i + 1):
+            if frozenset((a.name, b.name)) in skip:
+                continue
+            hit = link_segment(a, b)
+            if hit is not None:
+                found.append((hit[2], i * len(usable) + j, {"layers": [a.name, b.name], "segments": [hit[0]]}))
+    root = {lay.name: lay.name for lay in usable}
+    for pair in skip:
+        _join(root, *pair)
+
+    kept = [(order, link) for area, order, link in sorted(found, key=lambda t: (-t[0], t[1]))
+            if _join(root, *link["layers"])]
+    return [link for _, link in sorted(kept, key=lambda t: t[0])]
+
+
+def _find(root: dict, x: str) -> str:
+    while root.setdefault(x, x) != x:
+        root[x] = root[root[x]]
+        x = root[x]
+    return x
+
+
+def _join(root: dict, a: str, b: str) -> bool:
+    """Union of a's and b's sets; False when they were one already."""
+    ra, rb = _find(root, a), _find(root, b)
+    if ra == rb:
+        return False
+    root[ra] = rb
+    return True
+
+
+def _area(box) -> int:
+    return max(box[2] - box[0], 0) * max(box[3] - box[1], 0)
+
+
+def _crop(lay: ArtLayer, box) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    ox, oy = lay.offset
+    return lay.rgba[y0 - oy:y1 - oy, x0 - ox:x1 - ox, 3] > 0
+
+
+def link_segment(a: ArtLayer, b: ArtLayer):
+    """The proposed segment [[x0, y0], [x1, y1]] (canvas) joining ``a`` and ``b``, the name
+    of the part (the smaller layer) and the overlap's area in pixels; None when they do
+    not overlap enough."""
+    import cv2
+
+    ax0, ay0, ax1, ay1 = a.bounds
+    bx0, by0, bx1, by1 = b.bounds
+    box = (max(ax0, bx0), max(ay0, by0), min(ax1, bx1), min(ay1, by1))
+    if box[0] >= box[2] or box[1] >= box[3]:
+        return None
+    both = _crop(a, box) & _crop(b, box)
+    if both.sum() < 16:
+        return None
+    depth = cv2.distanceTransform(np.pad(both, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
+    if depth.max() < MIN_DEPTH:
+        return None
+    part, other = (a, b) if (a.rgba[..., 3] > 0).sum() <= (b.rgba[..., 3] > 0).sum() else (b, a)
+    px0, py0, px1, py1 = part.bounds
+    free = (part.rgba[..., 3] > 0) & ~_in_other(other, part.bounds)
+    ys, xs = np.nonzero(depth >= max(0.5 * depth.max(), MIN_DEPTH))
+    towards, deep = None, depth[ys, xs]
+    if free.any():
+        inside = np.pad(~free, 1, constant_values=True).astype(np.uint8)  # the box edge is no free pixel
+        far = cv2.distanceTransform(inside, cv2.DIST_L2, 5)[1:-1, 1:-1][ys + box[1] - py0, xs + box[0] - px0]
+        deep = np.where(far >= far.max() - 1.0, deep, -1.0)  # the farthest (within a pixel), then the deepest
+        fy, fx = np.nonzero(free)
+        towards = np.array([fx.mean() + px0, fy.mean() + py0])
+    top = np.flatnonzero(deep >= deep.max() - 1e-6)  # ties: the one nearest their middle
+    i = int(top[np.argmin((xs[top] - xs[top].mean()) ** 2 + (ys[top] - ys[top].mean()) ** 2)])
+    centre = np.array([xs[i] + box[0] + 0.5, ys[i] + box[1] + 0.5])
+    axis = np.array([1.0, 0.0]) if towards is None else towards - centre
+    n = np.hypot(*axis)
+    across = np.array([-axis[1], axis[0]]) / n if n > 1e-6 else np.array([1.0, 0.0])
+    half = min(0.6 * float(depth[ys[i], xs[i]]), MAX_HALF)
+    p, q = centre - half * across, centre + half * across
+    seg = [[round(float(p[0]), 2), round(float(p[1]), 2)], [round(float(q[0]), 2), round(float(q[1]), 2)]]
+    return seg, part.name, int(both.sum())
+
+
+def _in_other(other: ArtLayer, box) -> np.ndarray:
+    """(h, w) bool over ``box``: pixels of ``other``."""
+    x0, y0, x1, y1 = box
+    out = np.zeros((y1 - y0, x1 - x0), bool)
+    ox0, oy0, ox1, oy1 = other.bounds
+    cx0, cy0, cx1, cy1 = max(x0, ox0), max(y0, oy0), min(x1, ox1), min(y1, oy1)
+    if cx0 < cx1 and cy0 < cy1:
+        out[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = _crop(other, (cx0, cy0, cx1, cy1))
+    return out
