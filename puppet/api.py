@@ -5,6 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.scene.document import Document, PoseLike
+from puppet.scene.drag import DragSession
+
+#: Largest preview frame of a drag, pixels (a 4000x4000 picture previews at 1024x1024).
+PREVIEW_PIXELS = 1024 * 1024
 
 
 class Scene(Document):
@@ -59,17 +63,51 @@ class Scene(Document):
                                       background=self.background() if background is None else background,
                                       wireframe=wireframe)
 
-    def drag(self, pin: str, *, iterations: int = 4, size: tuple[int, int] | None = None):
-        """Start dragging ``pin`` in the active pose (see :class:`puppet.drag.Drag`)."""
-        from puppet.drag import Drag
-
-        return Drag(self, pin, iterations=iterations, size=size)
+    def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
+             size: tuple[int, int] | None = None) -> "Drag":
+        """Start dragging pins ``names`` (one name or a list) in the active pose, keyed at
+        ``time``, or recording from ``time`` (see :class:`Drag`)."""
+        return Drag(self, names, time, record=record, iterations=iterations, size=size)
 
     def close(self) -> None:
         """Release the scene's compositor (and its GL context), if it made one."""
         if self._compositor is not None and self._own_compositor:
             self._compositor.release()
         self._compositor, self._own_compositor = None, False
+
+
+class Drag(DragSession):
+    """A :class:`~puppet.scene.drag.DragSession` that also draws: :meth:`move` gives a
+    preview frame, :meth:`release` the exact one.
+
+    Preview frames are ``size`` (default: the canvas) scaled down to at most
+    :data:`PREVIEW_PIXELS` pixels; the released frame is full size.
+    """
+
+    def __init__(self, scene: Scene, names, time=None, *, record=False, iterations=4, size=None):
+        super().__init__(scene, names, time, record=record, iterations=iterations)
+        self.size = size
+        self.preview_size = preview_size(size or scene.canvas)
+
+    def move(self, targets, time: float | None = None) -> np.ndarray:
+        """Move the pins (``(x, y)`` for a one-pin drag, else ``{name: (x, y)}``); returns a
+        preview frame (h, w, 4) uint8 of :attr:`preview_size`."""
+        return self.doc.draw_layers(self.move_layers(targets, time), size=self.preview_size)
+
+    def release(self, keys=None) -> np.ndarray:
+        """End the drag (:meth:`commit`) and return the exact frame: equal to
+        ``scene.render(size=size)`` for a pose drag, ``scene.render(time=time, size=size)``
+        for a key drag or a recording."""
+        return self.doc.draw_layers(self.release_layers(keys), size=self.size)
+
+
+def preview_size(size: tuple[int, int], pixels: int = PREVIEW_PIXELS) -> tuple[int, int]:
+    """``size`` (W, H) scaled down, aspect kept, to at most ``pixels`` pixels."""
+    w, h = int(size[0]), int(size[1])
+    if w * h <= pixels:
+        return (w, h)
+    f = (pixels / (w * h)) ** 0.5
+    return (max(1, int(w * f)), max(1, int(h * f)))
 
 
 def new_scene(image: str, **options) -> Scene:

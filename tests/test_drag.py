@@ -48,15 +48,39 @@ def test_preview_follows_the_pin(trex):
     d = trex.drag("hand_front")
     xy = np.array([150.0, 180.0])
     for k in range(6):
-        d.move(xy + k)
-    built = trex.built
-    i = [p.name for p in trex.data.pins].index("hand_front")
-    gi = built.group_of_pin(i)
-    g = built.groups[gi]
-    U = d._U
-    np.testing.assert_allclose(U[g.b[g.pins.index(i)]], xy + 5, atol=1e-9)
+        layers = d.move_layers(xy + k)
+    r = next(r for r in layers if "hand_front" in r.pins)
+    np.testing.assert_allclose(r.deformed[r.pins["hand_front"]], xy + 5, atol=1e-9)
     d.cancel()
     assert not d.open
+
+
+def test_every_drag_kind_releases_the_rendered_frame(trex):
+    trex.set_active_pose("roar")
+    d = trex.drag(["hand_front", "tail_tip", "jaw"])
+    for k in range(4):
+        d.move({"hand_front": (100 + 4 * k, 200), "tail_tip": (560, 240 - 3 * k), "jaw": (330, 110 + k)})
+    final = d.release()
+    np.testing.assert_array_equal(final, trex.render(pose=trex.to_dict()["poses"]["roar"]))
+    d = trex.drag(["hand_front", "jaw"], time=0.8)
+    for k in range(4):
+        d.move({"hand_front": (110 + 4 * k, 190), "jaw": (320, 100 + k)})
+    np.testing.assert_array_equal(d.release(), trex.render(time=0.8))
+    d = trex.drag("tail_tip", time=0.1, record=True)
+    for k in range(4):
+        d.move((540 + 3 * k, 250), time=0.1 + 0.1 * k)
+    np.testing.assert_array_equal(d.release({0.1: {"tail_tip": (540, 250)}, 0.4: {"tail_tip": (549, 250)}}),
+                                  trex.render(time=0.1))
+
+
+def test_preview_frames_are_bounded():
+    from puppet.api import PREVIEW_PIXELS, preview_size
+
+    assert preview_size((600, 500)) == (600, 500)
+    w, h = preview_size((4000, 4000))
+    assert (w, h) == (1024, 1024) and w * h <= PREVIEW_PIXELS
+    w, h = preview_size((8000, 2000))
+    assert w * h <= PREVIEW_PIXELS and abs(w / h - 4) < 0.01
 
 
 def test_drag_at_rest_makes_a_new_active_pose(trex):

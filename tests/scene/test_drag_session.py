@@ -1,0 +1,201 @@
+"""The drag session (no GL): every kind of drag releases exactly the layers that
+``layers(pose=...)`` / ``layers(time=...)`` give, in one undo step; previews are
+warm-started (no factorisation, no exact solve per move) and follow the pins."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from puppet.deform import factor
+from puppet.errors import SceneError
+from puppet.scene.document import Document
+from puppet.scene.drag import base_pose, pose_with
+from tests.conftest import SCENES
+
+
+@pytest.fixture
+def trex():
+    return Document.load(SCENES + "/trex-layers.json")
+
+
+@pytest.fixture
+def dress():
+    return Document.load(SCENES + "/dress-garment.json")
+
+
+def same_layers(a, b):
+    assert [r.name for r in a] == [r.name for r in b]
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x.deformed, y.deformed)
+        np.testing.assert_array_equal(x.depth, y.depth)
+        assert x.exterior == y.exterior
+
+
+def path(start, n=6, step=(6.0, -4.0)):
+    return [np.asarray(start, float) + k * np.asarray(step) for k in range(1, n + 1)]
+
+
+def pin_at(doc, name):
+    return next(p.at for p in doc.data.pins if p.name == name)
+
+
+def test_pose_with_keeps_angle_and_depth():
+    pose = {"a": [1, 2], "b": {"to": [3, 4], "angle": 30.0, "depth": 2.0}}
+    out = pose_with(pose, {"a": (5, 6), "b": np.array([7.0, 8.0]), "c": (9, 10)})
+    assert out == {"a": [5.0, 6.0], "b": {"to": [7.0, 8.0], "angle": 30.0, "depth": 2.0}, "c": [9.0, 10.0]}
+    assert pose == {"a": [1, 2], "b": {"to": [3, 4], "angle": 30.0, "depth": 2.0}}  # a copy
+
+
+def test_one_pin_in_a_pose(trex):
+    trex.set_active_pose("wave")
+    before, steps = trex.to_dict(), len(trex.history.undo_stack)
+    d = trex.drag("hand_front")
+    for xy in path((100, 200)):
+        d.move_layers(xy)
+    got = d.release_layers()
+    pose = trex.to_dict()["poses"]["wave"]
+    assert pose == pose_with(before["poses"]["wave"], {"hand_front": path((100, 200))[-1]})
+    same_layers(got, trex.layers(pose=pose))
+    same_layers(got, Document.load(SCENES + "/trex-layers.json").layers(pose=pose))  # path-independent
+    assert len(trex.history.undo_stack) == steps + 1
+    trex.undo()
+    assert trex.to_dict() == before
+
+
+def test_several_pins_one_step(trex):
+    trex.set_active_pose("roar")
+    before, steps = trex.to_dict(), len(trex.history.undo_stack)
+    names = ["hand_front", "tail_tip", "foot_left"]
+    d = trex.drag(names)
+    built = trex.built
+    idx = [[p.name for p in trex.data.pins].index(n) for n in names]
+    groups = {built.group_of_pin(i) for i in idx}
+    for k in range(1, 6):
+        targets = {n: np.asarray(pin_at(trex, n)) + [4.0 * k, 3.0 * k] for n in names}
+        layers = d.move_layers(targets)
+        for n, xy in targets.items():  # every moved pin is where it is dragged in the preview
+            r = next(r for r in layers if n in r.pins)
+            np.testing.assert_allclose(r.deformed[r.pins[n]], xy, atol=1e-9)
+    assert set(d._U) == groups
+    got = d.release_layers()
+    pose = pose_with(before["poses"]["roar"], targets)
+    assert trex.to_dict()["poses"]["roar"] == pose
+    same_layers(got, trex.layers(pose=pose))
+    assert len(trex.history.undo_stack) == steps + 1
+
+
+def test_moves_are_warm_started(trex):
+    trex.set_active_pose("wave")
+    d = trex.drag(["hand_front", "jaw"])
+    d.move_layers({"hand_front": (110, 190), "jaw": pin_at(trex, "jaw")})  # first frame: the pose's exact solve
+    fact, solves = factor.FACTORIZATIONS, trex.rig.memo.count("solve")
+    frames = [d.move_layers({"hand_front": (110 + 3 * k, 190 - 2 * k)}) for k in range(1, 6)]
+    assert factor.FACTORIZATIONS == fact and trex.rig.memo.count("solve") == solves
+    a, b = (next(r for r in f if "hand_front" in r.pins) for f in frames[:2])
+    assert not np.array_equal(a.deformed, b.deformed)
+    d.cancel()
+
+
+def test_key_drag_between_keys(trex):
+    t = 0.75
+    before, steps = trex.to_dict(), len(trex.history.undo_stack)
+    d = trex.drag(["hand_front", "snout"], time=t)
+    start = base_pose(trex, t)
+    targets = {"hand_front": (120.0, 210.0), "snout": np.asarray(start["snout"] if isinstance(start["snout"], list)
+                                                                  else start["snout"]["to"]) + [5, -5]}
+    for k in range(4):
+        d.move_layers({n: np.asarray(xy) - 2 * (3 - k) for n, xy in targets.items()})
+    got = d.release_layers()
+    same_layers(got, trex.layers(time=t))
+    key = next(k for k in trex.keys() if abs(k["time"] - t) < 1e-9)
+    moved = pose_with(start, targets)
+    assert key["pins"] == {n: moved[n] for n in targets}  # a new key holds the dragged pins only
+    assert trex.to_dict()["poses"] == before["poses"]  # a key drag leaves the poses alone
+    assert len(trex.history.undo_stack) == steps + 1
+    trex.undo()
+    assert trex.to_dict() == before
+
+
+def test_key_drag_on_a_pose_key(trex):
+    d = trex.drag("jaw", time=0.5)
+    d.move_layers((300.0, 120.0))
+    got = d.release_layers()
+    same_layers(got, trex.layers(time=0.5))
+    key = next(k for k in trex.keys() if k["time"] == 0.5)
+    assert "pose" not in key and key["pins"]["jaw"] == [300.0, 120.0]
+
+
+def test_record(trex):
+    before, steps = trex.to_dict(), len(trex.history.undo_stack)
+    d = trex.drag("tail_tip", time=0.25, record=True)
+    start = np.asarray(pin_at(trex, "tail_tip"))
+    for k in range(1, 5):
+        d.move_layers(start + [3.0 * k, 0.0], time=0.25 + 0.1 * k)
+    keys = {0.25: {"tail_tip": start}, 0.45: {"tail_tip": start + [6, 0]}, 0.65: {"tail_tip": start + [12, 0]}}
+    got = d.release_layers(keys)
+    same_layers(got, trex.layers(time=0.25))
+    tail = [(k["time"], k["pins"]["tail_tip"]) for k in trex.keys() if "pins" in k and "tail_tip" in k["pins"]]
+    assert [t for t, _ in tail] == [0.25, 0.45, 0.65]
+    assert tail[1][1] == (start + [6, 0]).tolist()
+    # the pose key at 0.5 inside the span no longer holds the tail; the others are kept there
+    k05 = next(k for k in trex.keys() if k["time"] == 0.5)
+    assert "tail_tip" not in k05["pins"] and "jaw" in k05["pins"]
+    assert len(trex.history.undo_stack) == steps + 1
+    trex.undo()
+    assert trex.to_dict() == before
+
+
+def test_exterior_point(dress):
+    dress.set_active_pose("flare")
+    d = dress.drag(["edge_b", "hem_c"])
+    d.move_layers({"edge_b": (250, 515), "hem_c": (250, 480)})
+    got = d.release_layers({})
+    pose = dress.to_dict()["poses"]["flare"]
+    assert pose["edge_b"] == [250.0, 515.0]
+    same_layers(got, dress.layers(pose=pose))
+
+
+def test_drag_at_rest_makes_a_pose_on_release(trex):
+    names = trex.pose_names()
+    d = trex.drag("hand_front")
+    d.move_layers((120, 230))
+    d.cancel()
+    assert trex.pose_names() == names and trex.active_pose == "rest"  # a cancelled drag leaves nothing
+    d = trex.drag("hand_front")
+    d.move_layers((120, 230))
+    d.release_layers()
+    assert trex.active_pose not in names and trex.active_pose in trex.data.poses
+    trex.undo()
+    assert trex.active_pose == "rest" and trex.pose_names() == names
+
+
+def test_a_click_changes_nothing(trex):
+    steps = len(trex.history.undo_stack)
+    for kw in ({}, {"time": 0.3}, {"time": 0.3, "record": True}):
+        trex.drag("jaw", **kw).release_layers()
+    assert len(trex.history.undo_stack) == steps
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda s: s.drag("nobody"), "no pin"),
+    (lambda s: s.drag([]), "at least one"),
+    (lambda s: s.drag(["jaw", "jaw"]), "twice"),
+    (lambda s: s.drag("jaw", record=True), "record mode needs"),
+    (lambda s: s.drag("jaw", time=-1.0), "time must be"),
+    (lambda s: s.drag("jaw").move_layers((np.nan, 1)), "finite"),
+    (lambda s: s.drag(["jaw", "snout"]).move_layers((1, 1)), "give"),
+    (lambda s: s.drag("jaw").move_layers({"snout": (1, 1)}), "not one of"),
+    (lambda s: s.drag("jaw").move_layers((1, 1), time=0.2), "only a recording"),
+])
+def test_bad_drags_are_user_errors(trex, call, words):
+    with pytest.raises(SceneError, match=words):
+        call(trex)
+
+
+def test_released_drag_refuses_more(trex):
+    d = trex.drag("jaw")
+    d.release_layers()
+    with pytest.raises(SceneError, match="released"):
+        d.move_layers((1, 1))
+    with pytest.raises(SceneError, match="released"):
+        d.commit()
