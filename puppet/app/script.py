@@ -158,11 +158,7 @@ def set_step(app, step: str) -> None:
         app.set_mode("pose")
         app.show_mesh = step == "deform"
         if step == "deform":
-            def job(w):
-                w.scene.built  # meshes and solver set-up, on the scene thread
-                return f"meshes built: {sum(len(r.triangles) for r in w.scene.layers('rest'))} triangles; " \
-                       "drag pins to pose"
-            app.worker.submit(job)
+            app.build_meshes()  # meshes and solver set-up, on the scene thread
 
 
 def bar(app) -> None:

@@ -13,8 +13,7 @@ import math
 import time as _time
 
 from puppet.app import onion
-from puppet.app.record import SPEEDS, Recording
-from puppet.errors import SceneError
+from puppet.app.record import Recording
 from puppet.scene.timeline import frame_count
 
 EASES = ("linear", "smooth", "step", "bezier")
@@ -81,9 +80,6 @@ class Timeline:
     def duration(self) -> float:
         ks = self.keys()
         return max((float(k["time"]) for k in ks), default=0.0)
-
-    def key_at(self, t: float) -> dict | None:
-        return next((k for k in self.keys() if same(k["time"], t)), None)
 
     def span(self) -> float:
         """Seconds the ruler shows: the length setting, past the last key and the playhead."""
@@ -169,10 +165,7 @@ class Timeline:
         if want == self._sent:
             return
         self._sent = want
-
-        def job(w):
-            w.show_time, w.onion = show, settings
-        self.app.worker.submit(job, key="timeline-time")
+        self.app.show_time(show, settings)
 
     def frame_total(self) -> int:
         """Frames of the animation, from the first key to the last (0: no keys)."""
@@ -194,7 +187,7 @@ class Timeline:
         self._fetched = anim
         times = self.frame_times()
         k = min(range(len(times)), key=lambda i: abs(times[i] - show)) if times else 0
-        self.app.worker.submit(onion.prefetch_job(times[k:] + times[:k]), key="prefetch", publish=False)
+        self.app.prefetch(times[k:] + times[:k])
 
     # -- keys -------------------------------------------------------------------------------
     def add_key(self) -> None:
@@ -215,13 +208,6 @@ class Timeline:
         self.selected = [t]
         self.showing = True
         self._push()
-
-    def key_pins(self, t: float, positions: dict, label: str) -> int:
-        """Key ``positions`` ({pin: (x, y)}) at ``t``, merged into a key already there."""
-        def fn(s):
-            with s.block(label):
-                merge_pins(s, t, {n: list(map(float, xy)) for n, xy in positions.items()})
-        return self.app.edit(fn)
 
     def delete_keys(self, times=None) -> None:
         times = list(self.selected if times is None else times)
@@ -304,76 +290,6 @@ def set_key_dict(s, t: float, k: dict) -> None:
         s.set_key(t, k["pose"], **kw)
     else:
         s.set_key(t, pins=k["pins"], **kw)
-
-
-def merge_pins(s, t: float, pins: dict) -> None:
-    """Key ``pins`` (file form) at ``t``, keeping what a key already there holds (the other
-    pins of a pins key; a pose key becomes the pose's targets there plus these pins); a
-    target keeps its angle and depth at that time, only its position changes."""
-    old = next((k for k in s.keys() if same(k["time"], t)), None)
-    at = s.pose_at(t) if s.keys() else {}
-    base = dict(old["pins"]) if old is not None and "pins" in old else (dict(at) if old is not None else {})
-    for n, xy in pins.items():
-        cur = base.get(n, at.get(n))
-        base[n] = dict(cur, to=list(xy)) if isinstance(cur, dict) else list(xy)
-    kw = {"ease": old.get("ease", "linear"), "curve": old.get("curve")} if old is not None else {}
-    s.set_key(t, pins=base, **kw)
-
-
-def unkey_pins(s, names, t0: float, t1: float) -> None:
-    """Take pins ``names`` out of the keys between ``t0`` and ``t1`` (a recording replaces
-    what was there): a pose key there becomes the other pins' targets at its time (it
-    plays the same for them), and a key left with no pins goes."""
-    for k in list(s.keys()):
-        t = float(k["time"])
-        if t < t0 - EPS or t > t1 + EPS:
-            continue
-        pins = s.pose_at(t) if "pose" in k else k["pins"]
-        if not set(names) & set(pins):
-            continue
-        rest = {n: v for n, v in pins.items() if n not in names}
-        if rest:
-            s.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
-        else:
-            s.remove_key(t)
-
-
-def base_pose(s, t: float | None) -> dict:
-    """Pin targets (file form) the canvas starts from: the animation at ``t``, or the
-    active pose."""
-    if t is not None and s.keys():
-        return dict(s.pose_at(t))
-    if s.active_pose == "rest":
-        return {}
-    return dict(s.to_dict().get("poses", {}).get(s.active_pose, {}))
-
-
-def _with(pose: dict, positions: dict) -> dict:
-    out = dict(pose)
-    for n, xy in positions.items():
-        cur = out.get(n)
-        out[n] = dict(cur, to=list(map(float, xy))) if isinstance(cur, dict) else list(map(float, xy))
-    return out
-
-
-def preview_job(t: float | None, positions: dict):
-    """A job showing the pose at ``t`` with pins moved to ``positions`` (a preview)."""
-    def job(w):
-        s = w.scene
-        if s is None:
-            return
-        w.publish(s.layers(_with(base_pose(s, t), positions)), preview=True)
-    return job
-
-
-def speed_label(v: float) -> str:
-    return f"{v:g}x"
-
-
-def check_speed(v: float) -> float:
-    if v not in SPEEDS:
-        raise SceneError(f"record speed {v:g} is not one of {', '.join(map(speed_label, SPEEDS))}")
-    return v
 
 
 def ruler_step(px_per_s: float) -> float:

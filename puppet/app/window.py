@@ -18,7 +18,7 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import autosave, keymap, menus, overlay, script
+from puppet.app import actions, autosave, menus, overlay, script
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
@@ -26,13 +26,13 @@ from puppet.app.keys import ImGuiInput
 from puppet.app.onion import GhostRenderer
 from puppet.app.panels import Panels
 from puppet.app.timeline_panel import HEIGHT as TIMELINE_HEIGHT, TimelinePanel
-from puppet.app.tools import CanvasEvent, choose_tool
+from puppet.app.gestures import CanvasEvent
+from puppet.app.tools import choose_tool
 from puppet.app.widgets import Thumbs
 
 PANEL_WIDTH = 330
-#: frames a second for pointer feedback while a gesture waits for the scene thread
-BUSY_FPS = 15.0
-#: most frames a second for input alone (a new snapshot is drawn at once)
+#: most frames a second for input alone (a new snapshot is drawn at once); a dragged pin's
+#: marker is drawn from the pointer, so it follows at this rate while a solve lags
 MAX_FPS = 60.0
 #: frames a second that move the playhead while playing or recording (new frames: at once)
 PLAY_FPS = 30.0
@@ -147,11 +147,11 @@ class AppWindow:
     def proceed(self, after, require_saved: bool = False) -> None:
         """Go on after the unsaved-changes dialog: quit, or open ``("open", path)``; with
         ``require_saved`` only once the save posted before has succeeded."""
-        def job(w):
-            if require_saved and w.scene is not None and w.saved_doc != w.scene.to_dict():
-                return None  # the save failed: stay (its error is on the status line)
+        def go(saved: bool) -> None:
+            if require_saved and not saved:
+                return  # the save failed: stay (its error is on the status line)
             self._then = after
-        self.app.worker.submit(job, publish=False)
+        self.app.after_jobs(go)
 
     def _on_close(self):
         self.app.request_quit()
@@ -204,7 +204,7 @@ class AppWindow:
         imgui.begin("##status", None, FIXED)
         menus.status_line(app, cursor)
         imgui.end()
-        keymap.handle_keys(app, self)
+        actions.handle_keys(app, self)
         self.input.chars = ""
         menus.dialogs(app, self)
         menus.help_overlay(app)
@@ -317,7 +317,7 @@ class AppWindow:
         if then == "quit":
             self.app.quit_now = True
         elif isinstance(then, tuple) and then[0] == "open":
-            self.app.worker.submit(lambda w: w.set_scene(None, None))
+            self.app.close_scene()
             self.open_scene(then[1])
 
     def _autosave(self) -> None:
@@ -328,15 +328,14 @@ class AppWindow:
         self._autosaved_at = now
         if snap.loaded and snap.dirty and snap.version != self._autosaved_version:
             self._autosaved_version = snap.version
-            self.app.worker.submit(lambda w: None if w.scene is None else (autosave.write(w.scene) and None),
-                                   publish=False)
+            self.app.autosave()
 
     # -- the loop ---------------------------------------------------------------------
     def step(self) -> bool:
         """One turn of the loop: take input, and draw a frame when something changed: at
-        once for a new snapshot, for input at most :data:`BUSY_FPS` times a second while
-        a gesture waits for the scene thread (so it keeps the CPU), a few frames after
-        activity (ImGui settles), and a few a second when idle. True when it drew."""
+        once for a new snapshot, for input at most :data:`MAX_FPS` times a second, a few
+        frames after activity (ImGui settles), and a few a second when idle. True when it
+        drew."""
         now = time.perf_counter()
         self.win.switch_to()
         self.win.dispatch_events()
@@ -345,15 +344,14 @@ class AppWindow:
         # different frames): keep drawing until its queue is empty, or typed text lags
         touched = touched or self.imgui_ctx.input_events_queue.size() > 0
         app = self.app
-        new = app.worker.latest is not app.snap
-        waiting = self._gesture is not None and not app.worker.idle()
+        new = app.session.latest is not app.snap
         if (app.timeline.playing or app.timeline.recording is not None) and \
                 now - self._last_frame >= 1.0 / PLAY_FPS:
             touched = True  # the playhead moves
         if touched or new:
             self._settle = 3
         gap = now - self._last_frame
-        due = new or (self._settle > 0 and gap >= 1.0 / (BUSY_FPS if waiting else MAX_FPS)) or gap > 0.25
+        due = new or (self._settle > 0 and gap >= 1.0 / MAX_FPS) or gap > 0.25
         if not due:
             return False
         self._settle -= 1
@@ -376,11 +374,11 @@ class AppWindow:
         if self.closed:
             return
         self.closed = True
-        worker = self.app.worker
-        worker.wait_idle(30)
-        if worker.scene is not None:
-            autosave.remove(worker.scene.file)
-        worker.stop()
+        session = self.app.session
+        session.wait_idle(30)
+        if session.scene is not None:
+            autosave.remove(session.scene.file)
+        session.stop()
         self.win.switch_to()
         imgui.set_current_context(self.imgui_ctx)
         self.thumbs.release()

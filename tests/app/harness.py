@@ -42,8 +42,8 @@ class Driver:
         end = time.monotonic() + timeout
         self.frame()
         while time.monotonic() < end:
-            worker = self.app.worker
-            if worker.idle() and worker.latest is self.app.snap:
+            session = self.app.session
+            if session.idle() and session.latest is self.app.snap:
                 break
             time.sleep(0.005)
             self.frame()
@@ -131,7 +131,7 @@ class Driver:
 
     def scene(self):
         """The scene object (read it only while the app is settled)."""
-        return self.app.worker.scene
+        return self.app.session.scene
 
     def shot(self, name: str) -> str:
         """Save the window as docs/app/NAME.png (unchanged files are not rewritten)."""

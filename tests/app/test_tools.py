@@ -247,7 +247,7 @@ def test_ui_keeps_drawing_while_the_scene_thread_works(bar_app):
     import time
 
     d = bar_app
-    d.app.worker.submit(lambda w: time.sleep(1.2))  # a long solve
+    d.app.edit(lambda s: time.sleep(1.2))  # a long solve
     t0 = time.perf_counter()
     frames = []
     while d.app.busy and time.perf_counter() - t0 < 10:
