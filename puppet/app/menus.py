@@ -174,13 +174,16 @@ def help_overlay(app) -> None:
     opened, app.show_help = imgui.begin("Keys", True, imgui.WindowFlags_.always_auto_resize
                                         | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
     if opened:
-        if imgui.begin_table("keys", 2, imgui.TableFlags_.row_bg):
-            for k, what in actions.help_rows():
+        rows = actions.help_rows()
+        half = (len(rows) + 1) // 2
+        if imgui.begin_table("keys", 4, imgui.TableFlags_.row_bg):  # two columns of (keys, what)
+            for k in range(half):
                 imgui.table_next_row()
-                imgui.table_next_column()
-                imgui.text(k)
-                imgui.table_next_column()
-                imgui.text(what)
+                for keys, what in rows[k::half]:
+                    imgui.table_next_column()
+                    imgui.text(keys)
+                    imgui.table_next_column()
+                    imgui.text(what)
             imgui.end_table()
         imgui.text_disabled("Press ? or Esc to close.")
     imgui.end()

@@ -10,8 +10,8 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from puppet.app.canvas import QUAD_VS
 from puppet.render.layers import DrawLayer
+from puppet.render.programs import load_program
 
 #: default onion skin settings (the timeline panel edits a copy)
 DEFAULTS = {"mode": "keys", "count": 1, "opacity": 0.4, "before": (0.9, 0.15, 0.1), "after": (0.1, 0.75, 0.2),
@@ -50,21 +50,6 @@ def ghost_times(anim: dict | None, t: float, *, mode: str = "keys", count: int =
     return out
 
 
-_FS = """
-#version 330
-uniform sampler2D u_texture;
-uniform vec3 u_tint;
-uniform float u_mix;
-uniform float u_opacity;
-in vec2 v_uv;
-out vec4 f_color;
-void main() {  // premultiplied in, premultiplied out
-    vec4 c = texture(u_texture, v_uv);
-    f_color = vec4(mix(c.rgb, u_tint * c.a, u_mix), c.a) * u_opacity;
-}
-"""
-
-
 class GhostRenderer:
     """Draws the onion skin's ghosts (GL thread only), composited by ``compositor``."""
 
@@ -73,7 +58,7 @@ class GhostRenderer:
 
     def __init__(self, ctx: moderngl.Context, compositor):
         self.ctx, self.compositor = ctx, compositor
-        self.prog = ctx.program(vertex_shader=QUAD_VS, fragment_shader=_FS)
+        self.prog = load_program(ctx, "app_quad", defines={"GHOST": 1})
         self.vbo = ctx.buffer(reserve=16 * 4)
         self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f 2f", "in_pos", "in_uv")])
         self.textures: dict = {}  # key -> texture, the ghosts of the last frame drawn
@@ -143,4 +128,3 @@ class GhostRenderer:
         self.textures.clear()
         self.vao.release()
         self.vbo.release()
-        self.prog.release()
