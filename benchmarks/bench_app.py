@@ -41,7 +41,7 @@ def run(steps: int, size: tuple[int, int], pose: str) -> dict:
     try:
         app = d.app
         if pose != "rest":
-            app.edit(lambda s: s.set_active_pose(pose) and None)
+            app.edit(lambda s: s.set_active_pose(pose))
         d.settle()
         start = d.pin_screen("hand_front")
         path = recorded_drag(start, steps)

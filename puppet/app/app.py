@@ -253,7 +253,7 @@ class App:
         name, kind = self.new_pin_name(), self.pin_kind
         layer = snap.data.layers[k].name
         self.selected_layer = layer
-        self.edit(lambda s: s.add_pin(name, layer, at, kind=kind) and None)
+        self.edit(lambda s: s.add_pin(name, layer, at, kind=kind))
         self.selection = [name]
         return name
 

@@ -280,7 +280,7 @@ class Timeline:
         self.selected = [round(at + k["time"], 6) for k in keys]
 
     def set_fps(self, fps: float) -> None:
-        self.app.edit(lambda s: s.set_fps(float(fps)) and None, key="fps")
+        self.app.edit(lambda s: s.set_fps(float(fps)), key="fps")
 
 
 def set_key_dict(s, t: float, k: dict) -> None:

@@ -129,7 +129,7 @@ def _rotate(app, press, m, *, remove_on_click: bool):
         last = a
         angle, name = a0 + total, m.name
         app.say(f"{name}: {angle:.1f}°")
-        app.edit(lambda s, angle=angle: s.set_target(name, angle=angle) and None, key="rotate")
+        app.edit(lambda s, angle=angle: s.set_target(name, angle=angle), key="rotate")
     if went:
         app.end_block("rotate")
     elif remove_on_click:

@@ -226,7 +226,7 @@ def test_click_on_a_pin_at_rest_makes_no_pose(bar_app):
 
 def test_alt_drag_turns_a_pin(bar_app):
     d = bar_app
-    d.app.edit(lambda s: s.set_active_pose("bend") and None)
+    d.app.edit(lambda s: s.set_active_pose("bend"))
     d.settle()
     c = d.pin_screen("right")
     steps = len(d.scene().history.undo_stack)
