@@ -7,8 +7,11 @@ import numpy as np
 from puppet.scene.document import Document, PoseLike
 from puppet.scene.drag import DragSession
 
-#: Largest preview frame of a drag, pixels (a 4000x4000 picture previews at 1024x1024).
-PREVIEW_PIXELS = 1024 * 1024
+#: Largest preview frame of a drag, pixels (a 4000x4000 picture previews at 640x640, about
+#: what a 1280x800 window shows of it; compositing time grows with the pixels drawn).
+PREVIEW_PIXELS = 640 * 640
+#: Suffix of the compositor keys of a preview's shrunk layer images.
+PREVIEW_KEY = "@preview"
 
 
 class Scene(Document):
@@ -49,19 +52,40 @@ class Scene(Document):
         """
         return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
 
-    def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None) -> np.ndarray:
+    def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None,
+                    reduce: int = 1) -> np.ndarray:
         """Composite already posed layers (:meth:`layers` results) into an RGBA array, over
-        ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's)."""
+        ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's).
+        ``reduce`` > 1 draws from layer images shrunk that many times (drag previews of
+        big pictures: far fewer texels to sample; the frame is not exact)."""
         from puppet.render.layers import DrawLayer
 
         draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]
+        if reduce > 1:
+            draw = [self._reduced(L, k, reduce) for L, k in zip(draw, self.built.image_keys)]
         if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
-            self._compositor.retain(L.name for L in self.data.layers)
+            names = [L.name for L in self.data.layers]
+            self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
         return self.compositor.render(draw, self.canvas, size=size,
                                       background=self.background() if background is None else background,
                                       wireframe=wireframe)
+
+    def _reduced(self, L, image_key: str, reduce: int):
+        """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled
+        about the offset so that every vertex keeps its texture coordinate."""
+        import dataclasses
+
+        from puppet.scene.build import reduced_rgba
+        from puppet.scene.cache import fingerprint
+
+        image = self.rig.memo.get("pixels", fingerprint("reduced", image_key, reduce),
+                                  lambda: reduced_rgba(L.image, reduce))
+        (h, w), (sh, sw) = L.image.shape[:2], image.shape[:2]
+        off = np.asarray(L.offset, float)
+        rest = off + (np.asarray(L.rest, float) - off) * [sw / w, sh / h]
+        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=rest)
 
     def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
              size: tuple[int, int] | None = None) -> "Drag":
@@ -88,11 +112,13 @@ class Drag(DragSession):
         super().__init__(scene, names, time, record=record, iterations=iterations)
         self.size = size
         self.preview_size = preview_size(size or scene.canvas)
+        self.reduce = max(1, int(scene.canvas[0] / self.preview_size[0]))
 
     def move(self, targets, time: float | None = None) -> np.ndarray:
         """Move the pins (``(x, y)`` for a one-pin drag, else ``{name: (x, y)}``); returns a
-        preview frame (h, w, 4) uint8 of :attr:`preview_size`."""
-        return self.doc.draw_layers(self.move_layers(targets, time), size=self.preview_size)
+        preview frame (h, w, 4) uint8 of :attr:`preview_size`, drawn from layer images
+        shrunk to about that scale when the canvas is two or more times bigger."""
+        return self.doc.draw_layers(self.move_layers(targets, time), size=self.preview_size, reduce=self.reduce)
 
     def release(self, keys=None) -> np.ndarray:
         """End the drag (:meth:`commit`) and return the exact frame: equal to
@@ -101,8 +127,10 @@ class Drag(DragSession):
         return self.doc.draw_layers(self.release_layers(keys), size=self.size)
 
 
-def preview_size(size: tuple[int, int], pixels: int = PREVIEW_PIXELS) -> tuple[int, int]:
-    """``size`` (W, H) scaled down, aspect kept, to at most ``pixels`` pixels."""
+def preview_size(size: tuple[int, int], pixels: int | None = None) -> tuple[int, int]:
+    """``size`` (W, H) scaled down, aspect kept, to at most ``pixels`` pixels (default
+    :data:`PREVIEW_PIXELS`)."""
+    pixels = PREVIEW_PIXELS if pixels is None else pixels
     w, h = int(size[0]), int(size[1])
     if w * h <= pixels:
         return (w, h)

@@ -78,7 +78,7 @@ def test_preview_frames_are_bounded():
 
     assert preview_size((600, 500)) == (600, 500)
     w, h = preview_size((4000, 4000))
-    assert (w, h) == (1024, 1024) and w * h <= PREVIEW_PIXELS
+    assert w == h and w * h <= PREVIEW_PIXELS and (w + 1) * (h + 1) > PREVIEW_PIXELS
     w, h = preview_size((8000, 2000))
     assert w * h <= PREVIEW_PIXELS and abs(w / h - 4) < 0.01
 
@@ -103,3 +103,13 @@ def test_bad_drags_are_user_errors(trex):
     d.release()
     with pytest.raises(puppet.SceneError, match="released"):
         d.move((1, 1))
+
+
+def test_reduced_preview_looks_like_the_full_one(trex):
+    trex.set_active_pose("wave")
+    layers = trex.layers()
+    full = trex.draw_layers(layers, size=(300, 250)).astype(float)
+    small = trex.draw_layers(layers, size=(300, 250), reduce=2).astype(float)
+    assert full.shape == small.shape
+    assert np.abs(full - small).mean() < 2.0  # the same picture, resampled
+    assert (small[..., 3] > 0).sum() > 0.9 * (full[..., 3] > 0).sum()

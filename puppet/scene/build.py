@@ -55,6 +55,23 @@ class LayerImage:
         return self.rgba[y0:y1, x0:x1], (self.offset[0] + x0, self.offset[1] + y0)
 
 
+def reduced_rgba(rgba: np.ndarray, factor: float) -> np.ndarray:
+    """A straight-alpha RGBA image (h, w, 4) uint8 shrunk ``factor`` times (area
+    average of the premultiplied colours, so transparent pixels do not darken the edges):
+    (ceil(h / factor), ceil(w / factor), 4) uint8."""
+    import cv2
+
+    h, w = rgba.shape[:2]
+    size = (max(1, int(np.ceil(w / factor))), max(1, int(np.ceil(h / factor))))
+    prem = rgba.copy()
+    prem[..., :3] = (rgba[..., :3].astype(np.uint16) * rgba[..., 3:4] + 127) // 255
+    small = cv2.resize(prem, size, interpolation=cv2.INTER_AREA)
+    a = small[..., 3:4].astype(np.float32)
+    rgb = np.where(a > 0, small[..., :3] * (255.0 / np.maximum(a, 1.0)), 0.0)
+    small[..., :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    return small
+
+
 @dataclass
 class Group:
     """Linked layers solved as one problem."""

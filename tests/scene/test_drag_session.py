@@ -199,3 +199,20 @@ def test_released_drag_refuses_more(trex):
         d.move_layers((1, 1))
     with pytest.raises(SceneError, match="released"):
         d.commit()
+
+
+def test_reduced_rgba_averages_premultiplied():
+    from puppet.scene.build import reduced_rgba
+
+    a = np.zeros((4, 6, 4), np.uint8)
+    a[0, 0] = (255, 0, 0, 255)  # one opaque red texel among three transparent (black) ones
+    a[2:4, 0:2] = (10, 200, 30, 128)  # a uniform half-transparent block keeps its colour
+    a[0:2, 4:6] = (0, 0, 255, 255)
+    a[1, 5] = (255, 255, 255, 0)  # a transparent texel's colour must not bleed in
+    r = reduced_rgba(a, 2)
+    assert r.shape == (2, 3, 4) and r.dtype == np.uint8
+    assert tuple(r[0, 0]) == (255, 0, 0, 64)
+    np.testing.assert_allclose(r[1, 0], (10, 200, 30, 128), atol=1)  # 8-bit premultiplied: +-1
+    assert tuple(r[0, 2]) == (0, 0, 255, 191)
+    assert tuple(r[1, 2]) == (0, 0, 0, 0)
+    assert reduced_rgba(a, 4).shape == (1, 2, 4)  # ceil of the odd size
