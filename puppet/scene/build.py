@@ -161,15 +161,6 @@ def finish_image(im: LayerImage, hole: np.ndarray | None, method: str) -> LayerI
     return LayerImage(rgba=rgba, offset=im.offset, mask=im.mask, from_source=im.from_source)
 
 
-def build_images(data: SceneData) -> list[LayerImage]:
-    """Load every layer's pixels and mask; refill inpainted layers; apply masks to alpha."""
-    source = load_source(data)
-    images = [layer_image(data, L, source) for L in data.layers]
-    rank = stacking(data)
-    return [finish_image(im, inpaint_hole(data, images, k, rank), L.inpaint)
-            for k, (L, im) in enumerate(zip(data.layers, images))]
-
-
 def default_max_area(mask: np.ndarray) -> float:
     """Triangle area giving about TARGET_TRIANGLES triangles, within [6, 400] px²."""
     return float(np.clip(mask.sum() / TARGET_TRIANGLES, 6.0, 400.0))
@@ -246,21 +237,6 @@ def pin_vertices(data: SceneData, k: int, mesh: Mesh) -> dict[str, int]:
 def layer_areas(data: SceneData, images: list[LayerImage]) -> list[float]:
     """Triangle area bound of every layer: its ``mesh.max_area`` or one from its size."""
     return [L.mesh.max_area or default_max_area(im.mask) for L, im in zip(data.layers, images)]
-
-
-def build_meshes(data: SceneData, images: list[LayerImage]) -> tuple[list[Mesh], list[dict[str, int]], list[Group]]:
-    """Mesh every layer (pins as vertices, links as shared edges) and merge linked groups.
-
-    Returns
-    -------
-    meshes : per layer. pin_vertex : per layer, interior pin name -> vertex index.
-    groups : linked groups, each with its merged mesh and pinned vertices.
-    """
-    areas = layer_areas(data, images)
-    polylines = link_polylines(data, areas)
-    meshes = [mesh_layer(data, k, im, areas[k], polylines[k]) for k, im in enumerate(images)]
-    pin_vertex = [pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
-    return meshes, pin_vertex, build_groups(data, meshes, pin_vertex, polylines)
 
 
 def _segment_inside(im: LayerImage, seg: np.ndarray) -> bool:

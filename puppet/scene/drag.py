@@ -76,14 +76,30 @@ class DragSession:
         self.time = None if time is None else float(time)
         self.iterations = int(iterations)
         self.open = True
+        self._last: dict[str, np.ndarray] | None = None
+        self._rebuild()
+        doc.events.connect(self._changed)
+
+    def _rebuild(self) -> None:
+        """Take the scene as it is now: its built parts, the start state, where each
+        dragged pin is in it, the groups to re-solve; no previous frame to start from."""
+        doc = self.doc
+        for n in self.names:
+            doc._check_target_name(n)
         self._built = doc.built
         self._state = self._start_state(self.time)
         pins = {p.name: i for i, p in enumerate(self._built.data.pins) if p.kind == "interior"}
         ext = [n for ge in self._built.exterior for n in ge.names]
-        self._where = {n: ("pin", pins[n]) if n in pins else ("ext", ext.index(n)) for n in names}
-        self._moved = self._groups_of(names)
+        self._where = {n: ("pin", pins[n]) if n in pins else ("ext", ext.index(n)) for n in self.names}
+        self._moved = self._groups_of(self.names)
         self._U: dict[int, np.ndarray] = {}
-        self._last: dict[str, np.ndarray] | None = None
+        self._stale = False
+
+    def _changed(self, event) -> None:
+        """A document event during the drag: anything that changes a solve (an undo, a
+        pin or mesh edit, another pose shown) makes the next frame start afresh."""
+        if event.level != "none":
+            self._stale = True
 
     # -- previews -----------------------------------------------------------------------
     def move_layers(self, targets, time: float | None = None) -> list:
@@ -94,6 +110,8 @@ class DragSession:
         animation has them then."""
         if not self.open:
             raise SceneError("this drag has been released")
+        if self._stale:
+            self._rebuild()
         targets = self._targets(targets)
         if time is not None:
             if not self.record:
@@ -129,7 +147,7 @@ class DragSession:
         A drag that never moved changes nothing."""
         if not self.open:
             raise SceneError("this drag has been released")
-        self.open = False
+        self._close()
         doc = self.doc
         if self.record:
             if keys:
@@ -160,7 +178,12 @@ class DragSession:
 
     def cancel(self) -> None:
         """End the drag without changing anything."""
+        if self.open:
+            self._close()
+
+    def _close(self) -> None:
         self.open = False
+        self.doc.events.disconnect(self._changed)
 
     # -- helpers ----------------------------------------------------------------------------
     def _start_state(self, time: float | None):

@@ -216,3 +216,62 @@ def test_reduced_rgba_averages_premultiplied():
     assert tuple(r[0, 2]) == (0, 0, 255, 191)
     assert tuple(r[1, 2]) == (0, 0, 0, 0)
     assert reduced_rgba(a, 4).shape == (1, 2, 4)  # ceil of the odd size
+
+
+def test_an_edit_during_the_drag_is_followed(trex):
+    trex.set_active_pose("wave")
+    d = trex.drag("hand_front")
+    d.move_layers((120.0, 200.0))
+    assert len(trex.events._callbacks) == 1  # the session listens to the document
+    trex.set_target("jaw", (330.0, 95.0))  # an edit while dragging (another tool, a script)
+    layers = d.move_layers((124.0, 198.0))
+    jaw = next(r for r in layers if "jaw" in r.pins)
+    np.testing.assert_allclose(jaw.deformed[jaw.pins["jaw"]], (330.0, 95.0), atol=1e-9)
+    trex.move_pin("tail_tip", np.asarray(pin_at(trex, "tail_tip")) + [-2.0, 0.0])  # re-meshes a layer
+    layers = d.move_layers((126.0, 196.0))
+    assert all(r.rest is m.V for r, m in zip(layers, trex.built.meshes))
+    got = d.release_layers()
+    same_layers(got, trex.layers(pose=trex.to_dict()["poses"]["wave"]))
+    assert trex.events._callbacks == []  # and stops listening when it ends
+
+
+def run_drag(doc, results):
+    d = doc.drag(["hand_front", "tail_tip"], time=0.7)
+    for k in range(5):
+        results.append(d.move_layers({"hand_front": (100.0 + 4 * k, 200.0 - k), "tail_tip": (550.0, 240.0 + 2 * k)}))
+    results.append(d.release_layers())
+
+
+def compare_modes() -> None:
+    """A drag run plainly, then on a worker thread while this thread keeps running Python:
+    the same numbers bit for bit (run by the test below in a fresh process)."""
+    import threading
+
+    plain, threaded = [], []
+    run_drag(Document.load(SCENES + "/trex-layers.json"), plain)
+    doc = Document.load(SCENES + "/trex-layers.json")
+    assert doc.built.pre[0].arap.factor.kind == "qdldl"  # the factoriser that releases the GIL
+    worker = threading.Thread(target=run_drag, args=(doc, threaded))
+    worker.start()
+    busy = 0
+    while worker.is_alive():  # the "window": Python work on the main thread meanwhile
+        busy += sum(i * i for i in range(1000)) > 0
+    worker.join()
+    assert busy > 0 and len(threaded) == len(plain) == 6
+    for a, b in zip(plain, threaded):
+        same_layers(a, b)
+
+
+def test_a_drag_on_the_scene_thread_gives_the_same_numbers():
+    """The chosen mode: the solver on the scene thread (its factor releases the GIL).
+    Run as the ``puppet`` command runs, one BLAS thread from the start (a BLAS product
+    split over two threads sums in another order: 1e-13 apart)."""
+    import os
+    import subprocess
+    import sys
+
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PUPPET_BLAS_SET_AT_START="1", PYTHONPATH=root)
+    r = subprocess.run([sys.executable, "-c", "from tests.scene.test_drag_session import compare_modes; "
+                        "compare_modes()"], cwd=root, env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
