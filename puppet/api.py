@@ -25,6 +25,7 @@ class Scene(Document):
         super().__init__(doc, file)
         self._compositor = None
         self._own_compositor = False
+        self._reduced_rest: dict[str, tuple] = {}  # layer -> (rest, shrunk image, rest scaled to it)
 
     @property
     def compositor(self):
@@ -82,10 +83,13 @@ class Scene(Document):
 
         image = self.rig.memo.get("pixels", fingerprint("reduced", image_key, reduce),
                                   lambda: reduced_rgba(L.image, reduce))
-        (h, w), (sh, sw) = L.image.shape[:2], image.shape[:2]
-        off = np.asarray(L.offset, float)
-        rest = off + (np.asarray(L.rest, float) - off) * [sw / w, sh / h]
-        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=rest)
+        seen = self._reduced_rest.get(L.key)
+        if seen is None or seen[0] is not L.rest or seen[1] is not image:  # the same array each frame:
+            (h, w), (sh, sw) = L.image.shape[:2], image.shape[:2]  # the compositor keeps its buffers
+            off = np.asarray(L.offset, float)
+            seen = (L.rest, image, off + (np.asarray(L.rest, float) - off) * [sw / w, sh / h])
+            self._reduced_rest[L.key] = seen
+        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2])
 
     def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
              size: tuple[int, int] | None = None) -> "Drag":

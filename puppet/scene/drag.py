@@ -18,6 +18,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.scene.proxy import proxy_for, proxy_layer, proxy_solve
 from puppet.scene.solve import PinState
 
 
@@ -92,7 +93,7 @@ class DragSession:
         ext = [n for ge in self._built.exterior for n in ge.names]
         self._where = {n: ("pin", pins[n]) if n in pins else ("ext", ext.index(n)) for n in self.names}
         self._moved = self._groups_of(self.names)
-        self._U: dict[int, np.ndarray] = {}
+        self._U: dict = {}  # group (or ("proxy", group)) -> its previous preview frame
         self._stale = False
 
     def _changed(self, event) -> None:
@@ -126,18 +127,28 @@ class DragSession:
 
     def _preview(self, state) -> list:
         rig, built = self.doc.rig, self._built
-        solved = {}
+        solved, proxies = {}, {}
         for gi in self._moved:
             g = built.groups[gi]
             ext = built.ext_slices()[gi]
             if not len(g.pins) or not np.isnan(state.ext_to[ext, 0]).all():
                 continue  # no pins, or an exterior point pulls it: solved exactly (cached)
+            proxy = proxy_for(rig, built, gi) if not np.any(state.angle[g.pins]) else None
+            if proxy is not None:  # a big group: its coarse proxy is solved and drawn
+                U = proxy_solve(proxy, state.to[g.pins], self._U.get(("proxy", gi)), self.iterations)
+                self._U[("proxy", gi)] = U
+                proxies[gi] = (proxy, U)
+                solved[gi] = (g.mesh.V, np.zeros(len(g.mesh.V)), np.zeros((0, 2)))  # replaced below
+                continue
             U0 = self._U.get(gi)
             if U0 is None:  # the first frame starts from the exact solve it moves away from
                 U0 = rig.solve(built, gi, self._start)[0]
             solved[gi] = rig.preview(built, gi, state, U0, iterations=self.iterations)
             self._U[gi] = solved[gi][0]
-        return rig.evaluate(built, state, solved=solved)
+        layers = rig.evaluate(built, state, solved=solved)
+        for gi, (proxy, U) in proxies.items():
+            layers[proxy.layer] = proxy_layer(proxy, built, gi, U, state.depth)
+        return layers
 
     # -- the end --------------------------------------------------------------------------
     def commit(self, keys: Mapping | None = None) -> None:

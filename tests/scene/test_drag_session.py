@@ -275,3 +275,33 @@ def test_a_drag_on_the_scene_thread_gives_the_same_numbers():
     r = subprocess.run([sys.executable, "-c", "from tests.scene.test_drag_session import compare_modes; "
                         "compare_modes()"], cwd=root, env=env, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+def test_a_big_group_is_previewed_on_its_proxy(monkeypatch):
+    from puppet.scene import proxy
+
+    monkeypatch.setattr(proxy, "PROXY_MIN", 500)  # the horse's one group counts as big
+    monkeypatch.setattr(proxy, "PROXY_VERTICES", 300)
+    doc = Document.load(SCENES + "/horse.json")
+    fine = doc.built.meshes[0]
+    assert len(fine.V) > 500
+    d = doc.drag(["head", "tail"])
+    targets = {"head": np.asarray(pin_at(doc, "head")), "tail": np.asarray(pin_at(doc, "tail"))}
+    for k in range(1, 5):
+        targets = {"head": targets["head"] + [3.0, -2.0], "tail": targets["tail"] + [-2.0, 1.0]}
+        (r,) = d.move_layers(targets)
+        assert len(r.rest) < 0.6 * len(fine.V) and len(r.triangles) < 0.6 * len(fine.F)  # the proxy
+        for n, xy in targets.items():
+            np.testing.assert_allclose(r.deformed[r.pins[n]], xy, atol=1e-9)
+        assert r.deformed.shape == r.rest.shape and r.depth.shape == (len(r.rest),)
+        assert set(r.pins) == {p.name for p in doc.data.pins}
+    # the proxy's shape follows the fine solve: each proxy vertex against the nearest fine one
+    exact = doc.layers(pose=pose_with(base_pose(doc), targets))[0]
+    near = np.argmin(((r.rest[:, None] - exact.rest[None]) ** 2).sum(-1), axis=1)
+    off = np.linalg.norm((r.deformed - r.rest) - (exact.deformed - exact.rest)[near], axis=1)
+    moved = np.linalg.norm(exact.deformed - exact.rest, axis=1).max()
+    assert moved > 10 and np.median(off) < 1.0 and off.max() < 4.0  # (0.32 and 1.9 px here)
+    assert d._U.keys() == {("proxy", 0)}
+    got = d.release_layers()
+    assert got[0].rest is fine.V  # the release is the fine mesh, exactly
+    same_layers(got, doc.layers(pose=doc.to_dict()["poses"][doc.active_pose]))
