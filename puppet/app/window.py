@@ -31,6 +31,10 @@ from puppet.app.tools import choose_tool
 from puppet.app.widgets import Thumbs
 
 PANEL_WIDTH = 330
+#: seconds a thread runs Python before it hands over the GIL: shorter than CPython's 5 ms
+#: default, so that the window is not kept waiting while the scene thread runs Python
+#: between its solves (which release the GIL)
+SWITCH_INTERVAL = 0.001
 #: most frames a second for input alone (a new snapshot is drawn at once); a dragged pin's
 #: marker is drawn from the pointer, so it follows at this rate while a solve lags
 MAX_FPS = 60.0
@@ -75,6 +79,7 @@ class AppWindow:
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
         self.win = pyglet.window.Window(int(size[0]), int(size[1]), caption="puppet", resizable=True,
                                         config=config, visible=visible)
+        sys.setswitchinterval(SWITCH_INTERVAL)
         self.win.switch_to()
         moderngl.init_context()
         self.ctx = moderngl.get_context()
@@ -232,8 +237,9 @@ class AppWindow:
                             "file": app.snap.file})
 
     def _dump_rects(self) -> None:
-        """Where the widgets and the canvas are (``PUPPET_APP_RECTS=FILE``: end-to-end tests
-        under X find the buttons with it), written atomically a few times a second."""
+        """Where the widgets, the canvas, the pins and the timeline are (``PUPPET_APP_RECTS=FILE``:
+        end-to-end tests and the benchmark under X find them with it), written atomically a
+        few times a second."""
         now = time.monotonic()
         if now - getattr(self, "_rects_at", 0.0) < 0.2:
             return
@@ -241,9 +247,11 @@ class AppWindow:
         from puppet.app.widgets import RECTS
 
         app = self.app
+        markers = {m.name: [float(v) for v in app.view.to_screen(app.marker_xy(m))] for m in app.markers()}
         info = {"rects": RECTS, "scale": app.view.scale, "origin": list(app.view.origin),
                 "step": app.script.step, "mode": app.mode, "busy": app.busy, "version": app.snap.version,
-                "status": app.status.text if app.status else ""}
+                "status": app.status.text if app.status else "", "area": list(app.area), "markers": markers,
+                "timeline": getattr(self.timeline_panel, "area", None), "time": app.snap.time}
         tmp = self._rects_file + ".tmp"
         with open(tmp, "w") as f:
             json.dump(info, f)
