@@ -83,17 +83,6 @@ def test_preview_frames_are_bounded():
     assert w * h <= PREVIEW_PIXELS and abs(w / h - 4) < 0.01
 
 
-def test_drag_at_rest_makes_a_new_active_pose(trex):
-    trex.set_active_pose("rest")
-    names = trex.pose_names()
-    d = trex.drag("hand_front")
-    d.move((120, 230))
-    d.release()
-    assert trex.active_pose not in names and trex.active_pose in trex.data.poses
-    trex.undo()
-    assert trex.active_pose == "rest" and trex.pose_names() == names
-
-
 def test_bad_drags_are_user_errors(trex):
     with pytest.raises(puppet.SceneError, match="no pin"):
         trex.drag("nobody")
@@ -113,3 +102,26 @@ def test_reduced_preview_looks_like_the_full_one(trex):
     assert full.shape == small.shape
     assert np.abs(full - small).mean() < 2.0  # the same picture, resampled
     assert (small[..., 3] > 0).sum() > 0.9 * (full[..., 3] > 0).sum()
+
+
+def test_big_picture_path_releases_the_rendered_frame(monkeypatch):
+    """The cheap path of big pictures (a proxy mesh, frames from shrunk images), forced
+    on the horse: previews drawn from it, the release exactly ``render``."""
+    import puppet.api
+    from puppet.scene import proxy
+
+    monkeypatch.setattr(proxy, "PROXY_MIN", 500)
+    monkeypatch.setattr(puppet.api, "PREVIEW_PIXELS", 160 * 120)
+    scene = puppet.load_scene(SCENES + "/horse.json")
+    try:
+        d = scene.drag(["head", "tail"])
+        assert d.reduce >= 2 and d.preview_size[0] * d.preview_size[1] <= 160 * 120
+        at = {p.name: np.asarray(p.at) for p in scene.data.pins}
+        frames = [d.move({"head": at["head"] + [4 * k, -3 * k], "tail": at["tail"] + [-2 * k, 0]}) for k in range(1, 4)]
+        assert all(f.shape == (d.preview_size[1], d.preview_size[0], 4) for f in frames)
+        assert not np.array_equal(frames[0], frames[-1]) and frames[-1][..., 3].any()
+        final = d.release()
+        np.testing.assert_array_equal(final, scene.render())
+        np.testing.assert_array_equal(final, scene.render(pose=scene.to_dict()["poses"][scene.active_pose]))
+    finally:
+        scene.close()
