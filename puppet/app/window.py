@@ -121,9 +121,11 @@ class AppWindow:
             self.open_scene(path)
 
     # -- files and dialogs ------------------------------------------------------------
-    def open_scene(self, path: str) -> None:
+    def open_scene(self, path: str, *, discard: bool = False) -> None:
+        """Open ``path``, asking first about unsaved changes (unless ``discard``: the user
+        chose "Don't save") and about a newer autosave."""
         app = self.app
-        if app.snap.loaded and app.snap.dirty:
+        if app.snap.loaded and app.snap.dirty and not discard:
             app.dialog, app.after_dialog = "unsaved", ("open", path)
             return
         pending = autosave.pending(path) if os.path.isfile(path) else None
@@ -326,7 +328,7 @@ class AppWindow:
             self.app.quit_now = True
         elif isinstance(then, tuple) and then[0] == "open":
             self.app.close_scene()
-            self.open_scene(then[1])
+            self.open_scene(then[1], discard=True)  # the snapshot still shows the closed scene
 
     def _autosave(self) -> None:
         snap = self.app.snap
