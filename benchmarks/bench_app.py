@@ -332,18 +332,6 @@ def headless_runs(drags, garment: str | None, steps: int) -> list[dict]:
     return rows
 
 
-def load_floor() -> float:
-    """Median ms of a fixed numpy workload (the machine's load on one core)."""
-    a = np.random.default_rng(0).normal(size=(200, 200))
-    times = []
-    for _ in range(9):
-        t0 = time.perf_counter()
-        for _ in range(20):
-            np.sort(a, axis=0)
-        times.append(time.perf_counter() - t0)
-    return 1000 * float(np.median(times))
-
-
 def fmt(v, spec=".0f") -> str:
     return "-" if v is None else format(v, spec)
 
@@ -358,7 +346,10 @@ def main() -> None:
     drags = TREX_DRAGS if "trex" in scenes else []
     garment = garment_scene(os.path.join(tempfile.gettempdir(), "puppet-bench-garment")) if "garment" in scenes \
         else None
-    print(f"load average {os.getloadavg()[0]:.1f}, {os.cpu_count()} cores, numpy floor {load_floor():.1f} ms")
+    from benchmarks.bench_drag import load_floor
+
+    print(f"load average {os.getloadavg()[0]:.1f}, {os.cpu_count()} cores, numpy floor {load_floor():.1f} ms "
+          "(quiet machine: ~3.5 ms)")
     rows = []
     if a.only != "headless":
         missing = [t for t in ("Xvfb", "xdotool") if shutil.which(t) is None]
