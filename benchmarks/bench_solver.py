@@ -10,9 +10,9 @@
    - ``thread/qdldl switch 1 ms``: the same with ``sys.setswitchinterval(0.001)`` (a
      thread waiting for the GIL asks for it after 1 ms instead of 5);
    - ``thread/cholespy``: the same with the group's factor swapped for CHOLMOD;
-   - ``process``: the session in a child process (``python`` + a socket pair), the
-     moved layers' vertices sent back per move, the main process's second thread only
-     waiting on the socket.
+   - ``process``: the session's previews solved in a
+     :class:`~puppet.scene.dragproc.DragProcess` (a child ``python``, a socket pair), the
+     moved layers sent back per move, the main process's second thread only waiting.
    Reported: how late the window's frames are (median, p90, p99, longest: a stall) and
    the previews per second the solver gave meanwhile.
 
@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import socket
-import subprocess
 import sys
 import threading
 import time
@@ -117,46 +115,29 @@ def in_thread(doc: Document, pin: str, stop: threading.Event, count: list) -> No
     d.cancel()
 
 
-def child(fd: int) -> None:
-    """The solver process: scene path and pin in, then one target per move, the moved
-    layers' deformed vertices out."""
-    from multiprocessing.connection import Connection
+def in_process(path: str, pin: str, stop: threading.Event, count: list, ready: threading.Event) -> None:
+    """The drag session of a second copy of the scene, its previews solved in a
+    :class:`~puppet.scene.dragproc.DragProcess` (this thread only waits on its socket)."""
+    from puppet.scene.dragproc import DragProcess
 
-    conn = Connection(fd)
-    path, pin = conn.recv()
     doc = Document.load(path)
-    d = doc.drag(pin)
-    groups = set(d._moved)
-    conn.send("ready")
-    while (xy := conn.recv()) is not None:
-        layers = d.move_layers(xy)
-        conn.send([r.deformed for r in layers if r.group in groups])
-
-
-def in_process(path: str, pin: str, at, stop: threading.Event, count: list, ready: threading.Event) -> None:
-    from multiprocessing.connection import Connection
-
-    mine, theirs = socket.socketpair()
-    code = f"import sys; sys.path.insert(0, {ROOT!r}); from benchmarks.bench_solver import child; child({theirs.fileno()})"
-    proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=(theirs.fileno(),))
-    theirs.close()
-    conn = Connection(mine.detach())
-    conn.send((path, pin))
-    conn.recv()
+    proc = DragProcess()
+    d = doc.drag(pin, solver=proc)
+    proc.wait_ready(d._serial)
+    at = next(p.at for p in doc.data.pins if p.name == pin)
     ready.set()
     k = 0
     while not stop.is_set():
-        conn.send(drag_point(at, k))
-        conn.recv()
+        d.move_layers(drag_point(at, k))
         k += 1
     count.append(k)
-    conn.send(None)
-    proc.wait()
+    assert not d._U, "a preview was solved in this process"
+    d.cancel()
+    proc.close()
 
 
 def run_mode(mode: str, doc: Document, path: str, pin: str, seconds: float, n: int) -> dict:
     stop, count, ready = threading.Event(), [], threading.Event()
-    at = next(p.at for p in doc.data.pins if p.name == pin)
     swapped = None
     if mode == "none":
         return {"ticks": window(seconds, n), "moves": 0.0}
@@ -172,7 +153,7 @@ def run_mode(mode: str, doc: Document, path: str, pin: str, seconds: float, n: i
         worker = threading.Thread(target=in_thread, args=(doc, pin, stop, count))
         ready.set()
     else:
-        worker = threading.Thread(target=in_process, args=(path, pin, at, stop, count, ready))
+        worker = threading.Thread(target=in_process, args=(path, pin, stop, count, ready))
     worker.start()
     ready.wait()
     time.sleep(0.2)

@@ -92,10 +92,11 @@ class Scene(Document):
         return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2])
 
     def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
-             size: tuple[int, int] | None = None) -> "Drag":
+             size: tuple[int, int] | None = None, solver=None) -> "Drag":
         """Start dragging pins ``names`` (one name or a list) in the active pose, keyed at
-        ``time``, or recording from ``time`` (see :class:`Drag`)."""
-        return Drag(self, names, time, record=record, iterations=iterations, size=size)
+        ``time``, or recording from ``time``; previews solved in ``solver`` (a
+        :class:`~puppet.scene.dragproc.DragProcess`) when given (see :class:`Drag`)."""
+        return Drag(self, names, time, record=record, iterations=iterations, size=size, solver=solver)
 
     def close(self) -> None:
         """Release the scene's compositor (and its GL context), if it made one."""
@@ -112,8 +113,8 @@ class Drag(DragSession):
     :data:`PREVIEW_PIXELS` pixels; the released frame is full size.
     """
 
-    def __init__(self, scene: Scene, names, time=None, *, record=False, iterations=4, size=None):
-        super().__init__(scene, names, time, record=record, iterations=iterations)
+    def __init__(self, scene: Scene, names, time=None, *, record=False, iterations=4, size=None, solver=None):
+        super().__init__(scene, names, time, record=record, iterations=iterations, solver=solver)
         self.size = size
         self.preview_size = preview_size(size or scene.canvas)
         self.reduce = max(1, int(scene.canvas[0] / self.preview_size[0]))

@@ -18,6 +18,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.scene.dragproc import unpack
 from puppet.scene.proxy import proxy_for, proxy_layer, proxy_solve
 from puppet.scene.solve import PinState
 
@@ -61,7 +62,8 @@ class DragSession:
         ARAP iterations per preview frame, warm-started from the previous frame.
     """
 
-    def __init__(self, doc, names, time: float | None = None, *, record: bool = False, iterations: int = 4):
+    def __init__(self, doc, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
+                 solver=None):
         names = [names] if isinstance(names, str) else list(names)
         if not names:
             raise SceneError("a drag needs at least one pin", file=doc.file)
@@ -78,6 +80,7 @@ class DragSession:
         self.iterations = int(iterations)
         self.open = True
         self._last: dict[str, np.ndarray] | None = None
+        self._solver, self._serial = solver, None
         self._rebuild()
         doc.events.connect(self._changed)
 
@@ -95,12 +98,16 @@ class DragSession:
         self._moved = self._groups_of(self.names)
         self._U: dict = {}  # group (or ("proxy", group)) -> its previous preview frame
         self._stale = False
+        if self._serial is None and self._solver is not None and self._solver.alive:
+            self._serial = self._solver.open(doc, self.names, self.time, self.record, self.iterations)
 
     def _changed(self, event) -> None:
         """A document event during the drag: anything that changes a solve (an undo, a
         pin or mesh edit, another pose shown) makes the next frame start afresh."""
         if event.level != "none":
             self._stale = True
+            if self._serial is not None and self._solver.alive:  # the solver process starts on it now
+                self._serial = self._solver.open(self.doc, self.names, self.time, self.record, self.iterations)
 
     # -- previews -----------------------------------------------------------------------
     def move_layers(self, targets, time: float | None = None) -> list:
@@ -123,6 +130,10 @@ class DragSession:
             kind, i = self._where[n]
             (state.to if kind == "pin" else state.ext_to)[i] = xy
         self._last = targets
+        if self._serial is not None and self._solver.wait_ready(self._serial, 0):
+            packed = self._solver.move(self._serial, targets, time)
+            if packed is not None:  # solved in the solver process
+                return unpack(self._evaluate(state, {}), packed)
         return self._preview(state)
 
     def _preview(self, state) -> list:
@@ -138,17 +149,24 @@ class DragSession:
                 U = proxy_solve(proxy, state.to[g.pins], self._U.get(("proxy", gi)), self.iterations)
                 self._U[("proxy", gi)] = U
                 proxies[gi] = (proxy, U)
-                solved[gi] = (g.mesh.V, np.zeros(len(g.mesh.V)), np.zeros((0, 2)))  # replaced below
                 continue
             U0 = self._U.get(gi)
             if U0 is None:  # the first frame starts from the exact solve it moves away from
                 U0 = rig.solve(built, gi, self._start)[0]
             solved[gi] = rig.preview(built, gi, state, U0, iterations=self.iterations)
             self._U[gi] = solved[gi][0]
-        layers = rig.evaluate(built, state, solved=solved)
+        layers = self._evaluate(state, solved)
         for gi, (proxy, U) in proxies.items():
             layers[proxy.layer] = proxy_layer(proxy, built, gi, U, state.depth)
         return layers
+
+    def _evaluate(self, state, solved: dict) -> list:
+        """The layers of ``state`` with the groups of ``solved`` as given, the other moved
+        groups left at rest (their layers are replaced by the caller), the rest exact."""
+        built = self._built
+        stand_in = {gi: (built.groups[gi].mesh.V, np.zeros(len(built.groups[gi].mesh.V)),
+                         np.zeros((len(built.exterior[gi].names), 2))) for gi in self._moved}
+        return self.doc.rig.evaluate(built, state, solved={**stand_in, **solved})
 
     # -- the end --------------------------------------------------------------------------
     def commit(self, keys: Mapping | None = None) -> None:

@@ -305,3 +305,62 @@ def test_a_big_group_is_previewed_on_its_proxy(monkeypatch):
     got = d.release_layers()
     assert got[0].rest is fine.V  # the release is the fine mesh, exactly
     same_layers(got, doc.layers(pose=doc.to_dict()["poses"][doc.active_pose]))
+
+
+@pytest.fixture(scope="module")
+def solver_process():
+    from puppet.scene.dragproc import DragProcess
+
+    proc = DragProcess()
+    yield proc
+    proc.close()
+    assert proc.proc is None
+
+
+def full_layers(a, b):
+    same_layers(a, b)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x.rest, y.rest)
+        np.testing.assert_array_equal(x.triangles, y.triangles)
+        assert x.pins == y.pins and x.order == y.order and x.key == y.key
+
+
+@pytest.mark.parametrize("names, kw", [
+    ("hand_front", {}),
+    (["hand_front", "tail_tip", "jaw"], {}),
+    (["hand_front", "snout"], {"time": 0.7}),
+    ("tail_tip", {"time": 0.2, "record": True}),
+])
+def test_the_solver_process_gives_the_same_numbers(solver_process, names, kw):
+    plain, there = Document.load(SCENES + "/trex-layers.json"), Document.load(SCENES + "/trex-layers.json")
+    for doc in (plain, there):
+        doc.set_active_pose("wave")
+    a = plain.drag(names, **kw)
+    b = there.drag(names, **kw, solver=solver_process)
+    assert solver_process.wait_ready(b._serial, timeout=120)
+    one = [names] if isinstance(names, str) else names
+    for k in range(5):
+        targets = {n: np.asarray(pin_at(plain, n)) + [3.0 * k + i, -2.0 * k] for i, n in enumerate(one)}
+        t = {"time": 0.2 + 0.05 * k} if kw.get("record") else {}
+        full_layers(a.move_layers(targets, **t), b.move_layers(targets, **t))
+        if k == 2:  # an edit during the drag: the child is given the new document
+            for doc in (plain, there):
+                doc.set_target("foot_left", (215.0, 450.0))
+            assert solver_process.wait_ready(b._serial, timeout=120)
+    assert b._U == {}  # every frame came from the child
+    keys = {0.2: {one[0]: (500.0, 250.0)}, 0.5: {one[0]: (520.0, 250.0)}} if kw.get("record") else None
+    full_layers(a.release_layers(keys), b.release_layers(keys))
+    assert plain.to_dict() == there.to_dict()
+
+
+def test_without_its_process_a_drag_solves_itself(trex):
+    from puppet.scene.dragproc import DragProcess
+
+    proc = DragProcess()
+    proc.close()
+    assert not proc.alive
+    d = trex.drag("jaw", solver=proc)
+    assert d._serial is None
+    d.move_layers((330.0, 100.0))
+    assert d._U  # solved here
+    d.cancel()
