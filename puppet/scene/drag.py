@@ -143,7 +143,8 @@ class DragSession:
             g = built.groups[gi]
             ext = built.ext_slices()[gi]
             if not len(g.pins) or not np.isnan(state.ext_to[ext, 0]).all():
-                continue  # no pins, or an exterior point pulls it: solved exactly (cached)
+                solved[gi] = rig.solve(built, gi, state)  # no pins, or an exterior point pulls it: exact
+                continue
             proxy = proxy_for(rig, built, gi) if not np.any(state.angle[g.pins]) else None
             if proxy is not None:  # a big group: its coarse proxy is solved and drawn
                 U = proxy_solve(proxy, state.to[g.pins], self._U.get(("proxy", gi)), self.iterations)

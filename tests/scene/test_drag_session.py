@@ -148,7 +148,9 @@ def test_record(trex):
 def test_exterior_point(dress):
     dress.set_active_pose("flare")
     d = dress.drag(["edge_b", "hem_c"])
-    d.move_layers({"edge_b": (250, 515), "hem_c": (250, 480)})
+    preview = d.move_layers({"edge_b": (250, 515), "hem_c": (250, 480)})
+    moved = pose_with(dress.to_dict()["poses"]["flare"], {"edge_b": (250, 515), "hem_c": (250, 480)})
+    same_layers(preview, dress.layers(pose=moved))  # an exterior point's group is solved exactly
     got = d.release_layers({})
     pose = dress.to_dict()["poses"]["flare"]
     assert pose["edge_b"] == [250.0, 515.0]
