@@ -141,26 +141,28 @@ class KeyEdits:
             cur = base.get(n, at.get(n))
             to = [float(xy[0]), float(xy[1])]
             base[n] = dict(cur, to=to) if isinstance(cur, dict) else to
-        kw = {"ease": old.get("ease", "linear"), "curve": old.get("curve")} if old is not None else {}
-        return self.set_key(time, pins=base, **kw)
+        if old is None:
+            return self.set_key(time, pins=base)
+        return self.set_key(old["time"], pins=base, ease=old.get("ease", "linear"), curve=old.get("curve"))
 
     def unkey_pins(self, names, t0: float, t1: float) -> bool:
         """Take pins ``names`` out of the keys from ``t0`` to ``t1`` (a recording replaces
         what was there): a pose key there becomes the other pins' targets at its time (it
         plays the same for them), and a key left with no pins goes."""
         changed = False
-        for k in self.keys():
-            t = float(k["time"])
-            if t < t0 - KEY_TIME or t > t1 + KEY_TIME:
-                continue
-            pins = self.pose_at(t) if "pose" in k else k["pins"]
-            if not set(names) & set(pins):
-                continue
-            rest = {n: v for n, v in pins.items() if n not in names}
-            if rest:
-                changed |= self.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
-            else:
-                changed |= self.remove_key(t)
+        with self.block(f"unkey {', '.join(names)} {float(t0):g}-{float(t1):g} s"):
+            for k in self.keys():
+                t = float(k["time"])
+                if t < t0 - KEY_TIME or t > t1 + KEY_TIME:
+                    continue
+                pins = self.pose_at(t) if "pose" in k else k["pins"]
+                if not set(names) & set(pins):
+                    continue
+                rest = {n: v for n, v in pins.items() if n not in names}
+                if rest:
+                    changed |= self.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
+                else:
+                    changed |= self.remove_key(t)
         return changed
 
     def _set_anim(self, field: str, value, label: str) -> bool:

@@ -366,3 +366,17 @@ def test_without_its_process_a_drag_solves_itself(trex):
     d.move_layers((330.0, 100.0))
     assert d._U  # solved here
     d.cancel()
+
+
+def test_key_pins_and_unkey_pins(trex):
+    steps = len(trex.history.undo_stack)
+    assert trex.key_pins(0.5 + 1e-7, {"jaw": (300, 100)})  # into the pose key at 0.5 s (within 1e-6 s)
+    k = [k for k in trex.keys() if abs(k["time"] - 0.5) < 1e-6]
+    assert len(k) == 1 and k[0]["time"] == 0.5 and k[0]["pins"]["jaw"] == [300.0, 100.0]
+    assert set(k[0]["pins"]) >= {"hip", "chest", "tail_tip"}  # the pose's other pins, where they were
+    assert trex.unkey_pins(["jaw"], 0.4, 1.0)
+    assert len(trex.history.undo_stack) == steps + 2  # one step each
+    for k in trex.keys():
+        if 0.4 <= k["time"] <= 1.0:
+            assert "pose" not in k and "jaw" not in k["pins"]
+    assert not trex.unkey_pins(["jaw"], 0.4, 1.0)  # nothing left to take out
