@@ -20,6 +20,7 @@ import numpy as np
 
 from puppet.deform.arap import ArapData, arap_precompute, arap_solve
 from puppet.deform.depth import depth_field
+from puppet.errors import SceneError
 from puppet.geom.contour import mask_regions
 from puppet.scene import build
 from puppet.scene.cache import fingerprint
@@ -51,18 +52,22 @@ def proxy_for(rig, built, gi: int) -> Proxy | None:
                         lambda: _build(built, gi))
 
 
-def _build(built, gi: int) -> Proxy:
+def _build(built, gi: int) -> Proxy | None:
+    """The proxy, or None when the coarse mesh cannot be made (the fine mesh is previewed)."""
     g, data = built.groups[gi], built.data
     k = g.layers[0]
     im = built.images[k]
     fine = data.layers[k].mesh.max_area or build.default_max_area(im.mask)
     area = fine * len(g.mesh.V) / PROXY_VERTICES
-    mesh = build.mesh_layer(data, k, im, area, [], mask_regions(im.mask, im.offset))
-    pins = build.pin_vertices(data, k, mesh)
-    b = np.array([pins[data.pins[i].name] for i in g.pins], np.int64)
-    d = data.deformer
-    return Proxy(layer=k, mesh=mesh, pins=pins, arap=arap_precompute(mesh.V, mesh.F, b, weights=d.weights,
-                                                                     alpha=d.alpha))
+    try:
+        mesh = build.mesh_layer(data, k, im, area, [], mask_regions(im.mask, im.offset))
+        pins = build.pin_vertices(data, k, mesh)
+        b = np.array([pins[data.pins[i].name] for i in g.pins], np.int64)
+        d = data.deformer
+        return Proxy(layer=k, mesh=mesh, pins=pins, arap=arap_precompute(mesh.V, mesh.F, b, weights=d.weights,
+                                                                         alpha=d.alpha))
+    except (SceneError, ValueError):
+        return None
 
 
 def proxy_solve(proxy: Proxy, bc: np.ndarray, U0: np.ndarray | None, iterations: int) -> np.ndarray:
