@@ -111,8 +111,11 @@ class DragProcess:
     def open(self, doc, names, time, record: bool, iterations: int) -> int:
         """Ask the child to open the same drag on its copy of ``doc``; returns its number."""
         self.serial += 1
-        self.conn.send(("open", self.serial, doc.to_dict(), doc.file, doc.active_pose, list(names), time,
-                        record, iterations))
+        try:
+            self.conn.send(("open", self.serial, doc.to_dict(), doc.file, doc.active_pose, list(names), time,
+                            record, iterations))
+        except (OSError, ValueError):  # the child is gone: it never becomes ready, the drag solves itself
+            pass
         return self.serial
 
     def wait_ready(self, serial: int, timeout: float | None = None) -> bool:

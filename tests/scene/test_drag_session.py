@@ -380,3 +380,26 @@ def test_key_pins_and_unkey_pins(trex):
         if 0.4 <= k["time"] <= 1.0:
             assert "pose" not in k and "jaw" not in k["pins"]
     assert not trex.unkey_pins(["jaw"], 0.4, 1.0)  # nothing left to take out
+
+
+def test_a_solver_process_that_dies_mid_drag(trex):
+    from puppet.scene.dragproc import DragProcess
+
+    proc = DragProcess()
+    try:
+        trex.set_active_pose("wave")
+        d = trex.drag("hand_front", solver=proc)
+        assert proc.wait_ready(d._serial, timeout=120)
+        d.move_layers((120.0, 200.0))
+        assert not d._U  # solved there
+        proc.proc.kill()
+        proc.proc.wait()
+        layers = d.move_layers((124.0, 198.0))  # solved here from now on
+        assert d._U
+        r = next(r for r in layers if "hand_front" in r.pins)
+        np.testing.assert_allclose(r.deformed[r.pins["hand_front"]], (124.0, 198.0), atol=1e-9)
+        trex.set_target("jaw", (330.0, 95.0))  # an edit: the session must not fail re-opening it there
+        d.move_layers((126.0, 196.0))
+        same_layers(d.release_layers(), trex.layers(pose=trex.to_dict()["poses"]["wave"]))
+    finally:
+        proc.close()
