@@ -257,3 +257,29 @@ def test_ui_keeps_drawing_while_the_scene_thread_works(bar_app):
     assert max(dt for _, dt in frames) < 0.6  # no frame waited for the job
     assert len(frames) >= 3 and frames[-1][0] > 0.6  # frames went on all through it
     d.settle()
+
+
+def test_dragged_marker_follows_the_pointer_while_a_solve_lags(bar_app):
+    """The scene thread is held: the canvas cannot change, but the dragged pin's marker is
+    drawn where the pointer is, frame after frame."""
+    import threading
+
+    d = bar_app
+    gate = threading.Event()
+    start = d.pin_screen("right")
+    d.press(*start)
+    d.drag(start[0] - 5, start[1] - 5)
+    d.app.edit(lambda s: gate.wait(20))  # a solve that lags
+    try:
+        version = d.app.snap.version
+        for k in range(1, 6):
+            p = (start[0] - 5 - 8 * k, start[1] - 5 + 4 * k)
+            d.drag(*p)
+            px = d.pixels()[int(round(p[1])), int(round(p[0]))].astype(int)
+            assert px[0] > 200 and px[1] > 150 and px[2] < 90, (k, px)  # the yellow marker at the pointer
+            assert d.app.snap.version == version  # no new pose was shown meanwhile
+    finally:
+        gate.set()
+    d.release()
+    d.settle()
+    assert not d.app.snap.preview
