@@ -1,9 +1,10 @@
 """The timeline's state and actions (no GL, no ImGui): the playhead, play / pause / loop,
-keys (add at the playhead, move, copy, paste, delete, ease), and the canvas tools of the
-animation: a pin dragged while the canvas shows a time keys that pin there, and record
-mode (After Effects' Puppet Sketch) turns a drag into keys.
+keys (add at the playhead, move, copy, paste, delete, ease), record mode's settings and
+the recording under way (the canvas tools that key and record are in
+:mod:`puppet.app.animtools`), and what the canvas shows (a time, the onion skin: told to
+the scene session through the app).
 
-Every edit is a job on the scene thread through the Document's key methods
+Every edit is an intent run on the scene thread through the Document's key methods
 (``set_key``, ``remove_key``, ``move_key``, ``copy_key``, ``set_key_ease``, ``set_fps``);
 a gesture (a move of several keys, a recording) is one undo step.
 """
