@@ -145,7 +145,7 @@ def main() -> None:
 
     blas = [(i["internal_api"], i["num_threads"]) for i in threadpool_info()]
     print(f"BLAS pools: {blas}; load average {os.getloadavg()[0]:.2f}; numpy floor {load_floor():.1f} ms "
-          "(quiet machine: ~3.5 ms)")
+          "(the load: ~1.3 ms when a core is free)")
     with tempfile.TemporaryDirectory() as tmp:
         rows = run(os.path.join(SCENES, "trex-layers.json"), ["hand_front", "tail_tip", "jaw"], args.steps, 40.0)
         rows += run(garment_4k(tmp), ["end1", "end3", "joint1"], args.steps, 120.0)

@@ -18,11 +18,7 @@ process against 9-19 ms with a thread (p99 19-27 ms against 139-369 ms).
 """
 from __future__ import annotations
 
-import os
-import signal
-import socket
-import subprocess
-import sys
+from puppet.scene.child import child_setup, start_child, stop_child
 
 #: LayerResult fields sent back per moved layer (``rest``, ``triangles`` and ``pins`` too
 #: for a layer drawn as a proxy mesh, see :mod:`puppet.scene.proxy`).
@@ -31,11 +27,7 @@ FIELDS = ("deformed", "depth", "exterior")
 
 def child_main(fd: int) -> None:
     """The child: ``python -c "...child_main(FD)"`` with one end of a socket pair."""
-    from multiprocessing.connection import Connection
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent decides
-    os.dup2(2, 1)  # nothing may print on stdout
-    conn = Connection(fd)
+    conn = child_setup(fd)
     rig, session = None, None
     while True:
         try:
@@ -86,21 +78,8 @@ class DragProcess:
     """
 
     def __init__(self):
-        from multiprocessing.connection import Connection
-
-        import puppet
-
-        mine, theirs = socket.socketpair()
-        env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", PUPPET_BLAS_SET_AT_START="1")
-        root = os.path.dirname(os.path.dirname(os.path.abspath(puppet.__file__)))
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
-        code = f"from puppet.scene.dragproc import child_main; child_main({theirs.fileno()})"
-        try:
-            self.proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=(theirs.fileno(),), env=env,
-                                         stdin=subprocess.DEVNULL, close_fds=True)
-        finally:
-            theirs.close()
-        self.conn = Connection(mine.detach())
+        self.proc, self.conn = start_child("puppet.scene.dragproc", "child_main", {
+            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "PUPPET_BLAS_SET_AT_START": "1"})
         self.serial = 0  # the drag the child is asked to serve
         self.ready = 0  # the last drag it said it is ready for
 
@@ -146,19 +125,9 @@ class DragProcess:
 
     def close(self) -> None:
         """Stop the child (asked first, then killed) and wait for it."""
-        if self.proc is None:
-            return
-        try:
-            self.conn.send(None)
-        except (OSError, ValueError):
-            pass
-        try:
-            self.proc.wait(timeout=2.0)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-        self.conn.close()
-        self.proc = None
+        if self.proc is not None:
+            stop_child(self.proc, self.conn)
+            self.proc = None
 
 
 def unpack(layers: list, packed: dict) -> list:
