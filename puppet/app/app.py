@@ -9,6 +9,7 @@ below and never the session itself.
 """
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -158,6 +159,12 @@ class App:
         elif name not in self.selection:
             self.selection = [name]
 
+    def follow_pointer(self, positions: dict) -> None:
+        """Draw markers at ``positions`` (where the pointer has them) whatever snapshots
+        arrive, until :meth:`hold_markers` names the job that ends the gesture."""
+        self.overrides = dict(positions)
+        self._overrides_until = math.inf
+
     def hold_markers(self, positions: dict, job_id: int) -> None:
         """Show markers at ``positions`` until the snapshot of job ``job_id`` arrives."""
         self.overrides = dict(positions)
@@ -207,7 +214,7 @@ class App:
     def move_drag(self, positions: dict, *, time: float | None = None) -> None:
         """The pointer moved the dragged pins to ``positions``: their markers follow at
         once (drawn from the pointer), the canvas when the preview is solved."""
-        self.overrides = dict(positions)
+        self.follow_pointer(positions)
         self.session.move_drag(positions, time=time)
 
     def end_drag(self, positions: dict | None = None, *, keys: dict | None = None,

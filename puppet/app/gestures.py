@@ -88,6 +88,6 @@ def drag_pins(app, press: CanvasEvent, start: dict, *, time: float | None = None
         if ev.type != "release":
             app.move_drag(pos)
     if started:
-        app.overrides = dict(pos)
+        app.follow_pointer(pos)
         app.end_drag(pos)
     return pos if started else None

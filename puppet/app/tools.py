@@ -79,7 +79,7 @@ def pin_tool(app, press: CanvasEvent):
         ev = yield
         went = went or moved(ev, press)
         if went:
-            app.overrides = offset(start, delta(app, ev, press))
+            app.follow_pointer(offset(start, delta(app, ev, press)))
     if went:
         app.move_pins(dict(app.overrides))
     elif m is None:

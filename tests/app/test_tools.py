@@ -269,6 +269,7 @@ def test_dragged_marker_follows_the_pointer_while_a_solve_lags(bar_app):
     start = d.pin_screen("right")
     d.press(*start)
     d.drag(start[0] - 5, start[1] - 5)
+    d.settle()
     d.app.edit(lambda s: gate.wait(20))  # a solve that lags
     try:
         version = d.app.snap.version
@@ -283,3 +284,48 @@ def test_dragged_marker_follows_the_pointer_while_a_solve_lags(bar_app):
     d.release()
     d.settle()
     assert not d.app.snap.preview
+
+
+def test_an_older_preview_does_not_pull_the_marker_back(bar_app):
+    """A preview solved for an earlier pointer position arrives after the pointer moved
+    on: the canvas shows it, the dragged marker stays at the pointer."""
+    import threading
+
+    d = bar_app
+    app = d.app
+    start = d.pin_screen("right")
+    d.press(*start)
+    d.drag(start[0] - 5, start[1] - 5)
+    d.settle()
+    drag = app.session._drag
+    solve = drag.move_layers
+    gates, entered = [threading.Event(), threading.Event()], [threading.Event(), threading.Event()]
+    calls = []
+
+    def slow(*a, **k):  # the next two preview solves wait for their gates
+        k_ = len(calls)
+        calls.append(k_)
+        if k_ < 2:
+            entered[k_].set()
+            gates[k_].wait(20)
+        return solve(*a, **k)
+    drag.move_layers = slow
+    try:
+        p1, p2 = (start[0] - 25, start[1] + 10), (start[0] - 45, start[1] + 20)
+        d.drag(*p1)
+        assert entered[0].wait(20)  # p1's preview is being solved
+        d.drag(*p2)  # the pointer moves on: p2's preview waits behind it
+        v = app.snap.version
+        gates[0].set()
+        while app.session.latest.version == v:
+            d.frame()
+        d.frame(3)  # p1's preview is shown, no pointer event meanwhile
+        assert app.snap.preview and app.snap.version > v
+        want = app.view.to_canvas(p2)
+        np.testing.assert_allclose(app.marker_xy(app.marker("right")), want, atol=1e-6)
+    finally:
+        for g in gates:
+            g.set()
+    d.release()
+    d.settle()
+    np.testing.assert_allclose(d.scene().to_dict()["poses"][d.scene().active_pose]["right"], want, atol=1e-6)
