@@ -21,7 +21,7 @@ import numpy as np
 from puppet.deform.arap import ArapData, arap_precompute, arap_solve
 from puppet.deform.depth import depth_field
 from puppet.errors import SceneError
-from puppet.geom.contour import mask_regions
+from puppet.geom.triangulate import edge_length_for_area, triangulate_regions
 from puppet.scene import build
 from puppet.scene.cache import fingerprint
 
@@ -57,16 +57,18 @@ def _build(built, gi: int) -> Proxy | None:
     g, data = built.groups[gi], built.data
     k = g.layers[0]
     im = built.images[k]
-    fine = data.layers[k].mesh.max_area or build.default_max_area(im.mask)
-    area = fine * len(g.mesh.V) / PROXY_VERTICES
-    try:
-        mesh = build.mesh_layer(data, k, im, area, [], mask_regions(im.mask, im.offset))
+    L = data.layers[k]
+    area = (L.mesh.max_area or build.default_max_area(im.mask)) * len(g.mesh.V) / PROXY_VERTICES
+    pts = np.array([p.at for _, p in build.layer_pins(data, k)]).reshape(-1, 2)
+    try:  # the outline simplified to an eighth of the proxy's edge length: a third fewer triangles
+        mesh = triangulate_regions(built.regions[k], max_area=area, min_angle=L.mesh.min_angle,
+                                   simplify=max(L.mesh.simplify, edge_length_for_area(area) / 8), points=pts)
         pins = build.pin_vertices(data, k, mesh)
         b = np.array([pins[data.pins[i].name] for i in g.pins], np.int64)
         d = data.deformer
         return Proxy(layer=k, mesh=mesh, pins=pins, arap=arap_precompute(mesh.V, mesh.F, b, weights=d.weights,
                                                                          alpha=d.alpha))
-    except (SceneError, ValueError):
+    except (SceneError, ValueError):  # (MeshTooLarge is a ValueError)
         return None
 
 

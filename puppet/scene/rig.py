@@ -59,6 +59,7 @@ class Built:
     exterior: list[GroupExterior]
     pre: list[GroupPre]
     pre_keys: list[str]
+    regions: list = None  # per layer: its mask outline (geom.contour.mask_regions), as meshed
 
     def group_of_pin(self, i: int) -> int | None:
         """Group of scene pin ``i`` (None for exterior pins)."""
@@ -106,13 +107,14 @@ class Rig:
                 bases[k], build.inpaint_hole(data, bases, k, rank), L.inpaint)))
         areas = build.layer_areas(data, images)
         polylines = build.link_polylines(data, areas)
-        mesh_keys, meshes = [], []
+        mesh_keys, meshes, outlines = [], [], []
         for k, L in enumerate(data.layers):
             pins = [p.at for _, p in build.layer_pins(data, k)]
             segs = [(data.links[li].segments[si], P) for li, si, P in polylines[k]]
             key = fingerprint(base_keys[k], L.mesh, areas[k], pins, segs)
             mesh_keys.append(key)
             regions = memo.get("outline", base_keys[k], lambda k=k: mask_regions(images[k].mask, images[k].offset))
+            outlines.append(regions)
             meshes.append(memo.get("mesh", key, lambda k=k, regions=regions: build.mesh_layer(
                 data, k, images[k], areas[k], polylines[k], regions)))
         pin_vertex = [build.pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
@@ -132,7 +134,8 @@ class Rig:
             pre_keys.append(key)
             pre.append(memo.get("precompute", key, lambda g=g, bones=bones: precompute_group(g, d, bones)))
         return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
-                     pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys)
+                     pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
+                     regions=outlines)
 
     # -- posing ------------------------------------------------------------------
     def solve(self, built: Built, gi: int, state: PinState):
