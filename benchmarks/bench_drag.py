@@ -52,6 +52,13 @@ def load_floor() -> float:
     return 1000 * float(np.median(times))
 
 
+def key_drag(scene, names, t):
+    """A key drag at ``t``, the frame at ``t`` shown first (as the app shows it)."""
+    if scene.data.animation is not None:
+        scene.layers(time=t)
+    return scene.drag(names, time=t)
+
+
 def kinds(scene, names3):
     """(label, drag(), targets(k)) of the three drag kinds over ``names3`` (first: the single pin)."""
     at = {p.name: np.asarray(p.at, float) for p in scene.data.pins}
@@ -64,7 +71,7 @@ def kinds(scene, names3):
         ("single pin", lambda: scene.drag(names3[0]), lambda k, n, r: {names3[0]: at[names3[0]] + r * loop(k, n)}),
         ("3 pins", lambda: scene.drag(names3), lambda k, n, r: {m: at[m] + r * loop(k + i, n)
                                                                   for i, m in enumerate(names3)}),
-        (f"key at {t:g} s", lambda: scene.drag(names3[:2], time=t),
+        (f"key at {t:g} s", lambda: key_drag(scene, names3[:2], t),
          lambda k, n, r: {m: at[m] + r * loop(k, n) for m in names3[:2]}),
     ]
 
