@@ -94,6 +94,21 @@ class App:
     def busy(self) -> bool:
         return not self.session.idle()
 
+    @property
+    def news(self) -> bool:
+        """The session published a snapshot that :meth:`sync` has not taken yet."""
+        return self.session.latest is not self.snap
+
+    def shutdown(self, timeout: float = 30.0) -> None:
+        """Let the posted intents run (a save), remove the autosave, stop the session."""
+        from puppet.app import autosave
+
+        session = self.session
+        session.wait_idle(timeout)
+        if session.scene is not None:
+            autosave.remove(session.scene.file)
+        session.stop()
+
     def say(self, text: str, level: str = "info") -> None:
         self.status = Message(text, level)
 

@@ -354,7 +354,7 @@ class AppWindow:
         # different frames): keep drawing until its queue is empty, or typed text lags
         touched = touched or self.imgui_ctx.input_events_queue.size() > 0
         app = self.app
-        new = app.session.latest is not app.snap
+        new = app.news
         if (app.timeline.playing or app.timeline.recording is not None) and \
                 now - self._last_frame >= 1.0 / PLAY_FPS:
             touched = True  # the playhead moves
@@ -384,11 +384,7 @@ class AppWindow:
         if self.closed:
             return
         self.closed = True
-        session = self.app.session
-        session.wait_idle(30)
-        if session.scene is not None:
-            autosave.remove(session.scene.file)
-        session.stop()
+        self.app.shutdown()
         self.win.switch_to()
         imgui.set_current_context(self.imgui_ctx)
         self.thumbs.release()
