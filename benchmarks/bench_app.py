@@ -341,15 +341,21 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=120, help="pointer moves per drag (at 60 Hz)")
     ap.add_argument("--only", choices=("real", "headless"), help="one of the two windows")
     ap.add_argument("--scenes", default="trex,garment", help="trex and/or garment (the 4000x4000 photo)")
+    ap.add_argument("--solver", choices=("thread", "process"), help="where the app solves drag previews "
+                    "(PUPPET_APP_SOLVER; default: the app's)")
     a = ap.parse_args()
+    if a.solver:
+        os.environ["PUPPET_APP_SOLVER"] = a.solver  # the app's child and the headless window read it
     scenes = a.scenes.split(",")
     drags = TREX_DRAGS if "trex" in scenes else []
     garment = garment_scene(os.path.join(tempfile.gettempdir(), "puppet-bench-garment")) if "garment" in scenes \
         else None
     from benchmarks.bench_drag import load_floor
 
+    from puppet.app.session import SOLVER
+
     print(f"load average {os.getloadavg()[0]:.1f}, {os.cpu_count()} cores, numpy floor {load_floor():.1f} ms "
-          "(quiet machine: ~3.5 ms)")
+          f"(quiet machine: ~3.5 ms); previews solved in a {os.environ.get('PUPPET_APP_SOLVER', SOLVER)}")
     rows = []
     if a.only != "headless":
         missing = [t for t in ("Xvfb", "xdotool") if shutil.which(t) is None]

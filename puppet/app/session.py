@@ -26,6 +26,8 @@ from puppet.app.snapshot import FrameCache, Message, Shown, Snapshot, build_snap
 from puppet.errors import SceneError
 
 _KEEP = object()
+#: the default of :attr:`SceneSession.solver` (``PUPPET_APP_SOLVER`` overrides it)
+SOLVER = "thread"
 
 
 class SceneSession:
@@ -42,7 +44,13 @@ class SceneSession:
         The last published snapshot (read from any thread).
     """
 
-    def __init__(self):
+    def __init__(self, solver: str | None = None):
+        #: where drag previews are solved: "thread" (this scene thread; the solver releases
+        #: the GIL in its solves) or "process" (a child python, puppet.scene.dragproc)
+        self.solver = solver or os.environ.get("PUPPET_APP_SOLVER", SOLVER)
+        if self.solver not in ("thread", "process"):
+            raise ValueError(f"solver must be 'thread' or 'process', got {self.solver!r}")
+        self._proc = None  # the DragProcess, started with the first scene
         self.scene = None
         self.saved_doc: dict | None = None
         self.shown = Shown()
@@ -71,6 +79,7 @@ class SceneSession:
 
             scene, saved, msg = opening.load(path, picture=picture, recover_from=recover_from)
             self._set_scene(scene, saved)
+            self._solver()  # the child starts while the user looks at the scene
             self.shown = replace(self.shown, rest=rest or picture)
             return msg
         return self._post(job)
@@ -188,7 +197,7 @@ class SceneSession:
 
         def job():  # the core's warm-started drag session: the one way a pin is dragged
             self._cancel_drag()
-            self._drag = self._need().drag(names, time=time, record=record)
+            self._drag = self._need().drag(names, time=time, record=record, solver=self._solver())
         return self._post(job, publish=False)
 
     def move_drag(self, positions: dict, *, time: float | None = None) -> int:
@@ -242,10 +251,14 @@ class SceneSession:
         return True
 
     def stop(self, timeout: float = 10.0) -> None:
+        """Stop the scene thread (after the job it is running) and the solver process."""
         with self._cv:
             self._stop = True
             self._cv.notify_all()
         self._thread.join(timeout)
+        if self._proc is not None:
+            self._proc.close()
+            self._proc = None
 
     def say(self, text: str, level: str = "info") -> None:
         self.messages.append(Message(text, level))
@@ -262,6 +275,19 @@ class SceneSession:
             self._jobs.append((fn, key, publish, self._ids))
             self._cv.notify_all()
             return self._ids
+
+    def _solver(self):
+        """The drag process when previews are solved in one (started, or restarted after it
+        died, on the scene thread), else None."""
+        if self.solver != "process":
+            return None
+        if self._proc is None or not self._proc.alive:
+            from puppet.scene.dragproc import DragProcess
+
+            if self._proc is not None:
+                self._proc.close()
+            self._proc = DragProcess()
+        return self._proc
 
     def _need(self):
         if self.scene is None:

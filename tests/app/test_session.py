@@ -3,6 +3,7 @@ snapshots whose layers are exactly what the scene solves (``scene.layers``)."""
 from __future__ import annotations
 
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -199,3 +200,36 @@ def test_close_scene(session):
     session.edit(lambda sc: None)
     wait(session)
     assert errors(session)[-1] == "no scene is open"
+
+
+def test_a_solver_process_gives_the_thread_s_previews_and_release(make_scene):
+    """Previews solved in the session's child process are the scene thread's, bit for bit,
+    and the release is the exact pose; the child stops with the session."""
+    doc = bar_scene()
+    path = make_scene(doc, {"bar.png": bar_image()})
+    runs = {}
+    for solver in ("thread", "process"):
+        s = SceneSession(solver=solver)
+        try:
+            s.open(path, picture=False)
+            s.edit(lambda sc: sc.set_active_pose("bend"))
+            wait(s)
+            previews = []
+            for k in range(2):  # the second drag is served by the child once it has started
+                s.begin_drag(["right"])
+                wait(s)
+                time.sleep(3.0 * k)  # the child starts (a fresh python) and builds the scene meanwhile
+                for k in range(1, 4):
+                    s.move_drag({"right": (100.0 - 3 * k, 5.0 + 4 * k)})
+                    wait(s)
+                    previews.append(s.latest.layers)
+                s.end_drag({"right": (90.0, 20.0)})
+                wait(s)
+            assert not errors(s) and same(s.latest.layers, s.scene.layers("bend"))
+            runs[solver] = previews, s._proc
+        finally:
+            s.stop()
+    child = runs["process"][1]
+    assert runs["thread"][1] is None and child is not None and not child.alive  # the child stopped
+    assert child.ready >= 2  # and it had served the second drag
+    assert all(same(a, b) for a, b in zip(runs["thread"][0], runs["process"][0]))
