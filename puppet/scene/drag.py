@@ -44,6 +44,43 @@ def base_pose(doc, time: float | None = None) -> dict:
     return dict(doc.to_dict().get("poses", {}).get(doc.active_pose, {}))
 
 
+def _file_form(pins: Mapping) -> dict:
+    """{name: [x, y]} of floats."""
+    return {n: [float(xy[0]), float(xy[1])] for n, xy in pins.items()}
+
+
+def _record(doc, names, t0: float, keys: dict) -> None:
+    """Store recorded ``keys`` ({time: {name: [x, y]}}) from ``t0`` on, one undo step:
+    ``doc.record_motion`` where the document has it, else the pins are taken out of the
+    keys over the span and keyed at each recorded time."""
+    t1 = max(keys)
+    if hasattr(doc, "record_motion"):
+        doc.record_motion(keys, start=min(t0, min(keys)), end=t1)
+        return
+    with doc.block(f"record {', '.join(names)} {t0:g}-{t1:g} s"):
+        _unkey_pins(doc, names, t0, t1)
+        for t, pins in sorted(keys.items()):
+            doc.key_pins(t, pins)
+
+
+def _unkey_pins(doc, names, t0: float, t1: float) -> None:
+    """Take pins ``names`` out of the keys from ``t0`` to ``t1``: a pose key there becomes
+    the other pins' targets at its time, a key left with no pins goes. (The recording
+    path of documents without ``record_motion``.)"""
+    for k in doc.keys():
+        t = float(k["time"])
+        if t < t0 - 1e-6 or t > t1 + 1e-6:
+            continue
+        pins = doc.pose_at(t) if "pose" in k else k["pins"]
+        if not set(names) & set(pins):
+            continue
+        rest = {n: v for n, v in pins.items() if n not in names}
+        if rest:
+            doc.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
+        else:
+            doc.remove_key(t)
+
+
 class DragSession:
     """A drag of pins ``names`` (made by ``doc.drag(names, time=None, record=False)``).
 
@@ -181,18 +218,13 @@ class DragSession:
         doc = self.doc
         if self.record:
             if keys:
-                t1 = max(float(t) for t in keys)
-                with doc.block(f"record {', '.join(self.names)} {self.time:g}-{t1:g} s"):
-                    if doc.keys():
-                        doc.unkey_pins(self.names, self.time, t1)
-                    for t, pins in sorted(keys.items()):
-                        doc.key_pins(float(t), pins)
+                _record(doc, self.names, self.time, {float(t): _file_form(p) for t, p in keys.items()})
             return
         if self._last is None:
             return
         if self.time is not None:
             with doc.block(f"key {', '.join(self.names)} at {self.time:g} s"):
-                doc.key_pins(self.time, self._last)
+                doc.key_pins(self.time, _file_form(self._last))
             return
         with doc.block(f"drag {', '.join(self.names)}"):
             for n, xy in self._last.items():

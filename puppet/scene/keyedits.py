@@ -145,26 +145,6 @@ class KeyEdits:
             return self.set_key(time, pins=base)
         return self.set_key(old["time"], pins=base, ease=old.get("ease", "linear"), curve=old.get("curve"))
 
-    def unkey_pins(self, names, t0: float, t1: float) -> bool:
-        """Take pins ``names`` out of the keys from ``t0`` to ``t1`` (a recording replaces
-        what was there): a pose key there becomes the other pins' targets at its time (it
-        plays the same for them), and a key left with no pins goes."""
-        changed = False
-        with self.block(f"unkey {', '.join(names)} {float(t0):g}-{float(t1):g} s"):
-            for k in self.keys():
-                t = float(k["time"])
-                if t < t0 - KEY_TIME or t > t1 + KEY_TIME:
-                    continue
-                pins = self.pose_at(t) if "pose" in k else k["pins"]
-                if not set(names) & set(pins):
-                    continue
-                rest = {n: v for n, v in pins.items() if n not in names}
-                if rest:
-                    changed |= self.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
-                else:
-                    changed |= self.remove_key(t)
-        return changed
-
     def _set_anim(self, field: str, value, label: str) -> bool:
         """Set an animation-wide field; the value it has now (its default included) is no change."""
         def m(doc):

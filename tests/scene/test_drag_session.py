@@ -96,20 +96,25 @@ def test_moves_are_warm_started(trex):
     d.cancel()
 
 
+def keyed_at(doc, t):
+    """{pin: (x, y)} where the animation's tracks put every interior pin at ``t``."""
+    st = doc.state(time=t)
+    return {p.name: tuple(st.to[i]) for i, p in enumerate(doc.data.pins) if p.kind == "interior"}
+
+
 def test_key_drag_between_keys(trex):
     t = 0.75
     before, steps = trex.to_dict(), len(trex.history.undo_stack)
+    others = keyed_at(trex, t)
     d = trex.drag(["hand_front", "snout"], time=t)
-    start = base_pose(trex, t)
-    targets = {"hand_front": (120.0, 210.0), "snout": np.asarray(start["snout"] if isinstance(start["snout"], list)
-                                                                  else start["snout"]["to"]) + [5, -5]}
+    targets = {"hand_front": (120.0, 210.0), "snout": np.asarray(others["snout"]) + [5, -5]}
     for k in range(4):
         d.move_layers({n: np.asarray(xy) - 2 * (3 - k) for n, xy in targets.items()})
     got = d.release_layers()
     same_layers(got, trex.layers(time=t))
-    key = next(k for k in trex.keys() if abs(k["time"] - t) < 1e-9)
-    moved = pose_with(start, targets)
-    assert key["pins"] == {n: moved[n] for n in targets}  # a new key holds the dragged pins only
+    now = keyed_at(trex, t)  # the pins keyed where they were dragged, the others as they were
+    assert all(np.allclose(now[n], xy) for n, xy in targets.items())
+    assert all(np.allclose(now[n], xy) for n, xy in others.items() if n not in targets)
     assert trex.to_dict()["poses"] == before["poses"]  # a key drag leaves the poses alone
     assert len(trex.history.undo_stack) == steps + 1
     trex.undo()
@@ -117,16 +122,19 @@ def test_key_drag_between_keys(trex):
 
 
 def test_key_drag_on_a_pose_key(trex):
+    others = keyed_at(trex, 0.5)
     d = trex.drag("jaw", time=0.5)
     d.move_layers((300.0, 120.0))
     got = d.release_layers()
     same_layers(got, trex.layers(time=0.5))
-    key = next(k for k in trex.keys() if k["time"] == 0.5)
-    assert "pose" not in key and key["pins"]["jaw"] == [300.0, 120.0]
+    now = keyed_at(trex, 0.5)
+    assert now["jaw"] == (300.0, 120.0)
+    assert all(np.allclose(now[n], xy) for n, xy in others.items() if n != "jaw")
 
 
 def test_record(trex):
     before, steps = trex.to_dict(), len(trex.history.undo_stack)
+    jaw = {t: keyed_at(trex, t)["jaw"] for t in (0.3, 0.5, 0.6)}
     d = trex.drag("tail_tip", time=0.25, record=True)
     start = np.asarray(pin_at(trex, "tail_tip"))
     for k in range(1, 5):
@@ -134,12 +142,10 @@ def test_record(trex):
     keys = {0.25: {"tail_tip": start}, 0.45: {"tail_tip": start + [6, 0]}, 0.65: {"tail_tip": start + [12, 0]}}
     got = d.release_layers(keys)
     same_layers(got, trex.layers(time=0.25))
-    tail = [(k["time"], k["pins"]["tail_tip"]) for k in trex.keys() if "pins" in k and "tail_tip" in k["pins"]]
-    assert [t for t, _ in tail] == [0.25, 0.45, 0.65]
-    assert tail[1][1] == (start + [6, 0]).tolist()
-    # the pose key at 0.5 inside the span no longer holds the tail; the others are kept there
-    k05 = next(k for k in trex.keys() if k["time"] == 0.5)
-    assert "tail_tip" not in k05["pins"] and "jaw" in k05["pins"]
+    for t, pins in keys.items():  # the tail follows the recorded keys only, over the span
+        np.testing.assert_allclose(keyed_at(trex, t)["tail_tip"], pins["tail_tip"], atol=1e-9)
+    np.testing.assert_allclose(keyed_at(trex, 0.5)["tail_tip"], start + [7.5, 0], atol=1e-9)  # not the 0.5 s pose
+    assert {t: keyed_at(trex, t)["jaw"] for t in jaw} == jaw  # the other pins keep their keys
     assert len(trex.history.undo_stack) == steps + 1
     trex.undo()
     assert trex.to_dict() == before
@@ -368,18 +374,13 @@ def test_without_its_process_a_drag_solves_itself(trex):
     d.cancel()
 
 
-def test_key_pins_and_unkey_pins(trex):
+def test_key_pins(trex):
     steps = len(trex.history.undo_stack)
-    assert trex.key_pins(0.5 + 1e-7, {"jaw": (300, 100)})  # into the pose key at 0.5 s (within 1e-6 s)
-    k = [k for k in trex.keys() if abs(k["time"] - 0.5) < 1e-6]
-    assert len(k) == 1 and k[0]["time"] == 0.5 and k[0]["pins"]["jaw"] == [300.0, 100.0]
-    assert set(k[0]["pins"]) >= {"hip", "chest", "tail_tip"}  # the pose's other pins, where they were
-    assert trex.unkey_pins(["jaw"], 0.4, 1.0)
-    assert len(trex.history.undo_stack) == steps + 2  # one step each
-    for k in trex.keys():
-        if 0.4 <= k["time"] <= 1.0:
-            assert "pose" not in k and "jaw" not in k["pins"]
-    assert not trex.unkey_pins(["jaw"], 0.4, 1.0)  # nothing left to take out
+    others = keyed_at(trex, 0.5)
+    assert trex.key_pins(0.5, {"jaw": [300.0, 100.0]})  # at the pose key at 0.5 s
+    now = keyed_at(trex, 0.5)
+    assert now["jaw"] == (300.0, 100.0) and all(now[n] == xy for n, xy in others.items() if n != "jaw")
+    assert len(trex.history.undo_stack) == steps + 1
 
 
 def test_a_solver_process_that_dies_mid_drag(trex):
