@@ -13,8 +13,9 @@ in-thread ones bit for bit (a test checks it); the release is always solved by t
 caller's own document, exactly.
 
 ``benchmarks/bench_solver.py`` measures this against a solver thread: with the machine
-busy, a 60 Hz window beside previews without pause was late by a median 1-3 ms with the
-process against 9-19 ms with a thread (p99 19-27 ms against 139-369 ms).
+very busy (load 10-11), a 60 Hz window beside previews without pause was late by a median
+1-3 ms with the process against 9-19 ms with a thread (p99 19-27 ms against 139-369 ms);
+at load 5-7 the two varied from run to run (p99 13-39 ms against 12-76 ms).
 """
 from __future__ import annotations
 
