@@ -152,6 +152,17 @@ class Driver:
         self.w.close()
 
 
+def pin_keys(keys, pin: str) -> dict[float, list[float]]:
+    """{time: [x, y]} of the animation keys (file form) that hold ``pin``'s target: a pins
+    key, or a pose key's ``overrides`` (either way a key can carry a pin)."""
+    out = {}
+    for k in keys:
+        v = k.get("pins", {}).get(pin, (k.get("overrides") or {}).get(pin))
+        if v is not None:
+            out[float(k["time"])] = list(v["to"] if isinstance(v, dict) else v)
+    return out
+
+
 def widget(label: str):
     """Centre of the widget drawn last under ``label`` (see puppet.app.widgets.RECTS)."""
     from puppet.app.widgets import RECTS
