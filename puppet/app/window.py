@@ -36,8 +36,9 @@ PANEL_WIDTH = 330
 #: between its solves (which release the GIL)
 SWITCH_INTERVAL = 0.001
 #: most frames a second for input alone (a new snapshot is drawn at once); a dragged pin's
-#: marker is drawn from the pointer, so it follows at this rate while a solve lags
-MAX_FPS = 60.0
+#: marker is drawn from the pointer, so it follows the pointer event by event while a solve
+#: lags (a 60 Hz cap beat against 60 Hz pointer events and drew ~47 of their 60 frames)
+MAX_FPS = 120.0
 #: frames a second that move the playhead while playing or recording (new frames: at once)
 PLAY_FPS = 30.0
 FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
