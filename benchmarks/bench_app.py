@@ -1,16 +1,28 @@
-"""The app's frame time while a pin is dragged: replays a recorded drag (the T-rex's
-front hand pulled round a circle, pointer events at 60 Hz) in a headless 1280x800 app
-window (EGL, no X) and prints the median and p95 time per frame, and how often the
-canvas showed a new pose (updates per second).
+"""What a user sees while dragging pins in ``puppet app``: a real window under Xvfb (GLX)
+at 1280x800, real pointer events from ONE xdotool process at 60 Hz, and the window
+captured at 60 fps with PyAV's x11grab; a captured frame counts as a canvas update when
+the canvas changed outside the pin markers' path (a disc round each dragged pin's route,
+so that marker moves do not count as poses), and as a marker update when it changed
+inside that path. Drags: a single pin, 3 pins and a key drag on the T-rex, one pin on a
+4000x4000 garment photo; beside them, the same drags replayed in a headless window (EGL,
+no X, events dispatched in-process), the figure the app's loop alone reaches.
 
-    .venv/bin/python benchmarks/bench_app.py [--steps 120] [--size 1280x800]
+    .venv/bin/python benchmarks/bench_app.py [--steps 120] [--only real|headless]
+
+Release is the time from the mouse-up to the last canvas change (the exact pose shown).
+The capture shares the machine with the app (decoding, comparing frames).
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import select
+import shutil
+import subprocess
 import sys
+import tempfile
+import threading
 import time
 
 import numpy as np
@@ -18,88 +30,348 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-import pyglet  # noqa: E402
+TREX = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
+SIZE = (1280, 800)
+HZ = 60.0
+#: radius (window px) of the disc masked round each dragged pin's route
+MARKER_MASK = 16
+#: (scene, label, pins, pose to drag in, time of a key drag or None)
+#: the pins of benchmarks/bench_drag.py's drags
+TREX_DRAGS = [("trex", "single pin", ["hand_front"], "wave", None),
+              ("trex", "3 pins", ["tail_tip", "jaw", "hand_front"], "wave", None),
+              ("trex", "key at 0.75 s", ["tail_tip", "hand_front"], None, 0.75)]
 
-pyglet.options["headless"] = True
-pyglet.options["debug_gl"] = False
 
-SCENE = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
-
-
-def recorded_drag(start, steps: int, radius: float = 70.0) -> np.ndarray:
-    """Window points of a drag: out from ``start`` then once round a circle."""
+def pointer_path(start, steps: int, radius: float = 70.0) -> np.ndarray:
+    """Window points of a drag: from ``start`` once round a circle of ``radius``."""
     t = np.linspace(0, 2 * np.pi, steps)
     c = np.asarray(start, float) + (radius, 0)
-    ring = np.stack([c[0] - radius * np.cos(t), c[1] - radius * np.sin(t)], axis=1)
-    return ring
+    return np.stack([c[0] - radius * np.cos(t), c[1] - radius * np.sin(t)], axis=1)
 
 
-def run(steps: int, size: tuple[int, int], pose: str) -> dict:
+def garment_scene(folder: str) -> str:
+    """The 4000x4000 garment photo scene of ``bench_drag`` (made once per folder)."""
+    path = os.path.join(folder, "shirt4k.json")
+    os.makedirs(folder, exist_ok=True)
+    if not os.path.exists(path):
+        from benchmarks.bench_drag import garment_4k
+
+        garment_4k(folder)
+    return path
+
+
+def garment_pin(path: str) -> str:
+    """The garment's pin that bench_drag drags (``end1``), else the right-most one."""
+    with open(path) as f:
+        pins = json.load(f)["pins"]
+    names = [p["name"] for p in pins]
+    return "end1" if "end1" in names else max(pins, key=lambda p: p["at"][0])["name"]
+
+
+# -- the real window -------------------------------------------------------------------------
+class Xvfb:
+    """A private X server (24-bit; -noreset keeps it up between apps)."""
+
+    def __init__(self):
+        r, w = os.pipe()
+        self.proc = subprocess.Popen(["Xvfb", "-displayfd", str(w), "-screen", "0", "1280x1024x24", "-nolisten",
+                                      "tcp", "-noreset"], pass_fds=(w,), stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.DEVNULL)
+        os.close(w)
+        number, end = b"", time.monotonic() + 20
+        while not number.endswith(b"\n") and time.monotonic() < end:
+            if select.select([r], [], [], 0.5)[0]:
+                number += os.read(r, 32) or b"\n"
+        self._pipe = r
+        self.name = f":{number.decode().strip()}"
+
+    def run(self, *args, check=True) -> str:
+        out = subprocess.run(list(args), env=dict(os.environ, DISPLAY=self.name), capture_output=True, text=True,
+                             timeout=120)
+        if check and out.returncode:
+            raise RuntimeError(f"{args[:3]}: {out.stderr}")
+        return out.stdout
+
+    def close(self) -> None:
+        self.proc.terminate()
+        self.proc.wait(10)
+        os.close(self._pipe)
+
+
+class RealApp:
+    """``puppet app SCENE`` in a window of the X server ``x``, and where its widgets are."""
+
+    def __init__(self, x: Xvfb, scene: str, folder: str):
+        self.x, self.rects = x, os.path.join(folder, "rects.json")
+        env = dict(os.environ, DISPLAY=x.name, PYTHONPATH=ROOT, PUPPET_APP_RECTS=self.rects)
+        env.pop("PYGLET_HEADLESS", None)
+        self.proc = subprocess.Popen([sys.executable, "-m", "puppet", "app", scene, "--size", f"{SIZE[0]}x{SIZE[1]}"],
+                                     env=env, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        end, line = time.monotonic() + 600, ""
+        while "ready" not in line:
+            if self.proc.poll() is not None or time.monotonic() > end:
+                raise RuntimeError(f"the app did not start: {self.proc.stderr.read()[-2000:]}")
+            if select.select([self.proc.stdout], [], [], 1.0)[0]:
+                line = self.proc.stdout.readline()
+        wid = x.run("xdotool", "search", "--sync", "--onlyvisible", "--name", "^puppet").split()[0]
+        geo = dict(v.split("=") for v in x.run("xdotool", "getwindowgeometry", "--shell", wid).split())
+        self.origin = (int(geo["X"]), int(geo["Y"]))
+        self.settle()
+
+    def info(self) -> dict:
+        with open(self.rects) as f:
+            return json.load(f)
+
+    def settle(self, timeout: float = 120.0) -> dict:
+        """Wait until the scene thread is idle (the dump is written 5 times a second)."""
+        end = time.monotonic() + timeout
+        time.sleep(0.5)
+        while time.monotonic() < end:
+            info = self.info()
+            if not info["busy"]:
+                time.sleep(0.4)
+                if not self.info()["busy"]:
+                    return self.info()
+            time.sleep(0.2)
+        raise TimeoutError("the app stayed busy")
+
+    def click(self, xy, shift: bool = False) -> None:
+        x, y = self.screen(xy)
+        args = ["xdotool", "mousemove", str(x), str(y)] + (["keydown", "shift"] if shift else []) + ["click", "1"]
+        self.x.run(*args + (["keyup", "shift"] if shift else []))
+
+    def screen(self, xy) -> tuple[int, int]:
+        return int(round(xy[0] + self.origin[0])), int(round(xy[1] + self.origin[1]))
+
+    def close(self) -> None:
+        self.x.run("xdotool", "key", "ctrl+q", check=False)
+        try:
+            self.proc.wait(10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(10)
+
+
+class Capture:
+    """The window captured at 60 fps on a thread; per frame: its time and whether the canvas
+    changed outside (pose) and inside (markers) the mask."""
+
+    def __init__(self, x: Xvfb, origin, area, mask: np.ndarray):
+        import av
+
+        self.container = av.open(f"{x.name}.0+{origin[0]},{origin[1]}", format="x11grab",
+                                 options={"framerate": "60", "video_size": f"{SIZE[0]}x{SIZE[1]}", "draw_mouse": "0"})
+        ax, ay, aw, ah = (int(round(v)) for v in area)
+        self.crop = (slice(ay, ay + ah), slice(ax, ax + aw))
+        self.mask = mask[self.crop]
+        self.frames: list[tuple[float, bool, bool]] = []
+        self._stop = False
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        prev = None
+        for frame in self.container.decode(video=0):
+            t = time.time()
+            if frame.time is not None and abs(frame.time - t) < 5:
+                t = float(frame.time)  # x11grab stamps frames with the wall clock when grabbed
+            cur = frame.to_ndarray(format="gray")[self.crop].astype(np.int16)
+            if prev is not None:
+                diff = np.abs(cur - prev) > 2
+                self.frames.append((t, int(np.count_nonzero(diff & ~self.mask)) > 8,
+                                    int(np.count_nonzero(diff & self.mask)) > 8))
+            prev = cur
+            if self._stop:
+                break
+
+    def stop(self) -> None:
+        self._stop = True
+        self._thread.join(10)
+        self.container.close()
+
+
+def path_mask(paths) -> np.ndarray:
+    """(H, W) bool: discs of :data:`MARKER_MASK` round every point of the pins' routes."""
+    yy, xx = np.mgrid[0:SIZE[1], 0:SIZE[0]]
+    mask = np.zeros((SIZE[1], SIZE[0]), bool)
+    for path in paths:
+        for x, y in path[:: max(1, len(path) // 240)]:
+            x0, x1 = int(max(x - MARKER_MASK, 0)), int(min(x + MARKER_MASK + 1, SIZE[0]))
+            y0, y1 = int(max(y - MARKER_MASK, 0)), int(min(y + MARKER_MASK + 1, SIZE[1]))
+            sub = (xx[y0:y1, x0:x1] - x) ** 2 + (yy[y0:y1, x0:x1] - y) ** 2 <= MARKER_MASK ** 2
+            mask[y0:y1, x0:x1] |= sub
+    return mask
+
+
+def xdotool_drag(app: RealApp, names, steps: int) -> tuple[list, list[str]]:
+    """The pins' routes (window px) and one xdotool command that drags them: the first
+    pins Shift-clicked into the selection, the last pressed and moved at 60 Hz."""
+    info = app.info()
+    starts = [info["markers"][n] for n in names]
+    path = pointer_path(starts[-1], steps)
+    routes = [path + (np.asarray(s) - starts[-1]) for s in starts]
+    cmd = ["xdotool"]
+    for k, s in enumerate(starts[:-1]):
+        cmd += ["mousemove", *map(str, app.screen(s))] + (["keydown", "shift"] if k else []) + ["click", "1"]
+    cmd += ["mousemove", *map(str, app.screen(starts[-1])), "mousedown", "1"]
+    if len(names) > 1:
+        cmd += ["keyup", "shift"]
+    for p in path[1:]:
+        cmd += ["mousemove", *map(str, app.screen(p)), "sleep", f"{1 / HZ:.4f}"]
+    return routes, cmd + ["mouseup", "1"]
+
+
+def real_drag(app: RealApp, names, steps: int, after: float = 2.5) -> dict:
+    info = app.settle()
+    routes, cmd = xdotool_drag(app, names, steps)
+    cap = Capture(app.x, app.origin, info["area"], path_mask(routes))
+    time.sleep(0.5)
+    t0 = time.time()
+    app.x.run(*cmd)
+    t_up = time.time()
+    time.sleep(after)
+    cap.stop()
+    app.settle()
+    during = [f for f in cap.frames if t0 + 0.05 <= f[0] <= t_up]
+    span = max(t_up - t0 - 0.05, 1e-6)
+    changes = [f[0] for f in cap.frames if f[1] and t0 <= f[0] <= t_up + after]
+    gaps = np.diff([f[0] for f in during if f[1]]) * 1000
+    return {"canvas_per_s": sum(f[1] for f in during) / span, "marker_per_s": sum(f[2] for f in during) / span,
+            "captured_per_s": len(during) / span, "gap_p95_ms": float(np.percentile(gaps, 95)) if len(gaps) else None,
+            "release_ms": max(0.0, (max(changes) - t_up) * 1000) if changes else None, "drag_s": span}
+
+
+def real_runs(drags, garment: str | None, steps: int) -> list[dict]:
+    rows = []
+    x = Xvfb()
+    try:
+        folder = tempfile.mkdtemp(prefix="bench-app-")
+        groups = [(TREX, drags)] if drags else []
+        if garment:
+            groups.append((garment, [("garment", "single pin", [garment_pin(garment)], None, None)]))
+        for scene, kinds in groups:
+            app = RealApp(x, scene, folder)
+            try:
+                for _, label, names, pose, t in kinds:
+                    info = app.info()
+                    if pose is not None:
+                        app.click(rect_centre(info["rects"][f"pose:{pose}"]))
+                    if t is not None:
+                        tl = info["timeline"]
+                        app.click((tl["x0"] + t * (tl["x1"] - tl["x0"]) / tl["span"], tl["y0"] + 6))
+                    r = real_drag(app, names, steps)
+                    rows.append(dict(r, scene=os.path.basename(scene), kind=label, where="real window"))
+            finally:
+                app.close()
+    finally:
+        x.close()
+    return rows
+
+
+def rect_centre(r) -> tuple[float, float]:
+    return (r[0] + r[2]) / 2, (r[1] + r[3]) / 2
+
+
+# -- the headless window (in-process) ----------------------------------------------------------
+def headless_drag(scene: str, names, pose, t, steps: int) -> dict:
+    """The same drag dispatched into a headless app window run by its own loop."""
+    import pyglet
+
+    pyglet.options["headless"] = True
+    pyglet.options["debug_gl"] = False
     from tests.app.harness import Driver
 
-    d = Driver(SCENE, size=size)
+    d = Driver(scene, size=SIZE)
     try:
         app = d.app
-        if pose != "rest":
-            app.edit(lambda s: s.set_active_pose(pose) and None)
+        if pose is not None:
+            app.edit(lambda s: s.set_active_pose(pose))
+        if t is not None:
+            app.timeline.scrub(t)
         d.settle()
-        start = d.pin_screen("hand_front")
-        path = recorded_drag(start, steps)
-        d.press(*start)
-        frame_ms, shown = [], []
-        last_version = app.snap.version
-        t_start = time.perf_counter()
-        period = 1.0 / 60.0
-        next_event = time.perf_counter()
+        starts = [d.pin_screen(n) for n in names]
+        for k, s in enumerate(starts[:-1]):
+            d.click(*s, mods=pyglet.window.key.MOD_SHIFT if k else 0)
+        path = pointer_path(starts[-1], steps)
+        d.press(*starts[-1], mods=pyglet.window.key.MOD_SHIFT if len(names) > 1 else 0)
+        shown, last = [], app.snap.version
+        t_start = next_event = time.perf_counter()
         k = 0
         while k < len(path):  # the app's own loop (window.run), pointer events at 60 Hz
-            t0 = time.perf_counter()
-            if t0 >= next_event:
+            now = time.perf_counter()
+            if now >= next_event:
                 p = path[k]
-                d.w.win.dispatch_event("on_mouse_drag", float(p[0]), size[1] - float(p[1]), 0, 0,
+                d.w.win.dispatch_event("on_mouse_drag", float(p[0]), SIZE[1] - float(p[1]), 0, 0,
                                        pyglet.window.mouse.LEFT, 0)
                 d.pos = (float(p[0]), float(p[1]))
                 k += 1
-                next_event += period
-            drew = d.w.step()
-            t1 = time.perf_counter()
-            if drew:
-                frame_ms.append((t1 - t0) * 1000)
-                if app.snap.version != last_version and app.snap.preview:
-                    shown.append(t1)
-                    last_version = app.snap.version
+                next_event += 1.0 / HZ
+            if d.w.step():
+                if app.snap.version != last and app.snap.preview:
+                    shown.append(time.perf_counter())
+                    last = app.snap.version
             else:
                 time.sleep(0.004)
         elapsed = time.perf_counter() - t_start
         d.release()
         t0 = time.perf_counter()
         d.settle()
-        exact_ms = (time.perf_counter() - t0) * 1000
-        gaps = np.diff(shown) * 1000 if len(shown) > 1 else np.array([np.nan])
-        return {"frames": len(frame_ms), "events": len(path), "frame_ms_median": float(np.median(frame_ms)),
-                "frame_ms_p95": float(np.percentile(frame_ms, 95)),
-                "updates_per_s": len(shown) / elapsed, "update_gap_ms_median": float(np.median(gaps)),
-                "update_gap_ms_p95": float(np.percentile(gaps, 95)), "release_to_exact_ms": exact_ms,
-                "canvas_px": [int(v) for v in d.app.view.canvas_rect(d.app.snap.canvas)[2:]]}
+        return {"canvas_per_s": len(shown) / elapsed, "release_ms": (time.perf_counter() - t0) * 1000}
     finally:
         d.close()
 
 
+def headless_runs(drags, garment: str | None, steps: int) -> list[dict]:
+    rows = []
+    todo = [(TREX, *d[1:]) for d in drags]
+    if garment:
+        todo.append((garment, "single pin", [garment_pin(garment)], None, None))
+    for scene, label, names, pose, t in todo:
+        r = headless_drag(scene, names, pose, t, steps)
+        rows.append(dict(r, scene=os.path.basename(scene), kind=label, where="headless"))
+    return rows
+
+
+def fmt(v, spec=".0f") -> str:
+    return "-" if v is None else format(v, spec)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--steps", type=int, default=120)
-    ap.add_argument("--size", default="1280x800")
-    ap.add_argument("--pose", default="wave", help="pose to drag in (rest: the drag makes a new pose)")
+    ap.add_argument("--steps", type=int, default=120, help="pointer moves per drag (at 60 Hz)")
+    ap.add_argument("--only", choices=("real", "headless"), help="one of the two windows")
+    ap.add_argument("--scenes", default="trex,garment", help="trex and/or garment (the 4000x4000 photo)")
+    ap.add_argument("--solver", choices=("thread", "process"), help="where the app solves drag previews "
+                    "(PUPPET_APP_SOLVER; default: the app's)")
     a = ap.parse_args()
-    size = tuple(int(v) for v in a.size.lower().split("x"))
-    r = run(a.steps, size, a.pose)
-    print(f"T-rex drag in a {size[0]}x{size[1]} app window (canvas shown at {r['canvas_px'][0]}x{r['canvas_px'][1]} px), "
-          f"{r['events']} pointer events at 60 Hz, {r['frames']} frames drawn:")
-    print(f"  frame time: median {r['frame_ms_median']:.1f} ms, p95 {r['frame_ms_p95']:.1f} ms")
-    print(f"  canvas updates: {r['updates_per_s']:.1f} per second (gap median {r['update_gap_ms_median']:.0f} ms, "
-          f"p95 {r['update_gap_ms_p95']:.0f} ms)")
-    print(f"  release to exact pose shown: {r['release_to_exact_ms']:.0f} ms")
-    print(json.dumps(r))
+    if a.solver:
+        os.environ["PUPPET_APP_SOLVER"] = a.solver  # the app's child and the headless window read it
+    scenes = a.scenes.split(",")
+    drags = TREX_DRAGS if "trex" in scenes else []
+    garment = garment_scene(os.path.join(tempfile.gettempdir(), "puppet-bench-garment")) if "garment" in scenes \
+        else None
+    from benchmarks.bench_drag import load_floor
+
+    from puppet.app.session import SOLVER
+
+    print(f"load average {os.getloadavg()[0]:.1f}, {os.cpu_count()} cores, numpy floor {load_floor():.1f} ms "
+          f"(quiet machine: ~3.5 ms); previews solved in a {os.environ.get('PUPPET_APP_SOLVER', SOLVER)}")
+    rows = []
+    if a.only != "headless":
+        missing = [t for t in ("Xvfb", "xdotool") if shutil.which(t) is None]
+        if missing:
+            sys.exit(f"bench_app: the real window needs {', '.join(missing)}")
+        rows += real_runs(drags, garment, a.steps)
+    if a.only != "real":
+        rows += headless_runs(drags, garment, a.steps)
+    print(f"{'scene':<18}{'drag':<15}{'window':<13}{'canvas/s':>9}{'marker/s':>9}{'frames/s':>9}"
+          f"{'gap p95':>9}{'release':>9}")
+    for r in rows:
+        print(f"{r['scene']:<18}{r['kind']:<15}{r['where']:<13}{r['canvas_per_s']:>9.1f}"
+              f"{fmt(r.get('marker_per_s'), '.1f'):>9}{fmt(r.get('captured_per_s'), '.1f'):>9}"
+              f"{fmt(r.get('gap_p95_ms')):>7}ms{fmt(r['release_ms']):>7}ms")
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+    print(json.dumps(rows))
 
 
 if __name__ == "__main__":

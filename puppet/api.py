@@ -5,6 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.scene.document import Document, PoseLike
+from puppet.scene.drag import DragSession
+
+#: Largest preview frame of a drag, pixels (a 4000x4000 picture previews at 640x640, about
+#: what a 1280x800 window shows of it; compositing time grows with the pixels drawn).
+PREVIEW_PIXELS = 640 * 640
+#: Suffix of the compositor keys of a preview's shrunk layer images.
+PREVIEW_KEY = "@preview"
 
 
 class Scene(Document):
@@ -18,6 +25,7 @@ class Scene(Document):
         super().__init__(doc, file)
         self._compositor = None
         self._own_compositor = False
+        self._reduced_rest: dict[str, tuple] = {}  # layer -> (rest, shrunk image, rest scaled to it)
 
     @property
     def compositor(self):
@@ -45,31 +53,94 @@ class Scene(Document):
         """
         return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
 
-    def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None) -> np.ndarray:
+    def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None,
+                    reduce: int = 1) -> np.ndarray:
         """Composite already posed layers (:meth:`layers` results) into an RGBA array, over
-        ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's)."""
+        ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's).
+        ``reduce`` > 1 draws from layer images shrunk that many times (drag previews of
+        big pictures: far fewer texels to sample; the frame is not exact)."""
         from puppet.render.layers import DrawLayer
 
         draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]
+        if reduce > 1:
+            draw = [self._reduced(L, k, reduce) for L, k in zip(draw, self.built.image_keys)]
         if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
-            self._compositor.retain(L.name for L in self.data.layers)
+            names = [L.name for L in self.data.layers]
+            self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
         return self.compositor.render(draw, self.canvas, size=size,
                                       background=self.background() if background is None else background,
                                       wireframe=wireframe)
 
-    def drag(self, pin: str, *, iterations: int = 4, size: tuple[int, int] | None = None):
-        """Start dragging ``pin`` in the active pose (see :class:`puppet.drag.Drag`)."""
-        from puppet.drag import Drag
+    def _reduced(self, L, image_key: str, reduce: int):
+        """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled
+        about the offset so that every vertex keeps its texture coordinate."""
+        import dataclasses
 
-        return Drag(self, pin, iterations=iterations, size=size)
+        from puppet.scene.build import reduced_rgba
+        from puppet.scene.cache import fingerprint
+
+        image = self.rig.memo.get("pixels", fingerprint("reduced", image_key, reduce),
+                                  lambda: reduced_rgba(L.image, reduce))
+        seen = self._reduced_rest.get(L.key)
+        if seen is None or seen[0] is not L.rest or seen[1] is not image:  # the same array each frame:
+            (h, w), (sh, sw) = L.image.shape[:2], image.shape[:2]  # the compositor keeps its buffers
+            off = np.asarray(L.offset, float)
+            seen = (L.rest, image, off + (np.asarray(L.rest, float) - off) * [sw / w, sh / h])
+            self._reduced_rest[L.key] = seen
+        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2])
+
+    def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
+             size: tuple[int, int] | None = None, solver=None) -> "Drag":
+        """Start dragging pins ``names`` (one name or a list) in the active pose, keyed at
+        ``time``, or recording from ``time``; previews solved in ``solver`` (a
+        :class:`~puppet.scene.dragproc.DragProcess`) when given (see :class:`Drag`)."""
+        return Drag(self, names, time, record=record, iterations=iterations, size=size, solver=solver)
 
     def close(self) -> None:
         """Release the scene's compositor (and its GL context), if it made one."""
         if self._compositor is not None and self._own_compositor:
             self._compositor.release()
         self._compositor, self._own_compositor = None, False
+
+
+class Drag(DragSession):
+    """A :class:`~puppet.scene.drag.DragSession` that also draws: :meth:`move` gives a
+    preview frame, :meth:`release` the exact one.
+
+    Preview frames are ``size`` (default: the canvas) scaled down to at most
+    :data:`PREVIEW_PIXELS` pixels; the released frame is full size.
+    """
+
+    def __init__(self, scene: Scene, names, time=None, *, record=False, iterations=4, size=None, solver=None):
+        super().__init__(scene, names, time, record=record, iterations=iterations, solver=solver)
+        self.size = size
+        self.preview_size = preview_size(size or scene.canvas)
+        self.reduce = max(1, int(scene.canvas[0] / self.preview_size[0]))
+
+    def move(self, targets, time: float | None = None) -> np.ndarray:
+        """Move the pins (``(x, y)`` for a one-pin drag, else ``{name: (x, y)}``); returns a
+        preview frame (h, w, 4) uint8 of :attr:`preview_size`, drawn from layer images
+        shrunk to about that scale when the canvas is two or more times bigger."""
+        return self.doc.draw_layers(self.move_layers(targets, time), size=self.preview_size, reduce=self.reduce)
+
+    def release(self, keys=None) -> np.ndarray:
+        """End the drag (:meth:`commit`) and return the exact frame: equal to
+        ``scene.render(size=size)`` for a pose drag, ``scene.render(time=time, size=size)``
+        for a key drag or a recording."""
+        return self.doc.draw_layers(self.release_layers(keys), size=self.size)
+
+
+def preview_size(size: tuple[int, int], pixels: int | None = None) -> tuple[int, int]:
+    """``size`` (W, H) scaled down, aspect kept, to at most ``pixels`` pixels (default
+    :data:`PREVIEW_PIXELS`)."""
+    pixels = PREVIEW_PIXELS if pixels is None else pixels
+    w, h = int(size[0]), int(size[1])
+    if w * h <= pixels:
+        return (w, h)
+    f = (pixels / (w * h)) ** 0.5
+    return (max(1, int(w * f)), max(1, int(h * f)))
 
 
 def new_scene(image: str, **options) -> Scene:

@@ -194,12 +194,7 @@ def _check_size(scene, size: tuple[int, int] | None) -> None:
     flag = f"--size {w}x{h}" if size else f"the canvas ({w}x{h}; give a smaller --size)"
     if w * h > MAX_PIXELS:
         raise UsageError(f"{flag}: at most {MAX_PIXELS} pixels")
-    comp = getattr(scene, "compositor", None)
-    if comp is None:  # an API with one compositor per process
-        from puppet.api import compositor
-
-        comp = compositor()
-    problem = output_size_problem(comp.ctx, (w, h))
+    problem = output_size_problem(scene.compositor.ctx, (w, h))
     if problem:
         raise UsageError(f"{flag}: {problem}")
 

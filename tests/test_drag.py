@@ -48,26 +48,39 @@ def test_preview_follows_the_pin(trex):
     d = trex.drag("hand_front")
     xy = np.array([150.0, 180.0])
     for k in range(6):
-        d.move(xy + k)
-    built = trex.built
-    i = [p.name for p in trex.data.pins].index("hand_front")
-    gi = built.group_of_pin(i)
-    g = built.groups[gi]
-    U = d._U
-    np.testing.assert_allclose(U[g.b[g.pins.index(i)]], xy + 5, atol=1e-9)
+        layers = d.move_layers(xy + k)
+    r = next(r for r in layers if "hand_front" in r.pins)
+    np.testing.assert_allclose(r.deformed[r.pins["hand_front"]], xy + 5, atol=1e-9)
     d.cancel()
     assert not d.open
 
 
-def test_drag_at_rest_makes_a_new_active_pose(trex):
-    trex.set_active_pose("rest")
-    names = trex.pose_names()
-    d = trex.drag("hand_front")
-    d.move((120, 230))
-    d.release()
-    assert trex.active_pose not in names and trex.active_pose in trex.data.poses
-    trex.undo()
-    assert trex.active_pose == "rest" and trex.pose_names() == names
+def test_every_drag_kind_releases_the_rendered_frame(trex):
+    trex.set_active_pose("roar")
+    d = trex.drag(["hand_front", "tail_tip", "jaw"])
+    for k in range(4):
+        d.move({"hand_front": (100 + 4 * k, 200), "tail_tip": (560, 240 - 3 * k), "jaw": (330, 110 + k)})
+    final = d.release()
+    np.testing.assert_array_equal(final, trex.render(pose=trex.to_dict()["poses"]["roar"]))
+    d = trex.drag(["hand_front", "jaw"], time=0.8)
+    for k in range(4):
+        d.move({"hand_front": (110 + 4 * k, 190), "jaw": (320, 100 + k)})
+    np.testing.assert_array_equal(d.release(), trex.render(time=0.8))
+    d = trex.drag("tail_tip", time=0.1, record=True)
+    for k in range(4):
+        d.move((540 + 3 * k, 250), time=0.1 + 0.1 * k)
+    np.testing.assert_array_equal(d.release({0.1: {"tail_tip": (540, 250)}, 0.4: {"tail_tip": (549, 250)}}),
+                                  trex.render(time=0.1))
+
+
+def test_preview_frames_are_bounded():
+    from puppet.api import PREVIEW_PIXELS, preview_size
+
+    assert preview_size((600, 500)) == (600, 500)
+    w, h = preview_size((4000, 4000))
+    assert w == h and w * h <= PREVIEW_PIXELS and (w + 1) * (h + 1) > PREVIEW_PIXELS
+    w, h = preview_size((8000, 2000))
+    assert w * h <= PREVIEW_PIXELS and abs(w / h - 4) < 0.01
 
 
 def test_bad_drags_are_user_errors(trex):
@@ -79,3 +92,36 @@ def test_bad_drags_are_user_errors(trex):
     d.release()
     with pytest.raises(puppet.SceneError, match="released"):
         d.move((1, 1))
+
+
+def test_reduced_preview_looks_like_the_full_one(trex):
+    trex.set_active_pose("wave")
+    layers = trex.layers()
+    full = trex.draw_layers(layers, size=(300, 250)).astype(float)
+    small = trex.draw_layers(layers, size=(300, 250), reduce=2).astype(float)
+    assert full.shape == small.shape
+    assert np.abs(full - small).mean() < 2.0  # the same picture, resampled
+    assert (small[..., 3] > 0).sum() > 0.9 * (full[..., 3] > 0).sum()
+
+
+def test_big_picture_path_releases_the_rendered_frame(monkeypatch):
+    """The cheap path of big pictures (a proxy mesh, frames from shrunk images), forced
+    on the horse: previews drawn from it, the release exactly ``render``."""
+    import puppet.api
+    from puppet.scene import proxy
+
+    monkeypatch.setattr(proxy, "PROXY_MIN", 500)
+    monkeypatch.setattr(puppet.api, "PREVIEW_PIXELS", 160 * 120)
+    scene = puppet.load_scene(SCENES + "/horse.json")
+    try:
+        d = scene.drag(["head", "tail"])
+        assert d.reduce >= 2 and d.preview_size[0] * d.preview_size[1] <= 160 * 120
+        at = {p.name: np.asarray(p.at) for p in scene.data.pins}
+        frames = [d.move({"head": at["head"] + [4 * k, -3 * k], "tail": at["tail"] + [-2 * k, 0]}) for k in range(1, 4)]
+        assert all(f.shape == (d.preview_size[1], d.preview_size[0], 4) for f in frames)
+        assert not np.array_equal(frames[0], frames[-1]) and frames[-1][..., 3].any()
+        final = d.release()
+        np.testing.assert_array_equal(final, scene.render())
+        np.testing.assert_array_equal(final, scene.render(pose=scene.to_dict()["poses"][scene.active_pose]))
+    finally:
+        scene.close()

@@ -45,8 +45,9 @@ class _Stop(Exception):
     pass
 
 
-class _Worker(threading.Thread):
-    """A daemon thread running ``body(put)``; ``put`` blocks on a bounded queue unless stopped."""
+class _StageThread(threading.Thread):
+    """One stage of the pipeline (solving, encoding) on a daemon thread running ``body(put)``;
+    ``put`` blocks on a bounded queue unless stopped."""
 
     def __init__(self, name: str, body: Callable):
         super().__init__(name=name, daemon=True)
@@ -132,7 +133,7 @@ def _solver(solve: Callable[[int], object], indices: list[int], out: queue.Queue
                 timings.add("solve", time.perf_counter() - t)
                 worker.put(out, (i, item))
         worker.put(out, (None, _END))
-    worker = _Worker("puppet-solve", body)
+    worker = _StageThread("puppet-solve", body)
     return worker
 
 
@@ -146,7 +147,7 @@ def _encoder(add: Callable[[np.ndarray], None], inbox: queue.Queue, timings: Tim
             t = time.perf_counter()
             add(frame)
             timings.add("encode", time.perf_counter() - t)
-    worker = _Worker("puppet-encode", body)
+    worker = _StageThread("puppet-encode", body)
     return worker
 
 

@@ -18,14 +18,13 @@ thread instead. Results are therefore identical to an in-process solve.
 from __future__ import annotations
 
 import dataclasses
-import os
-import signal
 import time
 from collections.abc import Callable, Iterator
 
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.scene.child import child_setup, start_child, stop_child
 
 #: Fields sent back per layer and frame (the others come from the template frame).
 STATIC = ("rest", "triangles")
@@ -39,11 +38,7 @@ def _pack(layers) -> list[dict]:
 
 def child_main(fd: int) -> None:
     """The child process: ``python -c "...child_main(FD)"`` with one end of a socket pair."""
-    from multiprocessing.connection import Connection
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent decides
-    os.dup2(2, 1)  # nothing may print on stdout
-    conn = Connection(fd)
+    conn = child_setup(fd)
     try:
         doc, file, t0, rate = conn.recv()
     except (EOFError, OSError):
@@ -100,27 +95,10 @@ class ProcessSolver:
     def start(self, first: int, wait: Callable[[], bool] = lambda: False) -> bool:
         """Start the child and check it solves frame ``first`` exactly as this process
         does; False (child stopped) when it cannot be used."""
-        import socket
-        import subprocess
-        import sys
-        from multiprocessing.connection import Connection
-
-        import puppet
-
-        mine, theirs = socket.socketpair()
-        env = dict(os.environ)
-        root = os.path.dirname(os.path.dirname(os.path.abspath(puppet.__file__)))
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
-        code = f"from puppet.anim.solver import child_main; child_main({theirs.fileno()})"
         try:
-            self.proc = subprocess.Popen([sys.executable, "-c", code], pass_fds=(theirs.fileno(),), env=env,
-                                         stdin=subprocess.DEVNULL, close_fds=True)
+            self.proc, self.conn = start_child("puppet.anim.solver", "child_main")
         except OSError:
-            mine.close()
             return False
-        finally:
-            theirs.close()
-        self.conn = Connection(mine.detach())
         try:
             self.conn.send((self.scene.to_dict(), self.scene.file, self.t0, self.rate))
         except OSError:
@@ -175,16 +153,5 @@ class ProcessSolver:
         """Stop the child (asked first, then terminated) and wait for it."""
         if self.proc is None:
             return
-        import subprocess
-
-        try:
-            self.conn.send(None)
-        except (OSError, ValueError):
-            pass
-        try:
-            self.proc.wait(timeout=2.0)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-        self.conn.close()
+        stop_child(self.proc, self.conn)
         self.proc = None

@@ -1,34 +1,35 @@
-"""The app's state and actions, apart from GL and pyglet: the mode, the selection, the
-view, the status line, and every action as a job for the scene thread.
+"""The app's view state and typed intents, apart from GL and pyglet: the mode, the
+selection, the view, the status line; every change of the scene is an intent passed to
+the scene session (:mod:`puppet.app.session`), the only owner of the document.
 
 The window calls :meth:`App.sync` once a frame (picks up the latest snapshot and status
 messages), feeds canvas events to the tools (:mod:`puppet.app.tools`) and key presses to
-:mod:`puppet.app.keymap`; panels call the actions below.
+the action table (:mod:`puppet.app.actions`); tools, timeline and panels call the intents
+below and never the session itself.
 """
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
 
-from puppet.errors import SceneError
-
 from puppet.app import pick
 from puppet.app.script import Script
 from puppet.app.view import View
-from puppet.app.worker import Message, Snapshot, Worker
+from puppet.app.opening import is_picture
+from puppet.app.session import SceneSession
+from puppet.app.snapshot import Message, Snapshot
 
 MODES = ("pin", "pose")
-#: ``puppet app FILE`` / File > Open with one of these opens a picture as a new scene
-PICTURES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 
 
 class App:
-    """Everything the window shows besides pixels; the scene itself lives on the worker."""
+    """Everything the window shows besides pixels; the scene itself lives in the session."""
 
-    def __init__(self, worker: Worker | None = None):
-        self.worker = worker or Worker()
-        self.snap: Snapshot = self.worker.latest
+    def __init__(self, session: SceneSession | None = None):
+        self.session = session or SceneSession()
+        self.snap: Snapshot = self.session.latest
         self.view = View()
         self.area = (0.0, 0.0, 1.0, 1.0)  # canvas area in the window (x, y, w, h)
         self.mode = "pose"
@@ -60,10 +61,10 @@ class App:
 
     # -- per frame ---------------------------------------------------------------
     def sync(self) -> bool:
-        """Take the worker's latest snapshot and messages; True when the snapshot changed."""
-        snap = self.worker.latest
-        while self.worker.messages:
-            self.status = self.worker.messages.popleft()
+        """Take the session's latest snapshot and messages; True when the snapshot changed."""
+        snap = self.session.latest
+        while self.session.messages:
+            self.status = self.session.messages.popleft()
         changed = snap is not self.snap
         if changed:
             file_changed = snap.file != self.snap.file
@@ -91,7 +92,22 @@ class App:
 
     @property
     def busy(self) -> bool:
-        return not self.worker.idle()
+        return not self.session.idle()
+
+    @property
+    def news(self) -> bool:
+        """The session published a snapshot that :meth:`sync` has not taken yet."""
+        return self.session.latest is not self.snap
+
+    def shutdown(self, timeout: float = 30.0) -> None:
+        """Let the posted intents run (a save), remove the autosave, stop the session."""
+        from puppet.app import autosave
+
+        session = self.session
+        session.wait_idle(timeout)
+        if session.scene is not None:
+            autosave.remove(session.scene.file)
+        session.stop()
 
     def say(self, text: str, level: str = "info") -> None:
         self.status = Message(text, level)
@@ -158,19 +174,21 @@ class App:
         elif name not in self.selection:
             self.selection = [name]
 
+    def follow_pointer(self, positions: dict) -> None:
+        """Draw markers at ``positions`` (where the pointer has them) whatever snapshots
+        arrive, until :meth:`hold_markers` names the job that ends the gesture."""
+        self.overrides = dict(positions)
+        self._overrides_until = math.inf
+
     def hold_markers(self, positions: dict, job_id: int) -> None:
         """Show markers at ``positions`` until the snapshot of job ``job_id`` arrives."""
         self.overrides = dict(positions)
         self._overrides_until = job_id
 
-    # -- jobs ----------------------------------------------------------------------
+    # -- intents -------------------------------------------------------------------
     def edit(self, fn, *, key: str | None = None) -> int:
         """Run ``fn(scene)`` on the scene thread (an edit; errors go to the status line)."""
-        def job(w):
-            if w.scene is None:
-                return "no scene is open"
-            return fn(w.scene)
-        return self.worker.submit(job, key=key)
+        return self.session.edit(fn, key=key)
 
     def undo(self) -> None:
         self.edit(lambda s: f"undo: {s.history.redo_stack[-1].label}" if s.undo() else "nothing to undo")
@@ -182,16 +200,42 @@ class App:
         if mode not in MODES or mode == self.mode:
             return
         self.mode = mode
+        self.session.show(rest=mode == "pin")
 
-        def job(w):
-            w.show_rest = mode == "pin"
-        self.worker.submit(job)
+    def show_time(self, t: float | None, onion: dict | None) -> None:
+        """The canvas shows the animation at ``t`` (None: the pose) with the onion skin."""
+        self.session.show(time=t, onion=onion)
+
+    def prefetch(self, times) -> None:
+        self.session.prefetch(times)
+
+    def cached_frames(self) -> int:
+        return self.session.cached_frames()
+
+    def build_meshes(self) -> None:
+        self.session.build()
 
     def begin_block(self, key: str, label: str) -> None:
-        self.worker.submit(lambda w: w.begin_block(key, label), publish=False)
+        self.session.begin_block(key, label)
 
     def end_block(self, key: str) -> int:
-        return self.worker.submit(lambda w: w.end_block(key))
+        return self.session.end_block(key)
+
+    # -- drags ---------------------------------------------------------------------
+    def begin_drag(self, names, *, time: float | None = None, record: bool = False) -> None:
+        """Start a drag of pins ``names`` (see :meth:`SceneSession.begin_drag`)."""
+        self.session.begin_drag(names, time=time, record=record)
+
+    def move_drag(self, positions: dict, *, time: float | None = None) -> None:
+        """The pointer moved the dragged pins to ``positions``: their markers follow at
+        once (drawn from the pointer), the canvas when the preview is solved."""
+        self.follow_pointer(positions)
+        self.session.move_drag(positions, time=time)
+
+    def end_drag(self, positions: dict | None = None, *, keys: dict | None = None,
+                 message: str | None = None) -> None:
+        """Release: the exact pose (markers held where they were let go until it shows)."""
+        self.hold_markers(self.overrides, self.session.end_drag(positions, keys=keys, message=message))
 
     # -- pins ----------------------------------------------------------------------
     def new_pin_name(self, kind: str | None = None) -> str:
@@ -231,7 +275,7 @@ class App:
         name, kind = self.new_pin_name(), self.pin_kind
         layer = snap.data.layers[k].name
         self.selected_layer = layer
-        self.edit(lambda s: s.add_pin(name, layer, at, kind=kind) and None)
+        self.edit(lambda s: s.add_pin(name, layer, at, kind=kind))
         self.selection = [name]
         return name
 
@@ -313,40 +357,10 @@ class App:
 
     # -- files ---------------------------------------------------------------------
     def open(self, path: str, *, recover_from: str | None = None) -> None:
-        """Open a scene (or its autosave ``recover_from``) on the scene thread."""
+        """Open a scene, or a picture as a new scene (or an autosave ``recover_from`` in
+        its place), on the scene thread."""
         path = os.path.abspath(os.path.expanduser(path))
-        picture = os.path.splitext(path)[1].lower() in PICTURES
-
-        def job(w):
-            import puppet
-
-            if picture and recover_from is not None:  # the autosave of a scene made from this picture
-                scene = puppet.load_scene(recover_from)
-                scene.adopt_files(os.path.splitext(recover_from)[0] + ".files")  # saved into SCENE.files/
-                scene.file = os.path.splitext(path)[0] + ".json"
-                scene.built
-                w.set_scene(scene, None)
-                w.show_rest = True
-                return f"recovered the unsaved scene over {os.path.basename(path)} from its autosave"
-            if picture:  # a flat picture: a new one-layer scene over it (the task script's Image step)
-                scene = puppet.new_scene(path)
-                if os.path.exists(scene.file):
-                    raise SceneError(f"{os.path.basename(scene.file)} exists beside the picture: open it instead, "
-                                     "or move it away")
-                scene.built
-                w.set_scene(scene, None)
-                w.show_rest = True
-                return f"new scene over {os.path.basename(path)}: set the first layer's mask (Image step)"
-            scene = puppet.load_scene(path)
-            saved = scene.to_dict()
-            if recover_from is not None:
-                scene = puppet.load_scene(recover_from)
-                scene.adopt_files(os.path.splitext(recover_from)[0] + ".files")  # saved into SCENE.files/
-                scene.file = path
-            scene.built  # build (images, meshes, groups) here, not in the first frame
-            w.set_scene(scene, saved)
-            w.show_rest = self.mode == "pin"
-            return f"opened {os.path.basename(path)}" + (" (recovered from its autosave)" if recover_from else "")
+        picture = is_picture(path)
         self.selection, self.selected_layer, self.hidden = [], None, set()
         from puppet.app import script
 
@@ -355,26 +369,27 @@ class App:
         if picture:
             self.mode = "pin"
             script.set_step(self, "image")
-        self.worker.submit(job)
+        self.session.open(path, picture=picture, recover_from=recover_from, rest=self.mode == "pin")
 
     def save(self, path: str | None = None) -> None:
         """Save to the scene's file (or ``path``: Save As), atomically."""
-        if not self.snap.loaded:
-            return
-        target = os.path.abspath(os.path.expanduser(path)) if path else self.snap.file
+        if self.snap.loaded:
+            self.session.save(os.path.abspath(os.path.expanduser(path)) if path else None)
 
-        def job(w):
-            from puppet.app import autosave
+    def close_scene(self) -> None:
+        self.session.close_scene()
 
-            s = w.scene
-            s.save(target)
-            if target != s.file:
-                autosave.remove(s.file)
-                s.file = target
-            w.saved_doc = s.to_dict()
-            autosave.remove(target)
-            return f"saved {target}"
-        self.worker.submit(job)
+    def autosave(self) -> None:
+        self.session.autosave()
+
+    def write_copy(self, folder: str, then) -> None:
+        """The scene as it is now written to ``folder/scene.json``; ``then(path)`` on the
+        scene thread (see :meth:`SceneSession.write_copy`)."""
+        self.session.write_copy(folder, then)
+
+    def after_jobs(self, fn) -> None:
+        """``fn(saved)`` once the intents posted before have run."""
+        self.session.after(fn)
 
     def request_quit(self) -> None:
         if self.snap.loaded and self.snap.dirty:

@@ -1,6 +1,7 @@
 """The canvas, drawn with GL on the window's context: a checkerboard behind transparency,
 the scene background, the reference underlay, the composited layers, and the mesh views
-(wireframe, colour by interpolated depth).
+(wireframe, colour by interpolated depth); its GLSL programs are ``shaders/app_quad.glsl``
+and ``shaders/app_mesh.glsl``.
 
 The layers are composited by puppet's :class:`~puppet.render.compositor.Compositor`
 (the same per-pixel depth compositing as ``puppet render``, through its window path
@@ -16,83 +17,7 @@ import moderngl
 import numpy as np
 
 from puppet.render.layers import DrawLayer, mesh_edges
-
-#: Vertex shader of a textured quad given in window pixels (also the onion skin's ghosts).
-QUAD_VS = """
-#version 330
-uniform vec2 u_screen;
-in vec2 in_pos;
-in vec2 in_uv;
-out vec2 v_uv;
-void main() {
-    v_uv = in_uv;
-    gl_Position = vec4(in_pos.x / u_screen.x * 2.0 - 1.0, 1.0 - in_pos.y / u_screen.y * 2.0, 0.0, 1.0);
-}
-"""
-_TEX_FS = """
-#version 330
-uniform sampler2D u_texture;
-uniform float u_alpha;
-in vec2 v_uv;
-out vec4 f_color;
-void main() {
-    vec4 c = texture(u_texture, v_uv);
-    f_color = vec4(c.rgb, c.a * u_alpha);
-}
-"""
-_CHECKER_FS = """
-#version 330
-uniform float u_cell;
-out vec4 f_color;
-void main() {
-    vec2 k = floor(gl_FragCoord.xy / u_cell);
-    float g = mod(k.x + k.y, 2.0) < 0.5 ? 1.0 : 0.8;
-    f_color = vec4(g, g, g, 1.0);
-}
-"""
-_MESH_VS = """
-#version 330
-uniform vec2 u_screen;
-uniform float u_scale;
-uniform vec2 u_origin;
-uniform vec2 u_range;
-in vec2 in_pos;
-in float in_depth;
-out float v_t;
-void main() {
-    vec2 s = in_pos * u_scale + u_origin;
-    v_t = clamp((in_depth - u_range.x) / max(u_range.y - u_range.x, 1e-6), 0.0, 1.0);
-    gl_Position = vec4(s.x / u_screen.x * 2.0 - 1.0, 1.0 - s.y / u_screen.y * 2.0, 1.0 - v_t * 1.98 - 0.01, 1.0);
-}
-"""
-_DEPTH_FS = """
-#version 330
-in float v_t;
-out vec4 f_color;
-void main() {  // blue (back) -> cyan -> yellow -> red (front)
-    vec3 a = vec3(0.15, 0.25, 0.85), b = vec3(0.1, 0.8, 0.85), c = vec3(0.95, 0.85, 0.15), d = vec3(0.9, 0.15, 0.1);
-    vec3 col = v_t < 0.33 ? mix(a, b, v_t / 0.33) : v_t < 0.66 ? mix(b, c, (v_t - 0.33) / 0.33) : mix(c, d, (v_t - 0.66) / 0.34);
-    f_color = vec4(col, 1.0);
-}
-"""
-_WIRE_VS = """
-#version 330
-uniform vec2 u_screen;
-uniform float u_scale;
-uniform vec2 u_origin;
-in vec2 in_pos;
-void main() {
-    vec2 s = in_pos * u_scale + u_origin;
-    gl_Position = vec4(s.x / u_screen.x * 2.0 - 1.0, 1.0 - s.y / u_screen.y * 2.0, 0.0, 1.0);
-}
-"""
-_WIRE_FS = """
-#version 330
-uniform vec4 u_color;
-out vec4 f_color;
-void main() { f_color = u_color; }
-"""
-
+from puppet.render.programs import load_program
 
 #: most pixels a drag preview is composited at (about 500x500); the exact frame is full size
 PREVIEW_PIXELS = 250_000
@@ -122,10 +47,10 @@ class CanvasRenderer:
 
         self.ctx = ctx
         self.compositor = compositor or Compositor(ctx)
-        self.tex_prog = ctx.program(vertex_shader=QUAD_VS, fragment_shader=_TEX_FS)
-        self.checker_prog = ctx.program(vertex_shader=QUAD_VS, fragment_shader=_CHECKER_FS)
-        self.depth_prog = ctx.program(vertex_shader=_MESH_VS, fragment_shader=_DEPTH_FS)
-        self.wire_prog = ctx.program(vertex_shader=_WIRE_VS, fragment_shader=_WIRE_FS)
+        self.tex_prog = load_program(ctx, "app_quad")
+        self.checker_prog = load_program(ctx, "app_quad", defines={"CHECKER": 1})
+        self.depth_prog = load_program(ctx, "app_mesh", defines={"DEPTH": 1})
+        self.wire_prog = load_program(ctx, "app_mesh", defines={"WIRE": 1})
         self.quad_vbo = ctx.buffer(reserve=4 * 4 * 4)
         self.quads = {self.tex_prog: ctx.vertex_array(self.tex_prog, [(self.quad_vbo, "2f 2f", "in_pos", "in_uv")]),
                       self.checker_prog: ctx.vertex_array(self.checker_prog, [(self.quad_vbo, "2f 8x", "in_pos")])}

@@ -48,16 +48,12 @@ class Export:
         self.started = time.monotonic()
         tmp = self._tmp = tempfile.mkdtemp(prefix="puppet-export-")
 
-        def job(w):  # on the scene thread: the scene as it is now
-            if w.scene is None:
+        def then(path):  # on the scene thread: the scene as it is now, written to tmp
+            if path is None:
                 self.state, self.message = "failed", "no scene is open"
-                return None
-            doc = w.scene.to_json(tmp)
-            path = os.path.join(tmp, "scene.json")
-            with open(path, "w") as f:
-                json.dump(doc, f)
-            self._launch(path, options)
-        app.worker.submit(job, publish=False)
+            else:
+                self._launch(path, options)
+        app.write_copy(tmp, then)
 
     def _launch(self, scene_path: str, options: dict) -> None:
         cmd = [sys.executable, "-m", "puppet.app.exporter", scene_path, self.output, json.dumps(options)]

@@ -15,31 +15,7 @@ import moderngl
 import numpy as np
 from imgui_bundle import imgui
 
-VERTEX = """
-#version 330
-uniform vec2 u_scale;
-in vec2 in_pos;
-in vec2 in_uv;
-in vec4 in_color;
-out vec2 v_uv;
-out vec4 v_color;
-void main() {
-    v_uv = in_uv;
-    v_color = in_color;
-    gl_Position = vec4(in_pos.x * u_scale.x - 1.0, 1.0 - in_pos.y * u_scale.y, 0.0, 1.0);
-}
-"""
-FRAGMENT = """
-#version 330
-uniform sampler2D u_texture;
-in vec2 v_uv;
-in vec4 v_color;
-out vec4 f_color;
-void main() {
-    f_color = v_color * texture(u_texture, v_uv);
-}
-"""
-
+from puppet.render.programs import load_program
 
 class ImGuiRenderer:
     """Draw ImGui frames into the current framebuffer of ``ctx``.
@@ -58,7 +34,7 @@ class ImGuiRenderer:
         pio = imgui.get_platform_io()
         pio.renderer_texture_max_width = limit
         pio.renderer_texture_max_height = limit
-        self.prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
+        self.prog = load_program(ctx, "app_imgui")
         self.prog["u_texture"].value = 0
         self.vbo = ctx.buffer(reserve=1 << 16, dynamic=True)
         self.ibo = ctx.buffer(reserve=1 << 15, dynamic=True)
@@ -160,5 +136,5 @@ class ImGuiRenderer:
                     tex.release()
                 t.set_tex_id(0)
                 t.status = imgui.ImTextureStatus.destroyed
-        for obj in (self.vao, self.vbo, self.ibo, self.prog):
+        for obj in (self.vao, self.vbo, self.ibo):
             obj.release()

@@ -234,7 +234,7 @@ def rect_tool(app, press):
             return
         box = [int(round(x0)), int(round(y0)), int(round(x1 - x0)), int(round(y1 - y0))]
         app.say("GrabCut...")
-        app.edit(lambda s: s.set_mask(layer, {"grabcut": box}) and None)
+        app.edit(lambda s: s.set_mask(layer, {"grabcut": box}))
         return
     app.edit(lambda s: apply_mask(s, layer, lambda sh: rect_mask(sh, a, b), "add", "clone rectangle", True))
 
@@ -262,4 +262,4 @@ def link_tool(app, press):
                 "not added", "error")
         return
     seg = [[float(p0[0]), float(p0[1])], [float(p1[0]), float(p1[1])]]
-    app.edit(lambda s: s.add_link(a, b, seg) and None)
+    app.edit(lambda s: s.add_link(a, b, seg))

@@ -6,50 +6,19 @@ import os
 
 from imgui_bundle import imgui
 
-from puppet.app.keymap import KEYS
+from puppet.app import actions
 from puppet.app.widgets import button, toggle
 
 ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
 
 
 def menu_bar(app, win) -> float:
-    """The main menu bar; returns its height."""
+    """The main menu bar (File, Edit, View: the action table's items); returns its height."""
     if imgui.begin_main_menu_bar():
-        if imgui.begin_menu("File"):
-            if imgui.menu_item_simple("Open scene or picture...", "Ctrl+O"):
-                win.open_dialog("open")
-            if imgui.menu_item_simple("Save", "Ctrl+S", enabled=app.snap.loaded):
-                app.save()
-            if imgui.menu_item_simple("Save As...", "Ctrl+Shift+S", enabled=app.snap.loaded):
-                win.open_dialog("save_as")
-            if imgui.menu_item_simple("Export animation...", "Ctrl+E", enabled=app.snap.loaded):
-                from puppet.app import export_dialog
-
-                export_dialog.open_dialog(app)
-            imgui.separator()
-            if imgui.menu_item_simple("Quit", "Ctrl+Q"):
-                app.request_quit()
-            imgui.end_menu()
-        if imgui.begin_menu("Edit"):
-            u, r = app.snap.undo_label, app.snap.redo_label
-            if imgui.menu_item_simple(f"Undo {u or ''}", "Ctrl+Z", enabled=u is not None):
-                app.undo()
-            if imgui.menu_item_simple(f"Redo {r or ''}", "Ctrl+Shift+Z", enabled=r is not None):
-                app.redo()
-            imgui.separator()
-            if imgui.menu_item_simple("Remove selected pins", "Delete", enabled=bool(app.selection)):
-                app.remove_pins(list(app.selection))
-            imgui.end_menu()
-        if imgui.begin_menu("View"):
-            if imgui.menu_item_simple("Fit", "F"):
-                app.fit()
-            _, app.show_pins = imgui.menu_item("Pins", "H", app.show_pins)
-            _, app.show_mesh = imgui.menu_item("Mesh wireframe", "M", app.show_mesh)
-            _, app.depth_view = imgui.menu_item("Depth view", "D", app.depth_view)
-            _, app.show_links = imgui.menu_item("Link segments", "L", app.show_links)
-            imgui.separator()
-            _, app.show_help = imgui.menu_item("Keys", "?", app.show_help)
-            imgui.end_menu()
+        for title in ("File", "Edit", "View"):
+            if imgui.begin_menu(title):
+                actions.menu(app, win, title)
+                imgui.end_menu()
         h = imgui.get_window_height()
         imgui.end_main_menu_bar()
         return h
@@ -63,36 +32,34 @@ def toolbar(app) -> None:
     script.bar(app)
     imgui.text("|")
     imgui.same_line()
-    for mode, label, tip in (("pin", "Pin mode", "edit pins on the rest pose: click adds, drag moves (1 / Tab)"),
-                             ("pose", "Pose mode", "drag pins to pose the puppet in the active pose (2 / Tab)")):
+    for mode in ("pin", "pose"):
+        a = actions.BY_NAME[f"{mode}_mode"]
         active = app.mode == mode
         if active:
             imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.2, 0.45, 0.8, 1.0))
-        if button(label, tip):
+        if button(a.label, actions.tip(a.name) + " or Tab"):
             app.set_mode(mode)
         if active:
             imgui.pop_style_color()
         imgui.same_line()
     imgui.text("|")
     imgui.same_line()
-    app.show_pins = toggle("pins", app.show_pins, "show pins (H)")
-    imgui.same_line()
-    app.show_mesh = toggle("mesh", app.show_mesh, "mesh wireframe over the canvas (M)")
-    imgui.same_line()
-    app.depth_view = toggle("depth", app.depth_view, "colour the layers by interpolated depth: blue back, red front (D)")
-    imgui.same_line()
-    app.show_links = toggle("links", app.show_links, "show link segments (L)")
-    imgui.same_line()
-    if button("Fit", "fit the canvas in the window (F)"):
+    for name, label in (("pins", "pins"), ("mesh", "mesh"), ("depth", "depth"), ("links", "links")):
+        a = actions.BY_NAME[name]
+        setattr(app, a.checked, toggle(label, getattr(app, a.checked), actions.tip(name)))
+        imgui.same_line()
+    if button("Fit", actions.tip("fit")):
         app.fit()
     imgui.same_line()
-    if button("Undo", "undo " + (app.snap.undo_label or "") + " (Ctrl+Z)", enabled=app.snap.undo_label is not None):
+    if button("Undo", actions.tip("undo", "undo " + (app.snap.undo_label or "")),
+              enabled=app.snap.undo_label is not None):
         app.undo()
     imgui.same_line()
-    if button("Redo", "redo " + (app.snap.redo_label or "") + " (Ctrl+Shift+Z)", enabled=app.snap.redo_label is not None):
+    if button("Redo", actions.tip("redo", "redo " + (app.snap.redo_label or "")),
+              enabled=app.snap.redo_label is not None):
         app.redo()
     imgui.same_line()
-    if button("?", "keys (? or F1)"):
+    if button("?", actions.tip("help", "keys")):
         app.show_help = not app.show_help
     if app.snap.loaded:
         imgui.same_line()
@@ -207,13 +174,16 @@ def help_overlay(app) -> None:
     opened, app.show_help = imgui.begin("Keys", True, imgui.WindowFlags_.always_auto_resize
                                         | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
     if opened:
-        if imgui.begin_table("keys", 2, imgui.TableFlags_.row_bg):
-            for k, what in KEYS:
+        rows = actions.help_rows()
+        half = (len(rows) + 1) // 2
+        if imgui.begin_table("keys", 4, imgui.TableFlags_.row_bg):  # two columns of (keys, what)
+            for k in range(half):
                 imgui.table_next_row()
-                imgui.table_next_column()
-                imgui.text(k)
-                imgui.table_next_column()
-                imgui.text(what)
+                for keys, what in rows[k::half]:
+                    imgui.table_next_column()
+                    imgui.text(keys)
+                    imgui.table_next_column()
+                    imgui.text(what)
             imgui.end_table()
         imgui.text_disabled("Press ? or Esc to close.")
     imgui.end()

@@ -1,9 +1,5 @@
-"""Onion skin and the frames the timeline shows.
-
-Scene thread (:func:`frame_of`, :func:`layers_at`): the worker shows the animation at the
-timeline's time instead of the active pose, and solves the onion skin's ghosts (the keys
-before and after, or N frames each side); solved frames are cached per scene state, so
-playing a loop a second time does not solve again.
+"""The onion skin: which times are ghosted (:func:`ghost_times`; the scene session
+solves them through its frame cache, :mod:`puppet.app.snapshot`), and how they are drawn.
 
 GL thread (:class:`GhostRenderer`): each ghost is composited by the same compositor as
 the canvas into a texture at window resolution and drawn tinted (red before, green
@@ -11,17 +7,12 @@ after) at a lower opacity, behind the current frame.
 """
 from __future__ import annotations
 
-import collections
-
 import moderngl
 import numpy as np
 
-from puppet.app.canvas import QUAD_VS
 from puppet.render.layers import DrawLayer
+from puppet.render.programs import load_program
 
-#: solved frames kept per scene state (LayerResults are a few arrays per layer: ~0.25 MB
-#: a frame for the T-rex's 9 800 vertices)
-FRAME_CACHE = 400
 #: default onion skin settings (the timeline panel edits a copy)
 DEFAULTS = {"mode": "keys", "count": 1, "opacity": 0.4, "before": (0.9, 0.15, 0.1), "after": (0.1, 0.75, 0.2),
             "fps": 24.0}
@@ -59,80 +50,6 @@ def ghost_times(anim: dict | None, t: float, *, mode: str = "keys", count: int =
     return out
 
 
-def layers_at(w, t: float):
-    """The scene's layers at animation time ``t`` (scene thread), cached per scene state."""
-    s = w.scene
-    cache = getattr(w, "_frame_cache", None)
-    if cache is None or cache[0] is not s.data:
-        cache = w._frame_cache = (s.data, collections.OrderedDict())
-    frames = cache[1]
-    k = round(float(t), 6)
-    if k in frames:
-        frames.move_to_end(k)
-        return frames[k]
-    layers = tuple(s.layers(time=float(t)))
-    frames[k] = layers
-    if len(frames) > FRAME_CACHE:
-        frames.popitem(last=False)
-    return layers
-
-
-def cached(w) -> int:
-    """How many frames of the scene as it is now are solved (any thread; a glance)."""
-    cache = getattr(w, "_frame_cache", None)
-    return len(cache[1]) if cache is not None and w.scene is not None and cache[0] is w.scene.data else 0
-
-
-def prefetch_job(times):
-    """A job solving the frames at ``times`` ahead of playback, one per run: it submits
-    itself again while some are missing, behind whatever the window posted meanwhile, so an
-    edit waits for at most one frame's solve. It stops when the scene changes (the
-    timeline asks again for the new state)."""
-    times = [round(float(t), 6) for t in times][:FRAME_CACHE]
-
-    def job(w):
-        s = w.scene
-        if s is None or s.data.animation is None:
-            return None
-        data = s.data
-        cache = getattr(w, "_frame_cache", None)
-        have = cache[1] if cache is not None and cache[0] is data else {}
-        todo = [t for t in times if t not in have]
-        if todo:
-            layers_at(w, todo[0])
-        if len(todo) > 1 and w.scene is s and s.data is data:
-            w.submit(job, key="prefetch", publish=False)
-        return None
-    return job
-
-
-def frame_of(w, anim: dict | None) -> tuple[float | None, tuple]:
-    """(time shown, ghosts) for the worker's snapshot: ``(None, ())`` when the canvas shows
-    a pose (Pin mode, no animation, or the timeline not showing a time)."""
-    if w.show_time is None or w.show_rest or not anim or not anim.get("keys"):
-        return None, ()
-    t = float(w.show_time)
-    ghosts = ()
-    if w.onion:
-        ghosts = tuple((side, weight, layers_at(w, gt)) for side, weight, gt in ghost_times(anim, t, **w.onion))
-    return t, ghosts
-
-
-_FS = """
-#version 330
-uniform sampler2D u_texture;
-uniform vec3 u_tint;
-uniform float u_mix;
-uniform float u_opacity;
-in vec2 v_uv;
-out vec4 f_color;
-void main() {  // premultiplied in, premultiplied out
-    vec4 c = texture(u_texture, v_uv);
-    f_color = vec4(mix(c.rgb, u_tint * c.a, u_mix), c.a) * u_opacity;
-}
-"""
-
-
 class GhostRenderer:
     """Draws the onion skin's ghosts (GL thread only), composited by ``compositor``."""
 
@@ -141,7 +58,7 @@ class GhostRenderer:
 
     def __init__(self, ctx: moderngl.Context, compositor):
         self.ctx, self.compositor = ctx, compositor
-        self.prog = ctx.program(vertex_shader=QUAD_VS, fragment_shader=_FS)
+        self.prog = load_program(ctx, "app_quad", defines={"GHOST": 1})
         self.vbo = ctx.buffer(reserve=16 * 4)
         self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f 2f", "in_pos", "in_uv")])
         self.textures: dict = {}  # key -> texture, the ghosts of the last frame drawn
@@ -211,4 +128,3 @@ class GhostRenderer:
         self.textures.clear()
         self.vao.release()
         self.vbo.release()
-        self.prog.release()

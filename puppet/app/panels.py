@@ -75,7 +75,7 @@ class Panels:
                 payload = imgui.accept_drag_drop_payload_py_id("LAYER")
                 if payload is not None and payload.data_id != k:
                     moving = snap.data.layers[payload.data_id].name
-                    app.edit(lambda s, moving=moving, k=k: s.reorder_layer(moving, k) and None)
+                    app.edit(lambda s, moving=moving, k=k: s.reorder_layer(moving, k))
                 imgui.end_drag_drop_target()
             imgui.pop_id()
         imgui.text_disabled("back")
@@ -110,17 +110,17 @@ class Panels:
             note(f"slider:{label}")
             live(app, "mesh", f"{label} of {name}")
             if changed:
-                app.edit(lambda s, o=option, v=value: s.set_mesh_options(name, **{o: float(v)}) and None,
+                app.edit(lambda s, o=option, v=value: s.set_mesh_options(name, **{o: float(v)}),
                          key="mesh-live")
         if button("Reset mesh", "back to the default mesh options (density chosen from the layer size)",
                   enabled=not auto or L.mesh.min_angle != 25.0 or L.mesh.simplify != 1.0):
-            app.edit(lambda s: s.set_layer(name, mesh=None) and None)
+            app.edit(lambda s: s.set_layer(name, mesh=None))
         items = list(INPAINT_METHODS)
         changed, i = imgui.combo("inpaint", items.index(L.inpaint), items)
         imgui.set_item_tooltip("how this layer refills the pixels that layers in front of it took from the "
                                "same source picture")
         if changed:
-            app.edit(lambda s, m=items[i]: s.set_inpaint(name, m) and None)
+            app.edit(lambda s, m=items[i]: s.set_inpaint(name, m))
 
     # -- poses ----------------------------------------------------------------------
     def poses(self) -> None:
@@ -134,20 +134,20 @@ class Panels:
             if clicked:
                 app.timeline.leave()  # the canvas shows the pose, not the animation
             if clicked and name != snap.active:
-                app.edit(lambda s, n=name: s.set_active_pose(n) and None)
+                app.edit(lambda s, n=name: s.set_active_pose(n))
                 app.set_mode("pose")
         at_rest = snap.active == "rest"
         if button("New", "a new empty pose (every pin at rest), made active"):
             n = self._free_name("pose")
-            app.edit(lambda s: s.add_pose(n) and None)
+            app.edit(lambda s: s.add_pose(n))
             app.set_mode("pose")
         imgui.same_line()
         if button("Duplicate", "a copy of the active pose, made active", enabled=not at_rest):
             n = self._free_name(snap.active + " copy")
-            app.edit(lambda s, like=snap.active: s.add_pose(n, like=like) and None)
+            app.edit(lambda s, like=snap.active: s.add_pose(n, like=like))
         imgui.same_line()
         if button("Delete", "delete the active pose (and its animation keys)", enabled=not at_rest):
-            app.edit(lambda s, n=snap.active: s.delete_pose(n) and None)
+            app.edit(lambda s, n=snap.active: s.delete_pose(n))
         imgui.set_next_item_width(150)
         if at_rest:
             self.pose_name = ""
@@ -159,7 +159,7 @@ class Panels:
         if (button("Rename", "rename the active pose", enabled=not at_rest and bool(self.pose_name.strip()))
                 or enter and not at_rest and self.pose_name.strip()):
             new = self.pose_name.strip()
-            app.edit(lambda s, old=snap.active: s.rename_pose(old, new) and None)
+            app.edit(lambda s, old=snap.active: s.rename_pose(old, new))
             self.pose_name = ""
 
     def _free_name(self, base: str) -> str:
@@ -213,7 +213,7 @@ class Panels:
             imgui.set_item_tooltip("type a new name and press Enter")
             if enter and self.pin_name.strip():
                 new = self.pin_name.strip()
-                app.edit(lambda s: s.rename_pin(name, new) and None)
+                app.edit(lambda s: s.rename_pin(name, new))
                 app.selection = [new]
                 self.pin_name = ""
             imgui.same_line()
@@ -223,7 +223,7 @@ class Panels:
             imgui.set_item_tooltip("interior pin or exterior (boundary) control point")
             note("combo:kind")
             if changed:
-                app.edit(lambda s: s.set_pin(name, kind=kinds[i]) and None)
+                app.edit(lambda s: s.set_pin(name, kind=kinds[i]))
         if app.mode == "pose" and snap.active != "rest":
             t = snap.data.poses.get(snap.active, {}).get(name)
             angle = float(t.angle) if t is not None else 0.0
@@ -232,10 +232,10 @@ class Panels:
             imgui.set_item_tooltip("the pin's turn in this pose, degrees counter-clockwise (Alt-drag on the canvas)")
             live(app, "angle", f"turn {name}")
             if changed:
-                app.edit(lambda s, a=angle: s.set_target(name, angle=a) and None, key="angle-live")
+                app.edit(lambda s, a=angle: s.set_target(name, angle=a), key="angle-live")
             imgui.same_line()
             if button("Reset", "put this pin back at rest in this pose", enabled=t is not None):
-                app.edit(lambda s: s.clear_target(name) and None)
+                app.edit(lambda s: s.clear_target(name))
 
     # -- reference picture ----------------------------------------------------------
     def reference(self) -> None:
@@ -255,17 +255,17 @@ class Panels:
                 (enter and self.underlay_path.strip()):
             path = os.path.abspath(os.path.expanduser(self.underlay_path.strip()))
             keep = dict(opacity=u["opacity"], offset=u["offset"], scale=u["scale"]) if u else {}
-            app.edit(lambda s: s.set_underlay(path, **keep) and None)
+            app.edit(lambda s: s.set_underlay(path, **keep))
             self.underlay_path = ""
         if u is None:
             return
         imgui.same_line()
         if button("Remove##underlay", "remove the reference picture"):
-            app.edit(lambda s: s.set_underlay(None) and None)
+            app.edit(lambda s: s.set_underlay(None))
 
         def setter(**change):
             v = dict(opacity=u["opacity"], offset=u["offset"], scale=u["scale"], **change)
-            return lambda s: s.set_underlay(u["image"], **v) and None
+            return lambda s: s.set_underlay(u["image"], **v)
         changed, op = imgui.slider_float("opacity", float(u["opacity"]), 0.0, 1.0, "%.2f")
         imgui.set_item_tooltip("how strongly the reference shows through")
         note("slider:opacity")

@@ -158,11 +158,7 @@ def set_step(app, step: str) -> None:
         app.set_mode("pose")
         app.show_mesh = step == "deform"
         if step == "deform":
-            def job(w):
-                w.scene.built  # meshes and solver set-up, on the scene thread
-                return f"meshes built: {sum(len(r.triangles) for r in w.scene.layers('rest'))} triangles; " \
-                       "drag pins to pose"
-            app.worker.submit(job)
+            app.build_meshes()  # meshes and solver set-up, on the scene thread
 
 
 def bar(app) -> None:
@@ -212,7 +208,7 @@ def _image(app, thumbs) -> None:
     imgui.text(f"mask of {name}:")
     imgui.same_line()
     if button("Alpha", "the picture's transparency"):
-        app.edit(lambda s: s.set_mask(name, "alpha") and None)
+        app.edit(lambda s: s.set_mask(name, "alpha"))
     changed, sc.threshold = imgui.slider_float("threshold", sc.threshold, 1.0, 255.0, "%.0f")
     imgui.set_item_tooltip("pixels darker than this are the object (live)")
     note("slider:threshold")
@@ -220,7 +216,7 @@ def _image(app, thumbs) -> None:
     RECTS["frame:threshold"] = (a.x, a.y, a.x + imgui.calc_item_width(), imgui.get_item_rect_max().y)
     live(app, "threshold", f"threshold mask of {name}")
     if changed:
-        app.edit(lambda s, t=float(sc.threshold): s.set_mask(name, {"threshold": t}) and None, key="threshold-live")
+        app.edit(lambda s, t=float(sc.threshold): s.set_mask(name, {"threshold": t}), key="threshold-live")
 
 
 def _layers(app, thumbs) -> None:
@@ -241,7 +237,7 @@ def _layers(app, thumbs) -> None:
             sc.pending = None
             app.selected_layer = None
         else:
-            app.edit(lambda s: s.remove_layer(target) and None)
+            app.edit(lambda s: s.remove_layer(target))
     imgui.same_line()
     imgui.text(f"layer: {target or '(none)'}" + ("  (empty)" if target is not None and target == sc.pending else ""))
     if sc.pending is not None and app.layer_index(sc.pending) is not None:
@@ -256,7 +252,7 @@ def _layers(app, thumbs) -> None:
         if target == sc.pending:
             sc.pending = app.selected_layer = new
         else:
-            app.edit(lambda s: s.rename_layer(target, new) and None)
+            app.edit(lambda s: s.rename_layer(target, new))
             app.selected_layer = new
         sc.layer_name = ""
     if sc.tool == "paint":
@@ -272,7 +268,7 @@ def _layers(app, thumbs) -> None:
             if j != 3:
                 imgui.same_line()
             if imgui.radio_button(f"{m}##inpaint", cur == m) and m != cur:
-                app.edit(lambda s, m=m: s.set_inpaint(target, m) and None)
+                app.edit(lambda s, m=m: s.set_inpaint(target, m))
             imgui.set_item_tooltip("how this layer refills what layers in front took from the picture")
             note(f"inpaint:{m}")
         _inpaint_preview(app, thumbs, k)
@@ -325,7 +321,7 @@ def _link(app, thumbs) -> None:
         for j, seg in enumerate(L.segments):
             imgui.push_id(f"link-{la}-{lb}-{j}")
             if button("x", "remove this segment", small=True):
-                app.edit(lambda s, la=la, lb=lb, j=j: s.remove_link(la, lb, j) and None)
+                app.edit(lambda s, la=la, lb=lb, j=j: s.remove_link(la, lb, j))
             imgui.same_line()
             (x0, y0), (x1, y1) = seg
             imgui.text(f"{la}-{lb}: ({x0:.0f},{y0:.0f})-({x1:.0f},{y1:.0f})")
@@ -344,8 +340,7 @@ def _pins(app, thumbs) -> None:
     imgui.set_item_tooltip("automatic exterior control points where the outline bends (curvature scale space)")
     note("check:exterior")
     if changed:
-        app.edit(lambda s, b=float(sc.beta): s.set_layer(name, exterior={"auto": True, "beta": b} if on else None)
-                 and None)
+        app.edit(lambda s, b=float(sc.beta): s.set_layer(name, exterior={"auto": True, "beta": b} if on else None))
     if auto:
         sc.beta = float(L.exterior.beta) if not imgui.is_any_item_active() else sc.beta
         changed, sc.beta = imgui.slider_float("beta", sc.beta, 0.2, 8.0, "%.2f", imgui.SliderFlags_.logarithmic)
@@ -353,7 +348,7 @@ def _pins(app, thumbs) -> None:
         note("slider:beta")
         live(app, "beta", f"exterior beta of {name}")
         if changed:
-            app.edit(lambda s, b=float(sc.beta): s.set_layer(name, exterior={"auto": True, "beta": b}) and None,
+            app.edit(lambda s, b=float(sc.beta): s.set_layer(name, exterior={"auto": True, "beta": b}),
                      key="beta-live")
     imgui.text_wrapped("click to add a pin on the layer you see there; new pins' kind below")
 

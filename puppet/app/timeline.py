@@ -1,9 +1,10 @@
 """The timeline's state and actions (no GL, no ImGui): the playhead, play / pause / loop,
-keys (add at the playhead, move, copy, paste, delete, ease), and the canvas tools of the
-animation: a pin dragged while the canvas shows a time keys that pin there, and record
-mode (After Effects' Puppet Sketch) turns a drag into keys.
+keys (add at the playhead, move, copy, paste, delete, ease), record mode's settings and
+the recording under way (the canvas tools that key and record are in
+:mod:`puppet.app.animtools`), and what the canvas shows (a time, the onion skin: told to
+the scene session through the app).
 
-Every edit is a job on the scene thread through the Document's key methods
+Every edit is an intent run on the scene thread through the Document's key methods
 (``set_key``, ``remove_key``, ``move_key``, ``copy_key``, ``set_key_ease``, ``set_fps``);
 a gesture (a move of several keys, a recording) is one undo step.
 """
@@ -13,8 +14,7 @@ import math
 import time as _time
 
 from puppet.app import onion
-from puppet.app.record import SPEEDS, Recording
-from puppet.errors import SceneError
+from puppet.app.record import Recording
 from puppet.scene.timeline import frame_count
 
 EASES = ("linear", "smooth", "step", "bezier")
@@ -81,9 +81,6 @@ class Timeline:
     def duration(self) -> float:
         ks = self.keys()
         return max((float(k["time"]) for k in ks), default=0.0)
-
-    def key_at(self, t: float) -> dict | None:
-        return next((k for k in self.keys() if same(k["time"], t)), None)
 
     def span(self) -> float:
         """Seconds the ruler shows: the length setting, past the last key and the playhead."""
@@ -169,10 +166,7 @@ class Timeline:
         if want == self._sent:
             return
         self._sent = want
-
-        def job(w):
-            w.show_time, w.onion = show, settings
-        self.app.worker.submit(job, key="timeline-time")
+        self.app.show_time(show, settings)
 
     def frame_total(self) -> int:
         """Frames of the animation, from the first key to the last (0: no keys)."""
@@ -194,7 +188,7 @@ class Timeline:
         self._fetched = anim
         times = self.frame_times()
         k = min(range(len(times)), key=lambda i: abs(times[i] - show)) if times else 0
-        self.app.worker.submit(onion.prefetch_job(times[k:] + times[:k]), key="prefetch", publish=False)
+        self.app.prefetch(times[k:] + times[:k])
 
     # -- keys -------------------------------------------------------------------------------
     def add_key(self) -> None:
@@ -215,13 +209,6 @@ class Timeline:
         self.selected = [t]
         self.showing = True
         self._push()
-
-    def key_pins(self, t: float, positions: dict, label: str) -> int:
-        """Key ``positions`` ({pin: (x, y)}) at ``t``, merged into a key already there."""
-        def fn(s):
-            with s.block(label):
-                merge_pins(s, t, {n: list(map(float, xy)) for n, xy in positions.items()})
-        return self.app.edit(fn)
 
     def delete_keys(self, times=None) -> None:
         times = list(self.selected if times is None else times)
@@ -294,7 +281,7 @@ class Timeline:
         self.selected = [round(at + k["time"], 6) for k in keys]
 
     def set_fps(self, fps: float) -> None:
-        self.app.edit(lambda s: s.set_fps(float(fps)) and None, key="fps")
+        self.app.edit(lambda s: s.set_fps(float(fps)), key="fps")
 
 
 def set_key_dict(s, t: float, k: dict) -> None:
@@ -304,76 +291,6 @@ def set_key_dict(s, t: float, k: dict) -> None:
         s.set_key(t, k["pose"], **kw)
     else:
         s.set_key(t, pins=k["pins"], **kw)
-
-
-def merge_pins(s, t: float, pins: dict) -> None:
-    """Key ``pins`` (file form) at ``t``, keeping what a key already there holds (the other
-    pins of a pins key; a pose key becomes the pose's targets there plus these pins); a
-    target keeps its angle and depth at that time, only its position changes."""
-    old = next((k for k in s.keys() if same(k["time"], t)), None)
-    at = s.pose_at(t) if s.keys() else {}
-    base = dict(old["pins"]) if old is not None and "pins" in old else (dict(at) if old is not None else {})
-    for n, xy in pins.items():
-        cur = base.get(n, at.get(n))
-        base[n] = dict(cur, to=list(xy)) if isinstance(cur, dict) else list(xy)
-    kw = {"ease": old.get("ease", "linear"), "curve": old.get("curve")} if old is not None else {}
-    s.set_key(t, pins=base, **kw)
-
-
-def unkey_pins(s, names, t0: float, t1: float) -> None:
-    """Take pins ``names`` out of the keys between ``t0`` and ``t1`` (a recording replaces
-    what was there): a pose key there becomes the other pins' targets at its time (it
-    plays the same for them), and a key left with no pins goes."""
-    for k in list(s.keys()):
-        t = float(k["time"])
-        if t < t0 - EPS or t > t1 + EPS:
-            continue
-        pins = s.pose_at(t) if "pose" in k else k["pins"]
-        if not set(names) & set(pins):
-            continue
-        rest = {n: v for n, v in pins.items() if n not in names}
-        if rest:
-            s.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
-        else:
-            s.remove_key(t)
-
-
-def base_pose(s, t: float | None) -> dict:
-    """Pin targets (file form) the canvas starts from: the animation at ``t``, or the
-    active pose."""
-    if t is not None and s.keys():
-        return dict(s.pose_at(t))
-    if s.active_pose == "rest":
-        return {}
-    return dict(s.to_dict().get("poses", {}).get(s.active_pose, {}))
-
-
-def _with(pose: dict, positions: dict) -> dict:
-    out = dict(pose)
-    for n, xy in positions.items():
-        cur = out.get(n)
-        out[n] = dict(cur, to=list(map(float, xy))) if isinstance(cur, dict) else list(map(float, xy))
-    return out
-
-
-def preview_job(t: float | None, positions: dict):
-    """A job showing the pose at ``t`` with pins moved to ``positions`` (a preview)."""
-    def job(w):
-        s = w.scene
-        if s is None:
-            return
-        w.publish(s.layers(_with(base_pose(s, t), positions)), preview=True)
-    return job
-
-
-def speed_label(v: float) -> str:
-    return f"{v:g}x"
-
-
-def check_speed(v: float) -> float:
-    if v not in SPEEDS:
-        raise SceneError(f"record speed {v:g} is not one of {', '.join(map(speed_label, SPEEDS))}")
-    return v
 
 
 def ruler_step(px_per_s: float) -> float:

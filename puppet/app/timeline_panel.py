@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
-from puppet.app import onion, timeline as tl
+from puppet.app import timeline as tl
 from puppet.app.overlay import col
 from puppet.app.record import SPEEDS
 from puppet.app.widgets import button, note, toggle
@@ -172,7 +172,7 @@ class TimelinePanel:
         keys = [k for k in t.keys() if any(tl.same(k["time"], s) for s in t.selected)]
         n = t.frame_total()  # (drawn every frame: no list of times)
         if t.showing and t.prefetch and n:
-            done = min(onion.cached(self.app.worker), n)
+            done = min(self.app.cached_frames(), n)
             if done < n:
                 imgui.same_line()
                 imgui.text_disabled(f" solving frames {done}/{n}")

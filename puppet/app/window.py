@@ -18,7 +18,7 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import autosave, keymap, menus, overlay, script
+from puppet.app import actions, autosave, menus, overlay, script
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
@@ -26,14 +26,19 @@ from puppet.app.keys import ImGuiInput
 from puppet.app.onion import GhostRenderer
 from puppet.app.panels import Panels
 from puppet.app.timeline_panel import HEIGHT as TIMELINE_HEIGHT, TimelinePanel
-from puppet.app.tools import CanvasEvent, choose_tool
+from puppet.app.gestures import CanvasEvent
+from puppet.app.tools import choose_tool
 from puppet.app.widgets import Thumbs
 
 PANEL_WIDTH = 330
-#: frames a second for pointer feedback while a gesture waits for the scene thread
-BUSY_FPS = 15.0
-#: most frames a second for input alone (a new snapshot is drawn at once)
-MAX_FPS = 60.0
+#: seconds a thread runs Python before it hands over the GIL: shorter than CPython's 5 ms
+#: default, so that the window is not kept waiting while the scene thread runs Python
+#: between its solves (which release the GIL)
+SWITCH_INTERVAL = 0.001
+#: most frames a second for input alone (a new snapshot is drawn at once); a dragged pin's
+#: marker is drawn from the pointer, so it follows the pointer event by event while a solve
+#: lags (a 60 Hz cap beat against 60 Hz pointer events and drew ~47 of their 60 frames)
+MAX_FPS = 120.0
 #: frames a second that move the playhead while playing or recording (new frames: at once)
 PLAY_FPS = 30.0
 FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
@@ -75,6 +80,7 @@ class AppWindow:
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
         self.win = pyglet.window.Window(int(size[0]), int(size[1]), caption="puppet", resizable=True,
                                         config=config, visible=visible)
+        sys.setswitchinterval(SWITCH_INTERVAL)
         self.win.switch_to()
         moderngl.init_context()
         self.ctx = moderngl.get_context()
@@ -116,12 +122,12 @@ class AppWindow:
             self.open_scene(path)
 
     # -- files and dialogs ------------------------------------------------------------
-    def open_scene(self, path: str, *, ask: bool = True) -> None:
-        """Open ``path``; first ask about unsaved changes (unless ``ask`` is False: the
-        answer was given) and about a newer autosave. The open scene stays until the new
+    def open_scene(self, path: str, *, discard: bool = False) -> None:
+        """Open ``path``, asking first about unsaved changes (unless ``discard``: the user
+        chose "Don't save") and about a newer autosave. The open scene stays until the new
         one has loaded: a file that fails to open changes nothing."""
         app = self.app
-        if ask and app.snap.loaded and app.snap.dirty:
+        if app.snap.loaded and app.snap.dirty and not discard:
             app.dialog, app.after_dialog = "unsaved", ("open", path)
             return
         pending = autosave.pending(path) if os.path.isfile(path) else None
@@ -150,11 +156,11 @@ class AppWindow:
     def proceed(self, after, require_saved: bool = False) -> None:
         """Go on after the unsaved-changes dialog: quit, or open ``("open", path)``; with
         ``require_saved`` only once the save posted before has succeeded."""
-        def job(w):
-            if require_saved and w.scene is not None and w.saved_doc != w.scene.to_dict():
-                return None  # the save failed: stay (its error is on the status line)
+        def go(saved: bool) -> None:
+            if require_saved and not saved:
+                return  # the save failed: stay (its error is on the status line)
             self._then = after
-        self.app.worker.submit(job, publish=False)
+        self.app.after_jobs(go)
 
     def _on_close(self):
         self.app.request_quit()
@@ -207,7 +213,7 @@ class AppWindow:
         imgui.begin("##status", None, FIXED)
         menus.status_line(app, cursor)
         imgui.end()
-        keymap.handle_keys(app, self)
+        actions.handle_keys(app, self)
         self.input.chars = ""
         menus.dialogs(app, self)
         menus.help_overlay(app)
@@ -235,8 +241,9 @@ class AppWindow:
                             "file": app.snap.file})
 
     def _dump_rects(self) -> None:
-        """Where the widgets and the canvas are (``PUPPET_APP_RECTS=FILE``: end-to-end tests
-        under X find the buttons with it), written atomically a few times a second."""
+        """Where the widgets, the canvas, the pins and the timeline are (``PUPPET_APP_RECTS=FILE``:
+        end-to-end tests and the benchmark under X find them with it), written atomically a
+        few times a second."""
         now = time.monotonic()
         if now - getattr(self, "_rects_at", 0.0) < 0.2:
             return
@@ -244,9 +251,11 @@ class AppWindow:
         from puppet.app.widgets import RECTS
 
         app = self.app
+        markers = {m.name: [float(v) for v in app.view.to_screen(app.marker_xy(m))] for m in app.markers()}
         info = {"rects": RECTS, "scale": app.view.scale, "origin": list(app.view.origin),
                 "step": app.script.step, "mode": app.mode, "busy": app.busy, "version": app.snap.version,
-                "status": app.status.text if app.status else ""}
+                "status": app.status.text if app.status else "", "area": list(app.area), "markers": markers,
+                "timeline": getattr(self.timeline_panel, "area", None), "time": app.snap.time}
         tmp = self._rects_file + ".tmp"
         with open(tmp, "w") as f:
             json.dump(info, f)
@@ -320,7 +329,7 @@ class AppWindow:
         if then == "quit":
             self.app.quit_now = True
         elif isinstance(then, tuple) and then[0] == "open":
-            self.open_scene(then[1], ask=False)
+            self.open_scene(then[1], discard=True)
 
     def _autosave(self) -> None:
         snap = self.app.snap
@@ -330,15 +339,14 @@ class AppWindow:
         self._autosaved_at = now
         if snap.loaded and snap.dirty and snap.version != self._autosaved_version:
             self._autosaved_version = snap.version
-            self.app.worker.submit(lambda w: None if w.scene is None else (autosave.write(w.scene) and None),
-                                   publish=False)
+            self.app.autosave()
 
     # -- the loop ---------------------------------------------------------------------
     def step(self) -> bool:
         """One turn of the loop: take input, and draw a frame when something changed: at
-        once for a new snapshot, for input at most :data:`BUSY_FPS` times a second while
-        a gesture waits for the scene thread (so it keeps the CPU), a few frames after
-        activity (ImGui settles), and a few a second when idle. True when it drew."""
+        once for a new snapshot, for input at most :data:`MAX_FPS` times a second, a few
+        frames after activity (ImGui settles), and a few a second when idle. True when it
+        drew."""
         now = time.perf_counter()
         self.win.switch_to()
         self.win.dispatch_events()
@@ -347,15 +355,14 @@ class AppWindow:
         # different frames): keep drawing until its queue is empty, or typed text lags
         touched = touched or self.imgui_ctx.input_events_queue.size() > 0
         app = self.app
-        new = app.worker.latest is not app.snap
-        waiting = self._gesture is not None and not app.worker.idle()
+        new = app.news
         if (app.timeline.playing or app.timeline.recording is not None) and \
                 now - self._last_frame >= 1.0 / PLAY_FPS:
             touched = True  # the playhead moves
         if touched or new:
             self._settle = 3
         gap = now - self._last_frame
-        due = new or (self._settle > 0 and gap >= 1.0 / (BUSY_FPS if waiting else MAX_FPS)) or gap > 0.25
+        due = new or (self._settle > 0 and gap >= 1.0 / MAX_FPS) or gap > 0.25
         if not due:
             return False
         self._settle -= 1
@@ -378,11 +385,7 @@ class AppWindow:
         if self.closed:
             return
         self.closed = True
-        worker = self.app.worker
-        worker.wait_idle(30)
-        if worker.scene is not None:
-            autosave.remove(worker.scene.file)
-        worker.stop()
+        self.app.shutdown()
         self.win.switch_to()
         imgui.set_current_context(self.imgui_ctx)
         self.thumbs.release()

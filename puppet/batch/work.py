@@ -53,7 +53,7 @@ def compositor():
         comp = _compositors[tid] = Compositor()
     # Each frame starts like a fresh `puppet render`'s (K-buffer first, A-buffer on overflow),
     # so a job's pixels never depend on what this worker drew before.
-    comp._prefer_abuffer = False
+    comp.forget_overflow()
     return comp
 
 

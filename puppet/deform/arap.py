@@ -277,7 +277,7 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
     A = P.block(L.data, fmap, fmap, (nf, nf))
     # QDLDL and SuperLU release the GIL; cholespy holds it (a thread would only add contention)
     threaded = factor.THREADS and nf > 0 and solver != "cholespy"
-    worker = factor.Worker(lambda A: factor.factorize(A, solver), threaded=threaded)
+    worker = factor.SolveThread(lambda A: factor.factorize(A, solver), threaded=threaded)
     try:
         if nf:  # symmetric: its csr arrays are its csc arrays
             worker.submit(sp.csc_matrix((A.data, A.indices, A.indptr), shape=A.shape))

@@ -127,7 +127,7 @@ def factorize(A: sp.spmatrix, solver: str):
         raise ValueError(f"ARAP system is singular ({err}); degenerate triangles?") from err
 
 
-class Worker:
+class SolveThread:
     """A second thread that runs ``fn(arg)`` for each :meth:`submit`, in order.
 
     :meth:`result` returns the next result or re-raises what ``fn`` raised; with
@@ -181,7 +181,7 @@ def pair_solver(factor, nf: int, iterations: int):
 
     if not (THREADS and nf >= PARALLEL_MIN_FREE and iterations >= PARALLEL_MIN_ITERATIONS):
         return (lambda rhs: pack(factor.solve1(rhs.real), factor.solve1(rhs.imag))), lambda: None
-    worker = Worker(factor.solve1)
+    worker = SolveThread(factor.solve1)
 
     def solve(rhs):  # y on the worker while x is solved here
         worker.submit(np.ascontiguousarray(rhs.imag))

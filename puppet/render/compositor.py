@@ -217,6 +217,11 @@ class Compositor:
                 self.ctx.copy_framebuffer(target, targets.write_fbo)
             self._finish(previous)
 
+    def forget_overflow(self) -> None:
+        """Start the next frame as a fresh compositor would (``auto``: the K-buffer first,
+        the A-buffer on overflow), whatever earlier frames overflowed."""
+        self._prefer_abuffer = False
+
     def invalidate(self, key: str | None = None) -> None:
         """Forget the cached texture and buffers of ``key`` (all keys when None)."""
         keys = list(self._textures.keys() | self._meshes.keys()) if key is None else [key]

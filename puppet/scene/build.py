@@ -55,6 +55,23 @@ class LayerImage:
         return self.rgba[y0:y1, x0:x1], (self.offset[0] + x0, self.offset[1] + y0)
 
 
+def reduced_rgba(rgba: np.ndarray, factor: float) -> np.ndarray:
+    """A straight-alpha RGBA image (h, w, 4) uint8 shrunk ``factor`` times (area
+    average of the premultiplied colours, so transparent pixels do not darken the edges):
+    (ceil(h / factor), ceil(w / factor), 4) uint8."""
+    import cv2
+
+    h, w = rgba.shape[:2]
+    size = (max(1, int(np.ceil(w / factor))), max(1, int(np.ceil(h / factor))))
+    prem = rgba.copy()
+    prem[..., :3] = (rgba[..., :3].astype(np.uint16) * rgba[..., 3:4] + 127) // 255
+    small = cv2.resize(prem, size, interpolation=cv2.INTER_AREA)
+    a = small[..., 3:4].astype(np.float32)
+    rgb = np.where(a > 0, small[..., :3] * (255.0 / np.maximum(a, 1.0)), 0.0)
+    small[..., :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    return small
+
+
 @dataclass
 class Group:
     """Linked layers solved as one problem."""
@@ -148,15 +165,6 @@ def finish_image(im: LayerImage, hole: np.ndarray | None, method: str) -> LayerI
     return LayerImage(rgba=rgba, offset=im.offset, mask=im.mask, from_source=im.from_source)
 
 
-def build_images(data: SceneData) -> list[LayerImage]:
-    """Load every layer's pixels and mask; refill inpainted layers; apply masks to alpha."""
-    source = load_source(data)
-    images = [layer_image(data, L, source) for L in data.layers]
-    rank = stacking(data)
-    return [finish_image(im, inpaint_hole(data, images, k, rank), L.inpaint)
-            for k, (L, im) in enumerate(zip(data.layers, images))]
-
-
 def default_max_area(mask: np.ndarray) -> float:
     """Triangle area giving about TARGET_TRIANGLES triangles, within [6, 400] px²."""
     return float(np.clip(mask.sum() / TARGET_TRIANGLES, 6.0, 400.0))
@@ -242,23 +250,6 @@ def pin_vertices(data: SceneData, k: int, mesh: Mesh) -> dict[str, int]:
 def layer_areas(data: SceneData, images: list[LayerImage]) -> list[float]:
     """Triangle area bound of every layer: its ``mesh.max_area`` or one from its size."""
     return [L.mesh.max_area or default_max_area(im.mask) for L, im in zip(data.layers, images)]
-
-
-def build_meshes(data: SceneData, images: list[LayerImage]) -> tuple[list[Mesh], list[dict[str, int]], list[Group]]:
-    """Mesh every layer (pins as vertices, links as shared edges) and merge linked groups.
-
-    Returns
-    -------
-    meshes : per layer. pin_vertex : per layer, interior pin name -> vertex index.
-    groups : linked groups, each with its merged mesh and pinned vertices.
-    """
-    from puppet.scene.links import link_parts
-
-    areas = layer_areas(data, images)
-    polylines = link_polylines(data, areas, link_parts(data, images))
-    meshes = [mesh_layer(data, k, im, areas[k], polylines[k]) for k, im in enumerate(images)]
-    pin_vertex = [pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
-    return meshes, pin_vertex, build_groups(data, meshes, pin_vertex, polylines)
 
 
 def _vertex_at(V: np.ndarray, xy, tol: float = 1e-7):

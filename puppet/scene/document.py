@@ -300,6 +300,15 @@ class Document(Edits, KeyEdits):
             return layers_at(self.rig, self.built, self.tracks(), time)
         return self.rig.evaluate(self.built, self.state(pose, time))
 
+    def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4, solver=None):
+        """Start a drag of pins ``names`` (one name or a list): in the active pose, keyed
+        at ``time``, or a recording from ``time``; previews solved in ``solver`` (a
+        :class:`~puppet.scene.dragproc.DragProcess`) when given (see
+        :class:`puppet.scene.drag.DragSession`)."""
+        from puppet.scene.drag import DragSession
+
+        return DragSession(self, names, time, record=record, iterations=iterations, solver=solver)
+
     def mesh(self, pose: PoseLike = None, time: float | None = None) -> dict:
         """The meshes as data, as ``puppet mesh`` writes them."""
         res = self.layers(pose, time)

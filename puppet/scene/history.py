@@ -41,7 +41,7 @@ class Events:
         return callback
 
     def disconnect(self, callback: Callable[[Event], Any]) -> None:
-        self._callbacks = [c for c in self._callbacks if c is not callback]
+        self._callbacks = [c for c in self._callbacks if c != callback]  # (a bound method is a new object each time)
 
     def emit(self, event: Event) -> None:
         for c in list(self._callbacks):

@@ -63,6 +63,7 @@ class Built:
     pre: list[GroupPre]
     pre_keys: list[str]
     notes: list[str] = field(default_factory=list)  # for `puppet check` (clipped link segments)
+    regions: list = None  # per layer: its mask outline (geom.contour.mask_regions), as meshed
 
     def group_of_pin(self, i: int) -> int | None:
         """Group of scene pin ``i`` (None for exterior pins)."""
@@ -111,13 +112,14 @@ class Rig:
         areas = build.layer_areas(data, images)
         parts = link_parts(data, images)
         polylines = build.link_polylines(data, areas, parts)
-        mesh_keys, meshes = [], []
+        mesh_keys, meshes, outlines = [], [], []
         for k, L in enumerate(data.layers):
             pins = [p.at for _, p in build.layer_pins(data, k)]
             segs = [(path, P) for li, path, P in polylines[k]]
             key = fingerprint(base_keys[k], L.mesh, areas[k], pins, segs)
             mesh_keys.append(key)
             regions = memo.get("outline", base_keys[k], lambda k=k: mask_regions(images[k].mask, images[k].offset))
+            outlines.append(regions)
             meshes.append(memo.get("mesh", key, lambda k=k, regions=regions: build.mesh_layer(
                 data, k, images[k], areas[k], polylines[k], regions)))
         pin_vertex = [build.pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
@@ -145,7 +147,7 @@ class Rig:
                 g, d, bones, cells)))
         return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
                      pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
-                     notes=parts.notes)
+                     notes=parts.notes, regions=outlines)
 
     # -- posing ------------------------------------------------------------------
     def solve(self, built: Built, gi: int, state: PinState):

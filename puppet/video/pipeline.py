@@ -196,7 +196,7 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
             conf = np.ones(k)
         elif i in plan.anchors:
             trk.reanchor(rgba, {n: (x - HALF, y - HALF) for n, (x, y) in plan.anchors[i].items()}, mask)
-            J = np.asarray(trk._held, np.float64).copy() if hasattr(trk, "_held") else J
+            J = np.asarray(trk.held, np.float64) if hasattr(trk, "held") else J
             for n, (x, y) in plan.anchors[i].items():
                 J[names.index(n)] = (x - HALF, y - HALF)
             conf = np.array([1.0 if n in plan.anchors[i] else 0.5 for n in names])

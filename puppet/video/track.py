@@ -151,6 +151,11 @@ class Tracker:
         self.reanchor(first, joints, mask)
 
     # -- public -------------------------------------------------------------------------------
+    @property
+    def held(self) -> np.ndarray:
+        """Where the joints are now, in :attr:`names` order ((k, 2) canvas xy, a copy)."""
+        return self._held.copy()
+
     def reanchor(self, frame: np.ndarray, joints: dict[str, Point], mask: np.ndarray | None = None) -> None:
         """Make ``frame`` the new reference with the skeleton the user placed on it.
 
@@ -345,8 +350,7 @@ def track(frames: Iterable[np.ndarray], joints: dict[str, Point], *, masks: Iter
             continue
         if i in anchors:
             tracker.reanchor(frame, anchors[i], mask)
-            pos = tracker._held
-            xs.append(pos.copy())
+            xs.append(tracker.held)
             cs.append(np.array([1.0 if n in anchors[i] else 0.5 for n in names]))
             continue
         st = tracker.step(frame, mask=mask)

@@ -42,8 +42,8 @@ class Driver:
         end = time.monotonic() + timeout
         self.frame()
         while time.monotonic() < end:
-            worker = self.app.worker
-            if worker.idle() and worker.latest is self.app.snap:
+            session = self.app.session
+            if session.idle() and session.latest is self.app.snap:
                 break
             time.sleep(0.005)
             self.frame()
@@ -131,7 +131,7 @@ class Driver:
 
     def scene(self):
         """The scene object (read it only while the app is settled)."""
-        return self.app.worker.scene
+        return self.app.session.scene
 
     def shot(self, name: str) -> str:
         """Save the window as docs/app/NAME.png (unchanged files are not rewritten)."""
@@ -150,6 +150,17 @@ class Driver:
 
     def close(self) -> None:
         self.w.close()
+
+
+def pin_keys(keys, pin: str) -> dict[float, list[float]]:
+    """{time: [x, y]} of the animation keys (file form) that hold ``pin``'s target: a pins
+    key, or a pose key's ``overrides`` (either way a key can carry a pin)."""
+    out = {}
+    for k in keys:
+        v = k.get("pins", {}).get(pin, (k.get("overrides") or {}).get(pin))
+        if v is not None:
+            out[float(k["time"])] = list(v["to"] if isinstance(v, dict) else v)
+    return out
 
 
 def widget(label: str):

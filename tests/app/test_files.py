@@ -92,6 +92,24 @@ def test_dont_save_quits_without_writing(bar_app):
     assert d.app.quit_now and open(d.app.snap.file).read() == before
 
 
+def test_dont_save_then_opens_the_other_scene(bar_app, make_scene):
+    """File > Open over unsaved changes, "Don't save": the other scene opens (once)."""
+    d = bar_app
+    first = d.app.snap.file
+    before = open(first).read()
+    other = make_scene(bar_scene(), {"bar.png": bar_image()}, name="other.json")
+    move_left_pin(d)
+    d.key(key.O, key.MOD_CTRL)
+    d.key(key.A, key.MOD_CTRL)
+    d.type(other)
+    d.key(key.ENTER)
+    d.frame()
+    assert d.app.dialog == "unsaved"
+    d.click(*widget("Don't save"))
+    d.settle()
+    assert d.app.dialog is None and d.app.snap.file == other and not d.app.snap.dirty
+    assert open(first).read() == before  # nothing written
+
 def test_empty_window_then_file_open(make_scene):
     path = make_scene(bar_scene(), {"bar.png": bar_image()})
     d = Driver()

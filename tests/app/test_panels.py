@@ -165,7 +165,7 @@ def test_reference_picture(bar_app, tmp_path):
     ref[..., 2] = 255
     ref[..., 3] = 255
     path = write_rgba(tmp_path / "ref.png", ref)
-    d.app.edit(lambda s: s.set_underlay(path, opacity=0.5) and None)
+    d.app.edit(lambda s: s.set_underlay(path, opacity=0.5))
     d.settle()
     d.key(key.H)
     # under the (transparent part of the) canvas: blue at half opacity over white

@@ -308,7 +308,6 @@ def test_file_open_a_picture_and_its_autosave(tmp_path):
     """File > Open with a picture starts the task script; after a crash the unsaved scene
     over the picture is offered back from its autosave; a saved scene beside it is not
     overwritten by a new one."""
-    from puppet.app import autosave
 
     picture = flat_runner(tmp_path)
     d = Driver()
@@ -322,12 +321,12 @@ def test_file_open_a_picture_and_its_autosave(tmp_path):
         click_widget(d, "step:layers")
         click_widget(d, "+")
         stroke(d, ARM + [ARM[0]])
-        d.app.worker.submit(lambda w: autosave.write(w.scene) and None)  # the minute's autosave
+        d.app.autosave()  # the minute's autosave
         d.settle()
     finally:
-        d.app.worker.wait_idle()
+        d.app.session.wait_idle()
         d.w.closed = True  # a crash: no clean close (the autosave stays)
-        d.app.worker.stop()
+        d.app.session.stop()
         d.w.win.close()
     assert os.path.isfile(str(tmp_path / "runner.autosave.json"))
     d = Driver(picture)

@@ -95,7 +95,7 @@ def test_reference_picture_under_a_garment():
     try:
         before = d.pixels()
         ref = os.path.join(ASSETS, "noto-emoji", "emoji_u1f3c3.png")
-        d.app.edit(lambda s: s.set_underlay(ref, opacity=0.45, offset=(40, 0), scale=1.0) and None)
+        d.app.edit(lambda s: s.set_underlay(ref, opacity=0.45, offset=(40, 0), scale=1.0))
         d.settle()
         d.click(*widget("pose:flare"))
         d.move(600, 790)

@@ -10,7 +10,7 @@ import pytest
 from scipy.ndimage import binary_erosion
 from pyglet.window import key
 
-from tests.app.harness import Driver, widget
+from tests.app.harness import Driver, pin_keys, widget
 from tests.conftest import bar_image, bar_scene
 
 pytestmark = pytest.mark.gl
@@ -130,8 +130,9 @@ def test_k_keys_the_active_pose_when_the_canvas_shows_a_pose(make_scene):
         d.drag_path([p, (p[0] + 4, p[1]), (p[0] + 12, p[1] + 6)])
         d.settle()
         keys = d.scene().keys()
-        assert [k["time"] for k in keys] == [0.0, 0.5] and set(keys[1]["pins"]) == {"left"}
-        moved = np.subtract(keys[1]["pins"]["left"], (15, 20))
+        assert [k["time"] for k in keys] == [0.0, 0.5] and list(pin_keys(keys, "left")) == [0.5]
+        assert not pin_keys(keys, "right")
+        moved = np.subtract(pin_keys(keys, "left")[0.5], (15, 20))
         np.testing.assert_allclose(moved, np.array([12, 6]) / d.app.view.scale, atol=1e-6)
     finally:
         d.close()
@@ -206,7 +207,7 @@ def test_record_mode_keys_replay_the_dragged_path(bar_anim):
     assert rec.times[-1] == pytest.approx(0.2 + 38 * 0.05 + 0.3)  # real time at 1x
     s = d.scene()
     i = [pin.name for pin in s.data.pins].index("left")
-    keyed = [k["time"] for k in s.keys() if "left" in k.get("pins", {})]
+    keyed = list(pin_keys(s.keys(), "left"))
     assert 2 <= len(keyed) < len(rec.times) / 2  # simplified
     assert keyed[0] == pytest.approx(0.2, abs=1e-3)
     # replay: the pin's target at each sample time is within the tolerance of the sample
@@ -238,9 +239,9 @@ def test_record_speed_half_time(bar_anim):
         d.drag(p[0] - 3 * k, p[1] + k)  # straight at constant speed: two keys
     d.release()
     d.settle()
-    keyed = [k for k in d.scene().keys() if "right" in k.get("pins", {})]
-    assert [k["time"] for k in keyed] == [0.0, 1.0]
-    np.testing.assert_allclose(keyed[1]["pins"]["right"], np.array(keyed[0]["pins"]["right"])
+    keyed = pin_keys(d.scene().keys(), "right")
+    assert list(keyed) == [0.0, 1.0]
+    np.testing.assert_allclose(keyed[1.0], np.array(keyed[0.0])
                                + np.array([-60, 20]) / d.app.view.scale, atol=0.01)
 
 
@@ -265,7 +266,7 @@ def test_selected_pins_record_together(bar_anim):
     d.settle()
     keys = d.scene().keys()
     for pin in ("left", "right"):
-        assert [k["time"] for k in keys if pin in k.get("pins", {})] == [0.0, 1.0]
+        assert list(pin_keys(keys, pin)) == [0.0, 1.0]
     s = d.scene()
     at1 = s.state(time=1.0).to
     np.testing.assert_allclose(at1[0] - s.state(time=0.0).to[0], [0, 20 / d.app.view.scale], atol=0.02)

@@ -8,7 +8,7 @@ import os
 import numpy as np
 import pytest
 
-from tests.app.harness import Driver, widget
+from tests.app.harness import Driver, pin_keys, widget
 from tests.conftest import SCENES
 
 pytestmark = pytest.mark.gl
@@ -55,7 +55,7 @@ def test_onion_skin_and_a_recording_on_the_trex():
         d.settle(600)
         rec = tl.last_recording
         assert rec.times[-1] == pytest.approx(0.25 + 2.0 * 0.5)
-        keyed = [k["time"] for k in d.scene().keys() if "hand_front" in k.get("pins", {})]
+        keyed = list(pin_keys(d.scene().keys(), "hand_front"))
         assert keyed[0] == pytest.approx(0.25) and keyed[-1] == pytest.approx(1.25) and len(keyed) < 20
         tl.record = False
         tl.onion.update(mode="frames", count=3)

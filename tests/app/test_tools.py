@@ -226,7 +226,7 @@ def test_click_on_a_pin_at_rest_makes_no_pose(bar_app):
 
 def test_alt_drag_turns_a_pin(bar_app):
     d = bar_app
-    d.app.edit(lambda s: s.set_active_pose("bend") and None)
+    d.app.edit(lambda s: s.set_active_pose("bend"))
     d.settle()
     c = d.pin_screen("right")
     steps = len(d.scene().history.undo_stack)
@@ -247,7 +247,7 @@ def test_ui_keeps_drawing_while_the_scene_thread_works(bar_app):
     import time
 
     d = bar_app
-    d.app.worker.submit(lambda w: time.sleep(1.2))  # a long solve
+    d.app.edit(lambda s: time.sleep(1.2))  # a long solve
     t0 = time.perf_counter()
     frames = []
     while d.app.busy and time.perf_counter() - t0 < 10:
@@ -257,3 +257,75 @@ def test_ui_keeps_drawing_while_the_scene_thread_works(bar_app):
     assert max(dt for _, dt in frames) < 0.6  # no frame waited for the job
     assert len(frames) >= 3 and frames[-1][0] > 0.6  # frames went on all through it
     d.settle()
+
+
+def test_dragged_marker_follows_the_pointer_while_a_solve_lags(bar_app):
+    """The scene thread is held: the canvas cannot change, but the dragged pin's marker is
+    drawn where the pointer is, frame after frame."""
+    import threading
+
+    d = bar_app
+    gate = threading.Event()
+    start = d.pin_screen("right")
+    d.press(*start)
+    d.drag(start[0] - 5, start[1] - 5)
+    d.settle()
+    d.app.edit(lambda s: gate.wait(20))  # a solve that lags
+    try:
+        version = d.app.snap.version
+        for k in range(1, 6):
+            p = (start[0] - 5 - 8 * k, start[1] - 5 + 4 * k)
+            d.drag(*p)
+            px = d.pixels()[int(round(p[1])), int(round(p[0]))].astype(int)
+            assert px[0] > 200 and px[1] > 150 and px[2] < 90, (k, px)  # the yellow marker at the pointer
+            assert d.app.snap.version == version  # no new pose was shown meanwhile
+    finally:
+        gate.set()
+    d.release()
+    d.settle()
+    assert not d.app.snap.preview
+
+
+def test_an_older_preview_does_not_pull_the_marker_back(bar_app):
+    """A preview solved for an earlier pointer position arrives after the pointer moved
+    on: the canvas shows it, the dragged marker stays at the pointer."""
+    import threading
+
+    d = bar_app
+    app = d.app
+    start = d.pin_screen("right")
+    d.press(*start)
+    d.drag(start[0] - 5, start[1] - 5)
+    d.settle()
+    drag = app.session._drag
+    solve = drag.move_layers
+    gates, entered = [threading.Event(), threading.Event()], [threading.Event(), threading.Event()]
+    calls = []
+
+    def slow(*a, **k):  # the next two preview solves wait for their gates
+        k_ = len(calls)
+        calls.append(k_)
+        if k_ < 2:
+            entered[k_].set()
+            gates[k_].wait(20)
+        return solve(*a, **k)
+    drag.move_layers = slow
+    try:
+        p1, p2 = (start[0] - 25, start[1] + 10), (start[0] - 45, start[1] + 20)
+        d.drag(*p1)
+        assert entered[0].wait(20)  # p1's preview is being solved
+        d.drag(*p2)  # the pointer moves on: p2's preview waits behind it
+        v = app.snap.version
+        gates[0].set()
+        while app.session.latest.version == v:
+            d.frame()
+        d.frame(3)  # p1's preview is shown, no pointer event meanwhile
+        assert app.snap.preview and app.snap.version > v
+        want = app.view.to_canvas(p2)
+        np.testing.assert_allclose(app.marker_xy(app.marker("right")), want, atol=1e-6)
+    finally:
+        for g in gates:
+            g.set()
+    d.release()
+    d.settle()
+    np.testing.assert_allclose(d.scene().to_dict()["poses"][d.scene().active_pose]["right"], want, atol=1e-6)

@@ -15,6 +15,7 @@ import pytest
 from PIL import Image
 
 from tests.app.test_xvfb import MISSING, canvas_from_screen, display, screenshot, wait_title, x  # noqa: F401
+from tests.app.harness import pin_keys
 from tests.conftest import ROOT, bar_image, bar_scene
 
 pytestmark = [
@@ -86,12 +87,12 @@ def test_record_a_drag_save_and_render(display, tmp_path):
         x(display, "xdotool", "key", "ctrl+s")
         wait_title(display, r"^puppet .*scene\.json$")
         saved = json.loads(path.read_text())
-        keyed = [k for k in saved["animation"]["keys"] if "right" in k.get("pins", {})]
-        assert len(keyed) >= 2, saved["animation"]
-        assert abs(keyed[0]["time"] - 0.5) < 0.051  # from the playhead (a frame at 10 fps)
-        assert keyed[-1]["time"] > 1.0
-        last = np.array(keyed[-1]["pins"]["right"]["to"] if isinstance(keyed[-1]["pins"]["right"], dict)
-                        else keyed[-1]["pins"]["right"])
+        keyed = pin_keys(saved["animation"]["keys"], "right")
+        times = sorted(keyed)
+        assert len(times) >= 2, saved["animation"]
+        assert abs(times[0] - 0.5) < 0.051  # from the playhead (a frame at 10 fps)
+        assert times[-1] > 1.0
+        last = np.array(keyed[times[-1]])
         np.testing.assert_allclose(last, at + np.array([-60.0, 0.0]) / s, atol=4.0 / s + 0.05)
         # the canvas shows the frame at the playhead (back at 0.5 s): as puppet render --time 0.5
         x(display, "xdotool", "key", "h", "mousemove", "1050", "650")

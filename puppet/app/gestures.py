@@ -1,0 +1,93 @@
+"""What every canvas tool shares: the pointer event, the drag threshold, and the pin
+drag gesture (press on pins, drag, release) that both the pose tools
+(:mod:`puppet.app.tools`) and the animation tools (:mod:`puppet.app.animtools`) run.
+
+A tool is a generator function over (app, event), like napari's mouse callbacks: called
+with the press, sent each later event (``drag``, then ``release``) with ``gen.send``; it
+returns after the release.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: window pixels the pointer must travel before a press becomes a drag
+DRAG_THRESHOLD = 3.0
+
+
+@dataclass
+class CanvasEvent:
+    """A pointer event on the canvas: ``type`` is ``press``, ``drag`` or ``release``;
+    ``pos`` is in window pixels (top-down), ``xy`` in canvas pixels."""
+
+    type: str
+    pos: tuple[float, float]
+    xy: tuple[float, float]
+    button: int = 0  # 0 left, 1 right, 2 middle
+    shift: bool = False
+    ctrl: bool = False
+    alt: bool = False
+
+
+def moved(ev: CanvasEvent, press: CanvasEvent) -> bool:
+    """The pointer is far enough from the press for a drag."""
+    return math.hypot(ev.pos[0] - press.pos[0], ev.pos[1] - press.pos[1]) >= DRAG_THRESHOLD
+
+
+def delta(app, ev: CanvasEvent, press: CanvasEvent) -> np.ndarray:
+    """How far the pointer went since the press, in canvas pixels (2,)."""
+    return (np.asarray(ev.pos) - np.asarray(press.pos)) / app.view.scale
+
+
+def offset(start: dict, d) -> dict:
+    """``start`` ({name: (x, y)}) moved by ``d``."""
+    return {n: (xy[0] + d[0], xy[1] + d[1]) for n, xy in start.items()}
+
+
+def click_or_drag(press: CanvasEvent):
+    """Wait for the release; return (release event, whether the pointer moved)."""
+    ev, went = press, False
+    while ev.type != "release":
+        ev = yield
+        went = went or moved(ev, press)
+    return ev, went
+
+
+def grab(app, press: CanvasEvent) -> dict | None:
+    """Select the pin under the press (Shift: toggle it) and return the selected pins
+    with where they are now, {name: (x, y)}; None when the press is beside the pins or
+    Shift took the pin out of the selection."""
+    m = app.marker_at(press.pos)
+    if m is None:
+        return None
+    app.select(m.name, press.shift)
+    if m.name not in app.selection:
+        return None
+    return {n: app.marker_xy(app.marker(n)) for n in app.selection if app.marker(n) is not None}
+
+
+def drag_pins(app, press: CanvasEvent, start: dict, *, time: float | None = None):
+    """Drag the pins of ``start`` with the pointer through one drag session: nothing
+    happens until the pointer leaves the press (a click never makes a pose); each move
+    previews, the release commits the exact pose (``time``: keys the pins there).
+
+    A generator for a tool to ``yield from``; returns the final positions, or None for a
+    click.
+    """
+    ev, started, pos = press, False, dict(start)
+    while ev.type != "release":
+        ev = yield
+        if not started and not moved(ev, press):
+            continue
+        if not started:
+            started = True
+            app.begin_drag(list(start), time=time)
+        pos = offset(start, delta(app, ev, press))
+        if ev.type != "release":
+            app.move_drag(pos)
+    if started:
+        app.follow_pointer(pos)
+        app.end_drag(pos)
+    return pos if started else None
