@@ -49,36 +49,10 @@ def _file_form(pins: Mapping) -> dict:
     return {n: [float(xy[0]), float(xy[1])] for n, xy in pins.items()}
 
 
-def _record(doc, names, t0: float, keys: dict) -> None:
-    """Store recorded ``keys`` ({time: {name: [x, y]}}) from ``t0`` on, one undo step:
-    ``doc.record_motion`` where the document has it, else the pins are taken out of the
-    keys over the span and keyed at each recorded time."""
-    t1 = max(keys)
-    if hasattr(doc, "record_motion"):
-        doc.record_motion(keys, start=min(t0, min(keys)), end=t1)
-        return
-    with doc.block(f"record {', '.join(names)} {t0:g}-{t1:g} s"):
-        _unkey_pins(doc, names, t0, t1)
-        for t, pins in sorted(keys.items()):
-            doc.key_pins(t, pins)
-
-
-def _unkey_pins(doc, names, t0: float, t1: float) -> None:
-    """Take pins ``names`` out of the keys from ``t0`` to ``t1``: a pose key there becomes
-    the other pins' targets at its time, a key left with no pins goes. (The recording
-    path of documents without ``record_motion``.)"""
-    for k in doc.keys():
-        t = float(k["time"])
-        if t < t0 - 1e-6 or t > t1 + 1e-6:
-            continue
-        pins = doc.pose_at(t) if "pose" in k else k["pins"]
-        if not set(names) & set(pins):
-            continue
-        rest = {n: v for n, v in pins.items() if n not in names}
-        if rest:
-            doc.set_key(t, pins=rest, ease=k.get("ease", "linear"), curve=k.get("curve"))
-        else:
-            doc.remove_key(t)
+def _record(doc, t0: float, keys: dict) -> None:
+    """Store recorded ``keys`` ({time: {name: [x, y]}}) from ``t0`` on, one undo step
+    (pose keys in the span keep their pose: ``Document.record_motion``)."""
+    doc.record_motion(keys, start=min(t0, min(keys)), end=max(keys))
 
 
 class DragSession:
@@ -218,7 +192,7 @@ class DragSession:
         doc = self.doc
         if self.record:
             if keys:
-                _record(doc, self.names, self.time, {float(t): _file_form(p) for t, p in keys.items()})
+                _record(doc, self.time, {float(t): _file_form(p) for t, p in keys.items()})
             return
         if self._last is None:
             return

@@ -18,8 +18,6 @@ from puppet.scene.model import DEPTH_MODES, EASES, INBETWEENS
 
 #: Two key times closer than this (seconds) are the same time.
 SAME_TIME = 1e-9
-#: A pin keyed this close (seconds) to a key's time goes into that key (the app's time grid).
-KEY_TIME = 1e-6
 
 
 def _pins_json(pins: dict) -> dict:
@@ -182,22 +180,6 @@ class KeyEdits:
         def m(doc):
             _ease_fields(self._key_at(doc, time), ease, curve)
         return self._edit(Event("animation", "", "none", f"ease of key at {float(time):g} s"), m)
-
-    def key_pins(self, time: float, pins: dict) -> bool:
-        """Key ``pins`` ({pin: [x, y]}) at ``time``, keeping what a key already there holds
-        (the other pins of a pins key; a pose key becomes the pose's targets there plus
-        these pins, keeping its ease). A target keeps its angle and depth at that time:
-        only its position changes."""
-        old = next((k for k in self.keys() if abs(k["time"] - float(time)) < KEY_TIME), None)
-        at = self.pose_at(time) if self.keys() else {}
-        base = dict(old["pins"]) if old is not None and "pins" in old else (dict(at) if old is not None else {})
-        for n, xy in pins.items():
-            cur = base.get(n, at.get(n))
-            to = [float(xy[0]), float(xy[1])]
-            base[n] = dict(cur, to=to) if isinstance(cur, dict) else to
-        if old is None:
-            return self.set_key(time, pins=base)
-        return self.set_key(old["time"], pins=base, ease=old.get("ease", "linear"), curve=old.get("curve"))
 
     def _set_anim(self, field: str, value, label: str) -> bool:
         """Set an animation-wide field; the value it has now (its default included) is no change."""
