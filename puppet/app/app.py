@@ -148,10 +148,15 @@ class App:
     def marker(self, name: str) -> pick.Marker | None:
         return next((m for m in self.markers() if m.name == name), None)
 
+    def posable(self, name: str) -> bool:
+        """Pin ``name`` can have a target in a pose (starch pins hold no position)."""
+        m = self.marker(name)
+        return m is not None and m.kind != "starch"
+
     def marker_at(self, cursor, radius: float = 9.0) -> pick.Marker | None:
         if not self.show_pins:
             return None
-        ms = self.markers()
+        ms = [m for m in self.markers() if self.mode == "pin" or m.kind != "starch"]  # starch holds no target
         if not ms:
             return None
         pts = self.view.to_screen(np.array([self.marker_xy(m) for m in ms]))
@@ -326,15 +331,16 @@ class App:
         if self.mode == "pin":
             self.move_pins({n: xy for n, xy in pos.items() if self.marker(n).kind != "auto"})
         else:
-            self.set_targets(pos, "nudge pins")
+            self.set_targets({n: xy for n, xy in pos.items() if self.posable(n)}, "nudge pins")
 
     def change_depth(self, delta: float) -> None:
         """``]`` / ``[``: pins' depth (Pin mode) or their depth in the pose (Pose mode)."""
-        names = [n for n in self.selection if (m := self.marker(n)) is not None and m.kind != "auto"]
+        pin_mode = self.mode == "pin"
+        names = [n for n in self.selection if (m := self.marker(n)) is not None and m.kind != "auto"
+                 and (pin_mode or m.kind != "starch")]
         if not names:
             self.say("select pins first (click a pin; Shift-click adds)", "error")
             return
-        pin_mode = self.mode == "pin"
 
         def fn(s):  # from the scene as it is when the job runs (keys may come faster than frames)
             rest = {p.name: p.depth for p in s.data.pins}

@@ -10,8 +10,9 @@ from imgui_bundle import imgui
 
 from puppet.app import pick
 
-#: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points
-COLOURS = {"interior": (1.0, 0.85, 0.1, 1.0), "exterior": (0.2, 0.75, 1.0, 1.0), "auto": (0.55, 0.85, 1.0, 0.9)}
+#: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points, starch pins
+COLOURS = {"interior": (1.0, 0.85, 0.1, 1.0), "exterior": (0.2, 0.75, 1.0, 1.0), "auto": (0.55, 0.85, 1.0, 0.9),
+           "starch": (0.92, 0.92, 0.92, 1.0)}
 SELECTED = (1.0, 0.25, 0.2, 1.0)
 LINK = (0.1, 0.9, 0.35, 1.0)
 
@@ -32,6 +33,9 @@ def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
         if m.kind == "auto":
             dl.add_circle(imgui.ImVec2(x, y), r + 1, dark, 0, 3.0)
             dl.add_circle(imgui.ImVec2(x, y), r, c, 0, 2.0)
+        elif m.kind == "starch":  # a square: it stiffens, it holds no position
+            dl.add_rect_filled(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), c)
+            dl.add_rect(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), dark, 0.0, 1.5)
         elif m.kind == "exterior":  # a diamond
             pts = [imgui.ImVec2(x, y - r - 1), imgui.ImVec2(x + r + 1, y), imgui.ImVec2(x, y + r + 1),
                    imgui.ImVec2(x - r - 1, y)]
@@ -40,7 +44,7 @@ def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
         else:
             dl.add_circle_filled(imgui.ImVec2(x, y), r, c)
             dl.add_circle(imgui.ImVec2(x, y), r, dark, 0, 1.5)
-        if app.mode == "pose" and m.kind != "auto":
+        if app.mode == "pose" and m.kind in ("interior", "exterior"):
             a = app.target_angle(m.name)
             if a:
                 t = math.radians(a)

@@ -8,6 +8,7 @@ from imgui_bundle import imgui
 
 from puppet.app.widgets import THUMB, button, live, note, toggle
 from puppet.scene.model import INPAINT_METHODS
+from puppet.scene.stiffness import STARCH_RADIUS
 
 _H = imgui.TreeNodeFlags_.default_open
 
@@ -217,6 +218,10 @@ class Panels:
                 app.selection = [new]
                 self.pin_name = ""
             imgui.same_line()
+            if pin.kind == "starch":  # stiffens around it, holds no position: no kind change, no target
+                imgui.text(f"starch, radius {pin.radius or STARCH_RADIUS:g}")
+                imgui.set_item_tooltip("a starch pin stiffens the shape around it; a pose cannot move it")
+                return
             kinds = ["interior", "exterior"]
             imgui.set_next_item_width(90)
             changed, i = imgui.combo("kind", kinds.index(pin.kind), kinds)
