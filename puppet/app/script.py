@@ -5,7 +5,8 @@ an edit touched, so later steps keep working).
 
 - Image: the first layer's mask: alpha, a brightness threshold (slider), GrabCut from a
   dragged rectangle, brush add / subtract.
-- Layers: + / - layers, clone from the picture by brush, lasso or rectangle, erase,
+- Layers: + / - layers; the lasso, rectangle and clone brush make a Layer via Cut or Copy of
+  the selected layer, or clone from the picture into it; erase,
   repaint with a colour, inpainting method with a before / after preview.
 - Link: two layers, their mask intersection tinted, a pencil for link segments.
 - Pins: the Pin tool, plus automatic exterior points (beta slider, live).
@@ -22,7 +23,7 @@ from puppet.app.widgets import RECTS, button, live, note
 STEPS = ("image", "layers", "link", "pins", "deform", "pose")
 LABELS = {"image": "Image", "layers": "Layers", "link": "Link", "pins": "Pins", "deform": "Deform", "pose": "Pose"}
 TIPS = {"image": "the first layer's mask: threshold, alpha, GrabCut, brush",
-        "layers": "make layers: clone parts of the picture into them, erase, paint, inpaint",
+        "layers": "make layers: cut (or copy) parts into new layers, clone, erase, paint, inpaint",
         "link": "draw link segments where two layers overlap (they then move together there)",
         "pins": "pins and exterior control points on the rest pose",
         "deform": "build the meshes and start posing",
@@ -271,7 +272,7 @@ def _layers(app, thumbs) -> None:
         sc.layer_name = ""
     if sc.tool in ("lasso", "clone-rect", "clone-brush") and target != sc.pending:
         for j, (op, label, tip) in enumerate(SELECT_OPS):
-            if j:
+            if j == 1:
                 imgui.same_line()
             if imgui.radio_button(f"{label}##select", sc.select_op == op):
                 sc.select_op = op
