@@ -70,6 +70,9 @@ def record_tool(app, press):
             timeline._rec_last = now
             timeline.time = t
             app.move_drag(pos, time=t)
+    except GeneratorExit:  # cancelled (Esc): nothing recorded, the playhead back
+        timeline.scrub(t0)
+        raise
     finally:
         timeline.recording = None
         timeline.last_recording = rec

@@ -243,6 +243,15 @@ class App:
         self.hold_markers(self.overrides, self.session.end_drag(positions, keys=keys, message=message))
 
     # -- pins ----------------------------------------------------------------------
+    def cancel_gesture(self) -> None:
+        """A canvas gesture was cancelled: an open drag ends changing nothing, an open turn
+        is taken back (no undo step either way), drafts and held markers go."""
+        self.overrides = {}
+        self.script.draft = None
+        self.session.cancel_block("rotate")
+        self.session.end_drag(None)
+        self.say("drag cancelled")
+
     def new_pin_name(self, kind: str | None = None) -> str:
         prefix = "epin" if (kind or self.pin_kind) == "exterior" else "pin"
         names = {m.name for m in self.markers()}

@@ -307,6 +307,18 @@ class AppWindow:
         imgui.pop_style_var()
         return tuple(app.view.to_canvas(pos)) if hovered and app.snap.loaded else None
 
+    def gesture_held(self) -> bool:
+        """A canvas gesture is running or a mouse button is down (keys that change the mode
+        or the pose wait)."""
+        return self._gesture is not None or any(imgui.is_mouse_down(b) for b in range(3))
+
+    def cancel_gesture(self) -> None:
+        """Esc / Ctrl+Z during a drag: the gesture ends and nothing it did stays."""
+        g, self._gesture = self._gesture, None
+        if g is not None:
+            g.close()  # the tool's finally blocks run
+            self.app.cancel_gesture()
+
     def _event(self, kind, pos, button=0) -> CanvasEvent:
         io = imgui.get_io()
         xy = self.app.view.to_canvas(pos)
