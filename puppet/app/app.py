@@ -381,8 +381,8 @@ class App:
 
         self.script = Script()
         self.timeline.reset()
+        self.mode = "pin" if picture else "pose"  # as the command line opens it, whatever was open before
         if picture:
-            self.mode = "pin"
             script.set_step(self, "image")
         self.session.open(path, picture=picture, recover_from=recover_from, rest=self.mode == "pin")
 

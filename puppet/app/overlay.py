@@ -22,10 +22,12 @@ def col(rgba) -> int:
 
 
 def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
-    """Pins as filled dots with a dark outline; selected pins ringed in red; the hovered
+    """Pins as filled dots with a dark outline and a light ring round it (they show on any
+    colour); selected pins ringed in red; the hovered
     pin's name next to it; the turning pin's angle as a tick."""
     view = app.view
     dark = col((0.0, 0.0, 0.0, 0.85))
+    light = col((1.0, 1.0, 1.0, 0.85))
     for m in app.markers():
         x, y = view.to_screen(app.marker_xy(m))
         c = col(COLOURS[m.kind])
@@ -44,13 +46,15 @@ def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
         else:
             dl.add_circle_filled(imgui.ImVec2(x, y), r, c)
             dl.add_circle(imgui.ImVec2(x, y), r, dark, 0, 1.5)
+        if m.kind != "auto":  # a light ring round the dark outline: the pin shows on any colour
+            dl.add_circle(imgui.ImVec2(x, y), r + (3.0 if m.kind != "interior" else 2.0), light, 0, 1.5)
         if app.mode == "pose" and m.kind in ("interior", "exterior"):
             a = app.target_angle(m.name)
             if a:
                 t = math.radians(a)
                 dl.add_line(imgui.ImVec2(x, y), imgui.ImVec2(x + 14 * math.cos(t), y - 14 * math.sin(t)), c, 2.0)
         if m.name in app.selection:
-            dl.add_circle(imgui.ImVec2(x, y), r + 4, col(SELECTED), 0, 2.0)
+            dl.add_circle(imgui.ImVec2(x, y), r + 5.5, col(SELECTED), 0, 2.0)
     if hovered is not None:
         x, y = view.to_screen(app.marker_xy(hovered))
         label = f"{hovered.name} ({hovered.kind})" if hovered.kind != "interior" else hovered.name

@@ -31,6 +31,8 @@ from puppet.app.tools import choose_tool
 from puppet.app.widgets import Thumbs
 
 PANEL_WIDTH = 330
+#: the smallest window (every toolbar control and panel stays reachable down to it)
+MIN_SIZE = (960, 640)
 #: seconds a thread runs Python before it hands over the GIL: shorter than CPython's 5 ms
 #: default, so that the window is not kept waiting while the scene thread runs Python
 #: between its solves (which release the GIL)
@@ -78,8 +80,11 @@ class AppWindow:
                  autosave_interval: float = autosave.INTERVAL):
         config = pyglet.gl.Config(double_buffer=True, red_size=8, green_size=8, blue_size=8, alpha_size=8,
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
+        size = (max(int(size[0]), MIN_SIZE[0]), max(int(size[1]), MIN_SIZE[1]))
         self.win = pyglet.window.Window(int(size[0]), int(size[1]), caption="puppet", resizable=True,
                                         config=config, visible=visible)
+        self.win.set_minimum_size(*MIN_SIZE)
+        self._toolbar_width = 0.0
         sys.setswitchinterval(SWITCH_INTERVAL)
         self.win.switch_to()
         moderngl.init_context()
@@ -190,12 +195,15 @@ class AppWindow:
         self._last = t0
         imgui.new_frame()
         top = menus.menu_bar(app, self)
-        tool_h = imgui.get_frame_height() + 2 * imgui.get_style().window_padding.y
+        rows = 2 if self._toolbar_width > w else 1  # the toolbar wraps in a narrow window
+        tool_h = rows * imgui.get_frame_height() + (rows - 1) * imgui.get_style().item_spacing.y \
+            + 2 * imgui.get_style().window_padding.y
         status_h = imgui.get_frame_height() + 2 * imgui.get_style().window_padding.y
         imgui.set_next_window_pos(imgui.ImVec2(0, top))
         imgui.set_next_window_size(imgui.ImVec2(w, tool_h))
         imgui.begin("##toolbar", None, FIXED)
-        menus.toolbar(app)
+        self._toolbar_width = menus.toolbar(app, wrap=rows == 2)
+        settled = (rows == 2) == (self._toolbar_width > w)  # else the toolbar's rows change next frame
         imgui.end()
         tl_h = TIMELINE_HEIGHT if app.snap.loaded else 0
         body = h - top - tool_h - status_h
@@ -233,7 +241,7 @@ class AppWindow:
         if self._rects_file:
             self._dump_rects()
         self._autosave()
-        if not self._ready_sent and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
+        if not self._ready_sent and settled and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
             self._ready_sent = True
             if self.ready is not None:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
