@@ -28,6 +28,7 @@ class ExportForm:
         self.start = 0.0
         self.end = 1.0
         self.background = 0
+        self.reported = None  # the run whose end the status line told
 
     def open(self, app) -> None:
         """Fill the fields from the scene (called when the dialog opens)."""
@@ -106,6 +107,9 @@ def draw(app) -> None:
             else:
                 imgui.text(run.message)
             imgui.pop_text_wrap_pos()
+    if not busy and run.message and f.reported is not run:  # the status line says how it ended
+        f.reported = run
+        app.say(run.message, "error" if run.state == "failed" else "info")
     if not busy:
         if button("Export", "write the animation (the scene as it is now, unsaved edits too)",
                   enabled=bool(f.path.strip())):

@@ -54,10 +54,18 @@ def toolbar(app, wrap: bool = False) -> float:
         app.show_help = not app.show_help
     if app.snap.loaded:
         imgui.same_line()
-        imgui.text_disabled(f"  pose: {app.snap.shown}")
+        imgui.text_disabled("  " + shown_label(app))
     style = imgui.get_style()
     end = imgui.get_item_rect_max().x + style.window_padding.x
     return end if broke is None else broke + style.item_spacing.x + end - imgui.get_window_pos().x
+
+
+def shown_label(app) -> str:
+    """What the canvas shows, for the toolbar: the pose, the animation time, or while
+    recording the playhead's time (it runs ahead of the shown snapshots)."""
+    if app.timeline.recording is not None:
+        return f"recording: {app.timeline.time:.2f} s"
+    return f"pose: {app.snap.shown}"
 
 
 def _mode_buttons(app, wrap: bool) -> float | None:

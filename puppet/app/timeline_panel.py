@@ -185,7 +185,9 @@ class TimelinePanel:
         imgui.text("|")
         imgui.same_line()
         what = f"key {keys[0]['time']:g} s" if len(keys) == 1 else f"{len(keys)} keys"
-        imgui.text(what + (f" ({keys[0]['pose']})" if len(keys) == 1 and "pose" in keys[0] else ""))
+        extra = len(tl.key_pins(keys[0])) if len(keys) == 1 and "pose" in keys[0] else 0
+        imgui.text(what + (f" ({keys[0]['pose']}" + (f" + {extra} pins" if extra else "") + ")"
+                           if len(keys) == 1 and "pose" in keys[0] else ""))
         imgui.same_line()
         ease = keys[0].get("ease", "linear")
         imgui.set_next_item_width(90)
@@ -216,7 +218,7 @@ class TimelinePanel:
     # -- the tracks -----------------------------------------------------------------------
     def rows(self) -> list[tuple[str, str | None]]:
         """(label, pin) for each row: pose keys (pin None), then each keyed pin."""
-        keyed = {n for k in self.tl.keys() for n in k.get("pins", {})}
+        keyed = {n for k in self.tl.keys() for n in tl.key_pins(k)}  # pins keys and pose keys' overrides
         order = [p.name for p in self.app.snap.data.pins] if self.app.snap.loaded else []
         pins = [n for n in order if n in keyed] + sorted(keyed - set(order))
         return [("poses", None)] + [(n, n) for n in pins]
@@ -261,7 +263,7 @@ class TimelinePanel:
                 dl.add_rect_filled(imgui.ImVec2(p0.x, y), imgui.ImVec2(x1, y + ROW), col((1, 1, 1, 0.04)))
             dl.add_text(imgui.ImVec2(p0.x + 4, y + 1), col((0.85, 0.85, 0.85, 1)), label[:16])
             for key in t.keys():
-                if (pin is None) != ("pose" in key) or (pin is not None and pin not in key.get("pins", {})):
+                if not tl.in_row(key, pin):
                     continue
                 kt = float(key["time"])
                 sel = any(tl.same(kt, s) for s in t.selected)
@@ -298,7 +300,7 @@ class TimelinePanel:
         pin = rows[r][1]
         best = None
         for key in self.tl.keys():
-            if (pin is None) != ("pose" in key) or (pin is not None and pin not in key.get("pins", {})):
+            if not tl.in_row(key, pin):
                 continue
             d = abs(tx(float(key["time"])) - mx)
             if d <= MARK + 2 and (best is None or d < best[0]):
