@@ -57,7 +57,9 @@ def toolbar(app, wrap: bool = False) -> float:
         imgui.text_disabled("  " + shown_label(app))
     style = imgui.get_style()
     end = imgui.get_item_rect_max().x + style.window_padding.x
-    return end if broke is None else broke + style.item_spacing.x + end - imgui.get_window_pos().x
+    if broke is None:
+        return end
+    return broke + 2 * style.item_spacing.x + imgui.calc_text_size("|").x + end - imgui.get_window_pos().x
 
 
 def shown_label(app) -> str:
@@ -80,10 +82,11 @@ def _mode_buttons(app, wrap: bool) -> float | None:
             app.set_mode(mode)
         if active:
             imgui.pop_style_color()
-        imgui.same_line()
-    imgui.text("|")
+        if not wrap or mode == "pin":
+            imgui.same_line()
     if wrap:
         return imgui.get_item_rect_max().x
+    imgui.text("|")
     imgui.same_line()
     return None
 

@@ -77,7 +77,7 @@ class AppWindow:
     """
 
     def __init__(self, path: str | None = None, *, size=(1280, 800), visible: bool = True, ready=None,
-                 autosave_interval: float = autosave.INTERVAL):
+                 autosave_interval: float = autosave.INTERVAL, quit_on_open_error: bool = False):
         config = pyglet.gl.Config(double_buffer=True, red_size=8, green_size=8, blue_size=8, alpha_size=8,
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
         size = (max(int(size[0]), MIN_SIZE[0]), max(int(size[1]), MIN_SIZE[1]))
@@ -122,6 +122,8 @@ class AppWindow:
         self._settle = 3
         self._last_frame = 0.0
         self._expect_scene = path is not None
+        self._quit_on_open_error = quit_on_open_error
+        self.open_error: str | None = None  # why the file given at start could not be opened
         self._rects_file = os.environ.get("PUPPET_APP_RECTS") or None
         if path is not None:
             self.open_scene(path)
@@ -241,12 +243,23 @@ class AppWindow:
         if self._rects_file:
             self._dump_rects()
         self._autosave()
+        if self._quit_on_open_error and not self._ready_sent:
+            self._check_open_error()
         if not self._ready_sent and settled and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
             self._ready_sent = True
             if self.ready is not None:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
                 self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
                             "file": app.snap.file})
+
+    def _check_open_error(self) -> None:
+        """The file named at start failed to open: quit with its one-line error (the CLI
+        prints it and exits 2, as every other command does)."""
+        app = self.app
+        if self._expect_scene and not app.snap.loaded and app.dialog is None and app.session.idle() \
+                and app.status is not None and app.status.level == "error":
+            self.open_error = app.status.text
+            app.quit_now = True
 
     def _dump_rects(self) -> None:
         """Where the widgets, the canvas, the pins and the timeline are (``PUPPET_APP_RECTS=FILE``:

@@ -57,6 +57,13 @@ def bar_app(make_scene):
     d.close()
 
 
+def in_bend(d):
+    """The bar app showing pose 'bend'; returns (driver, app)."""
+    d.app.edit(lambda s: s.set_active_pose("bend"))
+    d.settle()
+    return d, d.app
+
+
 def test_click_selects_only_that_pin_shift_click_adds_and_removes(bar_app):
     d = bar_app
     app = d.app
@@ -80,10 +87,7 @@ def test_click_selects_only_that_pin_shift_click_adds_and_removes(bar_app):
 
 
 def test_drag_of_a_selected_pin_moves_the_selection(bar_app):
-    d = bar_app
-    app = d.app
-    app.edit(lambda s: s.set_active_pose("bend"))
-    d.settle()
+    d, app = in_bend(bar_app)
     d.click(*d.pin_screen("left"))
     d.click(*d.pin_screen("right"), mods=key.MOD_SHIFT)
     x, y = d.pin_screen("right")
@@ -96,10 +100,7 @@ def test_drag_of_a_selected_pin_moves_the_selection(bar_app):
 
 
 def test_alt_drag_selects_the_pin_it_turns(bar_app):
-    d = bar_app
-    app = d.app
-    app.edit(lambda s: s.set_active_pose("bend"))
-    d.settle()
+    d, app = in_bend(bar_app)
     d.click(*d.pin_screen("left"))
     c = d.pin_screen("right")
     path = [(c[0] + 40 * math.cos(t), c[1] - 40 * math.sin(t)) for t in np.linspace(0, math.pi / 2, 7)]
@@ -111,10 +112,7 @@ def test_alt_drag_selects_the_pin_it_turns(bar_app):
 
 @pytest.mark.parametrize("cancel", ["esc", "ctrl+z"])
 def test_esc_or_ctrl_z_during_a_drag_cancels_it(bar_app, cancel):
-    d = bar_app
-    app = d.app
-    app.edit(lambda s: s.set_active_pose("bend"))
-    d.settle()
+    d, app = in_bend(bar_app)
     scene = d.scene()
     before, steps = scene.to_dict(), len(scene.history.undo_stack)
     x, y = d.pin_screen("right")
