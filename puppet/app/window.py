@@ -25,7 +25,7 @@ from puppet.app.imgui_gl import ImGuiRenderer
 from puppet.app.keys import ImGuiInput
 from puppet.app.onion import GhostRenderer
 from puppet.app.panels import Panels
-from puppet.app.timeline_panel import HEIGHT as TIMELINE_HEIGHT, TimelinePanel
+from puppet.app.timeline_panel import MIN_HEIGHT as TIMELINE_MIN, TimelinePanel
 from puppet.app.gestures import CanvasEvent
 from puppet.app.tools import choose_tool
 from puppet.app.widgets import Thumbs
@@ -207,8 +207,10 @@ class AppWindow:
         self._toolbar_width = menus.toolbar(app, wrap=rows == 2)
         settled = (rows == 2) == (self._toolbar_width > w)  # else the toolbar's rows change next frame
         imgui.end()
-        tl_h = TIMELINE_HEIGHT if app.snap.loaded else 0
         body = h - top - tool_h - status_h
+        panel = self.timeline_panel  # its height is dragged by its top edge; the canvas keeps >= 120 px
+        panel.height = min(max(panel.height, TIMELINE_MIN), max(body - 120.0, TIMELINE_MIN))
+        tl_h = panel.height if app.snap.loaded else 0
         imgui.set_next_window_pos(imgui.ImVec2(w - PANEL_WIDTH, top + tool_h))
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, body))
         imgui.begin("##panels", None, FIXED)

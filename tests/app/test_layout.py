@@ -108,3 +108,25 @@ def test_pins_are_ringed_dark_and_light(small):
     px = d.pixels().astype(int)
     ring = [px[y, x + k] for k in range(4, 11)]  # out from the dot: yellow, dark outline, light ring
     assert min(p.sum() for p in ring) < 200 and max(p.sum() for p in ring[2:]) > 600
+
+
+def test_timeline_top_edge_drags_its_height(small):
+    from puppet.app.timeline_panel import MIN_HEIGHT
+
+    d = small
+    app, panel = d.app, d.w.timeline_panel
+    h0, area0 = panel.height, app.area
+    x, y = widget("timeline:grip")
+    d.drag_path([(x, y), (x, y - 40), (x, y - 100)])
+    d.frame(2)
+    assert panel.height == pytest.approx(h0 + 100)
+    assert app.area[3] == pytest.approx(area0[3] - 100)  # the canvas gave the room
+    x, y = widget("timeline:grip")
+    d.drag_path([(x, y), (x, y - 300), (x, 5)])  # up to the top: the canvas keeps 120 px
+    d.frame(2)
+    assert app.area[3] == pytest.approx(120, abs=1)
+    x, y = widget("timeline:grip")
+    d.drag_path([(x, y), (x, y + 300), (x, MIN_SIZE[1] - 2)])  # down: no smaller than its controls
+    d.frame(2)
+    assert panel.height == MIN_HEIGHT
+    assert widget("timeline")[1] < MIN_SIZE[1]  # the tracks still show
