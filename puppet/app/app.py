@@ -201,6 +201,16 @@ class App:
     def redo(self) -> None:
         self.edit(lambda s: f"redo: {s.history.undo_stack[-1].label}" if s.redo() else "nothing to redo")
 
+    def jump_history(self, steps: int) -> None:
+        """Undo (``steps`` < 0) or redo (> 0) that many steps at once (the History panel)."""
+        def fn(s):
+            go = s.undo if steps < 0 else s.redo
+            n = sum(1 for _ in range(abs(steps)) if go())
+            last = (s.history.undo_stack[-1].label if s.history.undo_stack else "the file as opened")
+            return f"{'undid' if steps < 0 else 'redid'} {n} step{'s' if n != 1 else ''}: at {last}"
+        if steps:
+            self.edit(fn)
+
     def set_mode(self, mode: str) -> None:
         if mode not in MODES or mode == self.mode:
             return

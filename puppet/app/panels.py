@@ -1,5 +1,5 @@
 """The side panels: Layers (stacking order, thumbnails, visibility, drag to reorder, mesh
-options and inpainting of the selected layer), Poses, Pins, Reference picture."""
+options and inpainting of the selected layer), Poses, Pins, Reference picture, History."""
 from __future__ import annotations
 
 import os
@@ -45,6 +45,12 @@ class Panels:
         self._had_underlay = has
         if imgui.collapsing_header("Reference picture"):
             self.reference()
+        opened = imgui.collapsing_header("History")
+        note("header:History")
+        if opened:
+            from puppet.app import history_panel
+
+            history_panel.draw(app)
 
     # -- layers ---------------------------------------------------------------------
     def layers(self) -> None:
