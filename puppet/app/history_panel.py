@@ -26,8 +26,9 @@ def rows(snap) -> list[tuple[str, int, bool]]:
 def draw(app) -> None:
     """The panel's body (inside its collapsing header)."""
     items = rows(app.snap)
-    grey = imgui.get_style().color_(imgui.Col_.text_disabled)
-    height = min(len(items), ROWS) * imgui.get_text_line_height_with_spacing() + 2 * imgui.get_style().window_padding.y
+    style = imgui.get_style()
+    grey = style.color_(imgui.Col_.text_disabled)
+    height = min(len(items), ROWS) * imgui.get_text_line_height_with_spacing() + 2 * style.window_padding.y
     imgui.begin_child("##history", imgui.ImVec2(0, height), imgui.ChildFlags_.borders)
     for k, (label, steps, undone) in enumerate(items):
         if undone:

@@ -240,7 +240,7 @@ def _layers(app, thumbs) -> None:
     if sc.select_after is not None and app.layer_index(sc.select_after) is not None:
         app.selected_layer, sc.select_after = sc.select_after, None  # made by a cut / copy
     if button("+", "a new empty layer in front: clone pixels into it"):
-        sc.pending = None
+        sc.pending = None  # a second + replaces the empty layer: its name is free again
         sc.pending = sc.free_name(app)
         app.selected_layer = sc.pending
         sc.tool = "lasso"
