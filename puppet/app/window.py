@@ -82,7 +82,7 @@ class AppWindow:
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
         size = (max(int(size[0]), MIN_SIZE[0]), max(int(size[1]), MIN_SIZE[1]))
         self.win = pyglet.window.Window(int(size[0]), int(size[1]), caption="puppet", resizable=True,
-                                        config=config, visible=visible)
+                                        config=config, visible=visible, file_drops=True)
         self.win.set_minimum_size(*MIN_SIZE)
         self._toolbar_width = 0.0
         sys.setswitchinterval(SWITCH_INTERVAL)
@@ -100,7 +100,7 @@ class AppWindow:
         self.gui = ImGuiRenderer(self.ctx)
         self.input = _Input(self.win)
         self.win.push_handlers(self.input)
-        self.win.push_handlers(on_close=self._on_close)
+        self.win.push_handlers(on_close=self._on_close, on_file_drop=self._on_file_drop)
         self.app = App()
         self.canvas = CanvasRenderer(self.ctx)
         self.thumbs = Thumbs(self.ctx, self.gui)
@@ -168,6 +168,21 @@ class AppWindow:
                 return  # the save failed: stay (its error is on the status line)
             self._then = after
         self.app.after_jobs(go)
+
+    def _on_file_drop(self, x, y, paths) -> None:
+        """A scene or a picture dropped on the window opens as File > Open opens it
+        (asking first about unsaved changes)."""
+        from puppet.app.opening import is_picture
+
+        path = next(iter(paths or ()), None)
+        if path is None:
+            return
+        path = os.fspath(path)
+        if not (path.lower().endswith(".json") or is_picture(path)):
+            self.app.say(f"{os.path.basename(path)}: drop a scene (.json) or a picture (PNG, JPEG, ...) here",
+                         "error")
+            return
+        self.open_scene(path)
 
     def _on_close(self):
         self.app.request_quit()

@@ -130,3 +130,22 @@ def test_timeline_top_edge_drags_its_height(small):
     d.frame(2)
     assert panel.height == MIN_HEIGHT
     assert widget("timeline")[1] < MIN_SIZE[1]  # the tracks still show
+
+
+def test_a_file_dropped_on_the_window_opens(small, tmp_path):
+    from tests.conftest import write_rgba
+
+    d = small
+    app = d.app
+    picture = write_rgba(tmp_path / "drop.png", bar_image())
+    d.w.win.dispatch_event("on_file_drop", 100, 100, [str(tmp_path / "notes.txt")])
+    d.frame()
+    assert app.status.level == "error" and "notes.txt" in app.status.text
+    d.w.win.dispatch_event("on_file_drop", 100, 100, [picture])
+    d.settle()
+    assert app.snap.file == str(tmp_path / "drop.json") and app.mode == "pin" and app.script.step == "image"
+    app.edit(lambda s: s.add_pose("p"))  # unsaved: a drop asks first
+    d.settle()
+    d.w.win.dispatch_event("on_file_drop", 100, 100, [str(tmp_path / "scene.json")])
+    d.frame()
+    assert app.dialog == "unsaved"
