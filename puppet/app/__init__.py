@@ -25,7 +25,10 @@ def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headles
         _connect_display()
     from puppet.app.window import AppWindow, print_ready
 
-    win = AppWindow(path, size=size, ready=print_ready, quit_on_open_error=path is not None)
+    from puppet.app import recent
+
+    win = AppWindow(path, size=size, ready=print_ready, quit_on_open_error=path is not None,
+                    recent_file=recent.default_path())
     win.run()
     if win.open_error is not None:
         from puppet.errors import SceneError

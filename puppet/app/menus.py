@@ -18,6 +18,10 @@ def menu_bar(app, win) -> float:
         for title in ("File", "Edit", "View"):
             if imgui.begin_menu(title):
                 actions.menu(app, win, title)
+                if title == "File":
+                    from puppet.app import recent
+
+                    recent.menu(win)
                 imgui.end_menu()
         h = imgui.get_window_height()
         imgui.end_main_menu_bar()

@@ -18,7 +18,7 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import actions, autosave, menus, overlay, script
+from puppet.app import actions, autosave, menus, overlay, recent, script
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
@@ -77,7 +77,8 @@ class AppWindow:
     """
 
     def __init__(self, path: str | None = None, *, size=(1280, 800), visible: bool = True, ready=None,
-                 autosave_interval: float = autosave.INTERVAL, quit_on_open_error: bool = False):
+                 autosave_interval: float = autosave.INTERVAL, quit_on_open_error: bool = False,
+                 recent_file: str | None = None):
         config = pyglet.gl.Config(double_buffer=True, red_size=8, green_size=8, blue_size=8, alpha_size=8,
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
         size = (max(int(size[0]), MIN_SIZE[0]), max(int(size[1]), MIN_SIZE[1]))
@@ -123,6 +124,8 @@ class AppWindow:
         self._last_frame = 0.0
         self._expect_scene = path is not None
         self._quit_on_open_error = quit_on_open_error
+        self.recent_file = recent_file  # where recent files are kept (None: nowhere)
+        self._recent_last = None
         self.open_error: str | None = None  # why the file given at start could not be opened
         self._rects_file = os.environ.get("PUPPET_APP_RECTS") or None
         if path is not None:
@@ -233,6 +236,7 @@ class AppWindow:
         imgui.end()
         app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
         cursor = self._canvas_window()
+        self._recent(app)
         if tl_h:
             self.timeline_panel.window((0, h - status_h - tl_h, w - PANEL_WIDTH, tl_h), FIXED)
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
@@ -268,6 +272,19 @@ class AppWindow:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
                 self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
                             "file": app.snap.file})
+
+    def _recent(self, app) -> None:
+        """Keep the open scene's file among the recent files once it exists (a scene made
+        from a picture: after its first save); the start page when no scene is open."""
+        if not app.snap.loaded:
+            if app.dialog is None:
+                recent.start_page(app, self)
+            return
+        seen = (app.snap.file, app.snap.file is not None and os.path.isfile(app.snap.file))
+        if seen != self._recent_last:
+            self._recent_last = seen
+            if seen[1]:
+                recent.add(self.recent_file, seen[0])
 
     def _check_open_error(self) -> None:
         """The file named at start failed to open: quit with its one-line error (the CLI

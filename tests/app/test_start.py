@@ -1,0 +1,60 @@
+"""The start page (no file given: Open..., recent files, the bundled examples) and the
+recent files kept by the window (issue 23)."""
+from __future__ import annotations
+
+import json
+import os
+
+import pytest
+
+from puppet.app import recent
+from tests.app.harness import Driver, widget
+from tests.conftest import SCENES, bar_image, bar_scene
+
+pytestmark = pytest.mark.gl
+
+
+def test_start_page_opens_an_example_and_remembers_it(tmp_path, make_scene):
+    store = str(tmp_path / "config" / "recent.json")
+    scene = make_scene(bar_scene(), {"bar.png": bar_image()})
+    recent.add(store, scene)
+    d = Driver(None, recent_file=store)
+    try:
+        assert not d.app.snap.loaded
+        assert "start:recent:scene.json" in _rects() and "start:examples:trex-layers.json" in _rects()
+        d.click(*widget("start:open"))
+        assert d.app.dialog == "open"
+        d.app.dialog = None
+        d.frame(2)
+        d.click(*widget("start:examples:strips.json"))
+        d.settle()
+        assert d.app.snap.file == os.path.join(SCENES, "strips.json") and d.app.mode == "pose"
+        d.frame(2)
+        assert recent.load(store) == [os.path.join(SCENES, "strips.json"), scene]
+    finally:
+        d.close()
+
+
+def test_recent_list_is_bounded_and_skips_missing_files(tmp_path):
+    store = str(tmp_path / "recent.json")
+    files = []
+    for k in range(recent.LIMIT + 3):
+        p = tmp_path / f"s{k}.json"
+        p.write_text("{}")
+        files.append(str(p))
+        recent.add(store, str(p))
+    assert recent.load(store) == files[::-1][:recent.LIMIT]
+    os.remove(files[-1])
+    assert recent.load(store)[0] == files[-2]
+    recent.add(store, files[-3])  # again: moved to the front, not repeated
+    got = recent.load(store)
+    assert got[0] == files[-3] and got.count(files[-3]) == 1
+    (tmp_path / "bad.json").write_text("not json")
+    assert recent.load(str(tmp_path / "bad.json")) == [] and recent.load(None) == []
+    assert json.load(open(store))[0] == files[-3]
+
+
+def _rects():
+    from puppet.app.widgets import RECTS
+
+    return RECTS
