@@ -14,7 +14,7 @@ import os
 
 from imgui_bundle import imgui
 
-from puppet.app.widgets import note
+from puppet.app.widgets import button, note
 
 #: how many recent files are kept
 LIMIT = 10
@@ -82,7 +82,7 @@ def start_page(app, win) -> None:
     imgui.set_next_window_size_constraints(imgui.ImVec2(320, 0), imgui.ImVec2(max(w - 40, 320), max(h - 40, 200)))
     imgui.begin("Start", None, imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings
                 | imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_move)
-    if imgui.button("Open a scene or a picture... (Ctrl+O)"):
+    if button("Open a scene or a picture...", "open a scene, or a picture as a new scene (Ctrl+O)"):
         win.open_dialog("open")
     note("start:open")
     imgui.text_disabled("or drop one on the window")

@@ -18,7 +18,7 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import actions, autosave, menus, overlay, recent, script
+from puppet.app import actions, autosave, menus, native_dialogs, overlay, recent, script
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
@@ -125,6 +125,7 @@ class AppWindow:
         self._expect_scene = path is not None
         self._quit_on_open_error = quit_on_open_error
         self.recent_file = recent_file  # where recent files are kept (None: nowhere)
+        self._native = None  # a native file dialog showing (native_dialogs.Pending)
         self._recent_last = None
         self.open_error: str | None = None  # why the file given at start could not be opened
         self._rects_file = os.environ.get("PUPPET_APP_RECTS") or None
@@ -158,10 +159,35 @@ class AppWindow:
             app.open(path)
 
     def open_dialog(self, kind: str) -> None:
+        """File > Open / Save As: the native dialog where one can show, else the path field."""
         app = self.app
-        app.dialog = kind
-        app.path_field = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
+        start = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
             os.path.dirname(app.snap.file) + os.sep if app.snap.file else os.getcwd() + os.sep)
+        if self._native is not None:
+            return  # one shows already
+        if native_dialogs.available(bool(pyglet.options["headless"])):
+            try:
+                self._native = native_dialogs.Pending(kind, start)
+                return
+            except Exception as e:  # no dialog after all: the path field
+                app.say(f"no file dialog ({e}): type the path", "error")
+        app.dialog = kind
+        app.path_field = start
+
+    def _poll_native(self) -> None:
+        """A native dialog's answer: open, or save as (nothing when cancelled)."""
+        if self._native is None:
+            return
+        done, path = self._native.poll()
+        if not done:
+            return
+        kind, self._native = self._native.kind, None
+        if path is None:
+            return
+        if kind == "open":
+            self.open_scene(path)
+        else:
+            self.app.save(path if path.lower().endswith(".json") else path + ".json")
 
     def proceed(self, after, require_saved: bool = False) -> None:
         """Go on after the unsaved-changes dialog: quit, or open ``("open", path)``; with
@@ -237,6 +263,7 @@ class AppWindow:
         app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
         cursor = self._canvas_window()
         self._recent(app)
+        self._poll_native()
         if tl_h:
             self.timeline_panel.window((0, h - status_h - tl_h, w - PANEL_WIDTH, tl_h), FIXED)
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))

@@ -58,3 +58,17 @@ def _rects():
     from puppet.app.widgets import RECTS
 
     return RECTS
+
+
+def test_native_dialogs_only_where_they_can_show(monkeypatch):
+    from puppet.app import native_dialogs
+
+    assert not native_dialogs.available(headless=True)  # headless windows use the path field
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.setattr(native_dialogs.shutil, "which", lambda p: "/usr/bin/" + p if p == "zenity" else None)
+    assert native_dialogs.available(headless=False)
+    monkeypatch.setenv("PUPPET_NATIVE_DIALOGS", "0")
+    assert not native_dialogs.available(headless=False)
+    monkeypatch.delenv("PUPPET_NATIVE_DIALOGS")
+    monkeypatch.setattr(native_dialogs.shutil, "which", lambda p: None)
+    assert not native_dialogs.available(headless=False)  # no dialog program: the path field
