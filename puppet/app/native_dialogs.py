@@ -26,19 +26,28 @@ def available(headless: bool) -> bool:
     return True
 
 
-class Pending:
-    """A native dialog the window polls: ``kind`` is ``open`` or ``save_as``."""
+#: what each kind of dialog asks: (title, save?, filters)
+KINDS = {"open": ("Open a scene or a picture", False, FILTERS),
+         "save_as": ("Save the scene as", True, ["Scenes", "*.json"]),
+         "export": ("Export the animation to", True, ["Videos and pictures", "*.mp4 *.webm *.gif *.apng *.png",
+                                                       "All files", "*"]),
+         "picture": ("Reference picture", False, ["Pictures", "*.png *.jpg *.jpeg *.bmp *.tif *.tiff *.webp",
+                                                  "All files", "*"])}
+_pending: Pending | None = None
 
-    def __init__(self, kind: str, start: str):
+
+class Pending:
+    """A native dialog showing; ``on_done(path)`` runs (on the window's thread, from
+    :func:`poll`) when the user chose a file."""
+
+    def __init__(self, kind: str, start: str, on_done):
         from imgui_bundle import portable_file_dialogs as pfd
 
-        self.kind = kind
-        if kind == "open":
-            self.dialog = pfd.open_file("Open a scene or a picture", start, FILTERS)
-        else:
-            self.dialog = pfd.save_file("Save the scene as", start, ["Scenes", "*.json"])
+        title, save, filters = KINDS[kind]
+        self.kind, self.on_done = kind, on_done
+        self.dialog = (pfd.save_file if save else pfd.open_file)(title, start, filters)
 
-    def poll(self) -> tuple[bool, str | None]:
+    def result(self) -> tuple[bool, str | None]:
         """(done, the chosen path or None when cancelled); (False, None) while it shows."""
         if not self.dialog.ready(0):
             return False, None
@@ -46,3 +55,36 @@ class Pending:
         if isinstance(result, (list, tuple)):
             result = result[0] if result else ""
         return True, (result or None)
+
+
+def ask(kind: str, start: str, on_done) -> bool:
+    """Show a native dialog of ``kind`` (see :data:`KINDS`) starting at ``start``; False
+    when none can show here (use the path field). One at a time."""
+    global _pending
+    import pyglet
+
+    if _pending is not None:
+        return True
+    if not available(bool(pyglet.options["headless"])):
+        return False
+    try:
+        _pending = Pending(kind, start, on_done)
+    except Exception:  # no dialog after all
+        return False
+    return True
+
+
+def showing() -> bool:
+    return _pending is not None
+
+
+def poll() -> None:
+    """Once a frame: hand a finished dialog's path to its ``on_done``."""
+    global _pending
+    if _pending is None:
+        return
+    done, path = _pending.result()
+    if done:
+        p, _pending = _pending, None
+        if path is not None:
+            p.on_done(path)

@@ -125,7 +125,6 @@ class AppWindow:
         self._expect_scene = path is not None
         self._quit_on_open_error = quit_on_open_error
         self.recent_file = recent_file  # where recent files are kept (None: nowhere)
-        self._native = None  # a native file dialog showing (native_dialogs.Pending)
         self._recent_last = None
         self.open_error: str | None = None  # why the file given at start could not be opened
         self._rects_file = os.environ.get("PUPPET_APP_RECTS") or None
@@ -163,27 +162,13 @@ class AppWindow:
         app = self.app
         start = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
             os.path.dirname(app.snap.file) + os.sep if app.snap.file else os.getcwd() + os.sep)
-        if self._native is not None:
-            return  # one shows already
-        if native_dialogs.available(bool(pyglet.options["headless"])):
-            try:
-                self._native = native_dialogs.Pending(kind, start)
-                return
-            except Exception as e:  # no dialog after all: the path field
-                app.say(f"no file dialog ({e}): type the path", "error")
+        if native_dialogs.ask(kind, start, lambda path: self._chosen(kind, path)):
+            return
         app.dialog = kind
         app.path_field = start
 
-    def _poll_native(self) -> None:
-        """A native dialog's answer: open, or save as (nothing when cancelled)."""
-        if self._native is None:
-            return
-        done, path = self._native.poll()
-        if not done:
-            return
-        kind, self._native = self._native.kind, None
-        if path is None:
-            return
+    def _chosen(self, kind: str, path: str) -> None:
+        """A native dialog's answer: open, or save as."""
         if kind == "open":
             self.open_scene(path)
         else:
@@ -263,7 +248,7 @@ class AppWindow:
         app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
         cursor = self._canvas_window()
         self._recent(app)
-        self._poll_native()
+        native_dialogs.poll()
         if tl_h:
             self.timeline_panel.window((0, h - status_h - tl_h, w - PANEL_WIDTH, tl_h), FIXED)
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))

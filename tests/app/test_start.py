@@ -72,3 +72,28 @@ def test_native_dialogs_only_where_they_can_show(monkeypatch):
     monkeypatch.delenv("PUPPET_NATIVE_DIALOGS")
     monkeypatch.setattr(native_dialogs.shutil, "which", lambda p: None)
     assert not native_dialogs.available(headless=False)  # no dialog program: the path field
+
+
+def test_a_chosen_reference_picture_is_set(make_scene, tmp_path, monkeypatch):
+    """The reference picture's *...* button: what the native dialog answers becomes the
+    reference (the dialog itself stood in for: a headless window has none)."""
+    from puppet.app import native_dialogs
+    from tests.conftest import write_rgba
+
+    picture = str(write_rgba(tmp_path / "ref.png", bar_image()))
+    asked = []
+
+    def ask(kind, start, on_done):
+        asked.append(kind)
+        on_done(picture)
+        return True
+    monkeypatch.setattr(native_dialogs, "ask", ask)
+    d = Driver(make_scene(bar_scene(), {"bar.png": bar_image()}), size=(960, 900))
+    try:
+        d.click(*widget("header:Reference picture"))
+        d.frame(2)
+        d.click(*widget("...##underlay"))
+        d.settle()
+        assert asked == ["picture"] and d.app.snap.underlay["image"] == picture
+    finally:
+        d.close()
