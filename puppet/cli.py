@@ -155,7 +155,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
     w.add_argument("scene", nargs="?", help="a scene, or a picture (PNG, JPEG...): a new puppet made from it")
-    w.add_argument("--size", type=_size, default=(1280, 800), metavar="WxH", help="window size (default 1280x800)")
+    w.add_argument("--size", type=_size, default=(1280, 800), metavar="WxH",
+                   help="window size (default 1280x800, at least 960x640)")
 
     # commands that live in their own package: each module adds its parser and runs it (cheap to import)
     for module in _PLUGGED.values():

@@ -9,7 +9,8 @@ import os
 
 
 def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headless: bool = False) -> int:
-    """Open the app window (on ``path`` when given) and run it until it quits; returns 0."""
+    """Open the app window (on ``path`` when given) and run it until it quits; returns 0.
+    Raises SceneError when ``path`` cannot be opened (the window closes at once)."""
     import pyglet
 
     pyglet.options["debug_gl"] = False
@@ -24,7 +25,15 @@ def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headles
         _connect_display()
     from puppet.app.window import AppWindow, print_ready
 
-    AppWindow(path, size=size, ready=print_ready).run()
+    from puppet.app import recent
+
+    win = AppWindow(path, size=size, ready=print_ready, quit_on_open_error=path is not None,
+                    recent_file=recent.default_path())
+    win.run()
+    if win.open_error is not None:
+        from puppet.errors import SceneError
+
+        raise SceneError(win.open_error)  # already names the file
     return 0
 
 

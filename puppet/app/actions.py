@@ -164,12 +164,16 @@ ACTIONS: tuple[Action, ...] = (
       checked="show_help", separator=True, char="?"),
 )
 BY_NAME = {a.name: a for a in ACTIONS}
+#: actions that still run while a mouse button is held (they change only what is shown)
+WHILE_HELD = frozenset({"mesh", "depth", "links", "help"})
 #: pointer gestures, listed in the keys overlay after the actions
 GESTURES = (
     ("click (Pin mode)", "add a pin on the layer under the cursor (or the selected layer)"),
     ("drag a pin", "move it (Pin mode: rest position; Pose mode: its target, live)"),
-    ("Shift + click", "add a pin to the selection (then drag moves them all)"),
-    ("Alt + drag near a pin", "turn it (Pose mode: the pose's angle for the pin)"),
+    ("click a pin", "select only that pin (a drag moves every selected pin)"),
+    ("Shift + click", "add a pin to the selection, or take it out"),
+    ("Alt + drag near a pin", "select and turn it (Pose mode: the pose's angle for the pin)"),
+    ("Esc / Ctrl+Z while dragging", "cancel the drag (nothing changes)"),
     ("Alt + click a pin", "remove the pin"),
     ("wheel", "zoom about the cursor"),
     ("middle drag / Space + drag", "pan"),
@@ -202,6 +206,12 @@ def handle_keys(app, win) -> Action | None:
     if app.dialog is not None:  # the dialog has the keys (Esc closes it there)
         return None
     typing = io.want_text_input  # a text field has the keyboard: only file and quit keys
+    if win.gesture_held():  # a mouse button is down: Esc or Ctrl+Z cancels the drag, view keys only
+        for a in ACTIONS:
+            if (a.name in ("escape", "undo") or a.name in WHILE_HELD) and _pressed(a, io, win.input.chars):
+                win.cancel_gesture() if a.name in ("escape", "undo") else a.run(app, win)
+                return a
+        return None
     for a in ACTIONS:
         if (a.typing or not typing) and _pressed(a, io, win.input.chars) and a.enabled(app):
             a.run(app, win)

@@ -58,7 +58,7 @@ def record_tool(app, press):
     rec.add(clock(), start)
     names = list(start)
     app.begin_drag(names, time=t0, record=True)
-    app.say(f"recording {', '.join(names)} from {t0:g} s at {timeline.speed:g}x: release to stop")
+    app.say(f"recording {', '.join(names)} from {t0:.2f} s at {timeline.speed:g}x: release to stop")
     ev = press
     try:
         while ev.type != "release":
@@ -70,6 +70,9 @@ def record_tool(app, press):
             timeline._rec_last = now
             timeline.time = t
             app.move_drag(pos, time=t)
+    except GeneratorExit:  # cancelled (Esc): nothing recorded, the playhead back
+        timeline.scrub(t0)
+        raise
     finally:
         timeline.recording = None
         timeline.last_recording = rec
@@ -80,7 +83,7 @@ def record_tool(app, press):
         app.say("nothing recorded (hold the pin and move it while the playhead runs)", "error")
         return
     t1, tol = max(keys), timeline.tolerance
-    app.end_drag(keys=keys, message=f"recorded {', '.join(names)}: {len(keys)} keys from {t0:g} to {t1:g} s "
+    app.end_drag(keys=keys, message=f"recorded {', '.join(names)}: {len(keys)} keys from {t0:.2f} to {t1:.2f} s "
                                     f"({len(rec.times)} samples, tolerance {tol:g} px)")
     timeline.selected = []
     timeline.showing = True

@@ -148,10 +148,15 @@ class App:
     def marker(self, name: str) -> pick.Marker | None:
         return next((m for m in self.markers() if m.name == name), None)
 
+    def posable(self, name: str) -> bool:
+        """Pin ``name`` can have a target in a pose (starch pins hold no position)."""
+        m = self.marker(name)
+        return m is not None and m.kind != "starch"
+
     def marker_at(self, cursor, radius: float = 9.0) -> pick.Marker | None:
         if not self.show_pins:
             return None
-        ms = self.markers()
+        ms = [m for m in self.markers() if self.mode == "pin" or m.kind != "starch"]  # starch holds no target
         if not ms:
             return None
         pts = self.view.to_screen(np.array([self.marker_xy(m) for m in ms]))
@@ -196,6 +201,16 @@ class App:
     def redo(self) -> None:
         self.edit(lambda s: f"redo: {s.history.undo_stack[-1].label}" if s.redo() else "nothing to redo")
 
+    def jump_history(self, steps: int) -> None:
+        """Undo (``steps`` < 0) or redo (> 0) that many steps at once (the History panel)."""
+        def fn(s):
+            go = s.undo if steps < 0 else s.redo
+            n = sum(1 for _ in range(abs(steps)) if go())
+            last = (s.history.undo_stack[-1].label if s.history.undo_stack else "the file as opened")
+            return f"{'undid' if steps < 0 else 'redid'} {n} step{'s' if n != 1 else ''}: at {last}"
+        if steps:
+            self.edit(fn)
+
     def set_mode(self, mode: str) -> None:
         if mode not in MODES or mode == self.mode:
             return
@@ -238,6 +253,15 @@ class App:
         self.hold_markers(self.overrides, self.session.end_drag(positions, keys=keys, message=message))
 
     # -- pins ----------------------------------------------------------------------
+    def cancel_gesture(self) -> None:
+        """A canvas gesture was cancelled: an open drag ends changing nothing, an open turn
+        is taken back (no undo step either way), drafts and held markers go."""
+        self.overrides = {}
+        self.script.draft = None
+        self.session.cancel_block("rotate")
+        self.session.end_drag(None)
+        self.say("drag cancelled")
+
     def new_pin_name(self, kind: str | None = None) -> str:
         prefix = "epin" if (kind or self.pin_kind) == "exterior" else "pin"
         names = {m.name for m in self.markers()}
@@ -326,15 +350,16 @@ class App:
         if self.mode == "pin":
             self.move_pins({n: xy for n, xy in pos.items() if self.marker(n).kind != "auto"})
         else:
-            self.set_targets(pos, "nudge pins")
+            self.set_targets({n: xy for n, xy in pos.items() if self.posable(n)}, "nudge pins")
 
     def change_depth(self, delta: float) -> None:
         """``]`` / ``[``: pins' depth (Pin mode) or their depth in the pose (Pose mode)."""
-        names = [n for n in self.selection if (m := self.marker(n)) is not None and m.kind != "auto"]
+        pin_mode = self.mode == "pin"
+        names = [n for n in self.selection if (m := self.marker(n)) is not None and m.kind != "auto"
+                 and (pin_mode or m.kind != "starch")]
         if not names:
             self.say("select pins first (click a pin; Shift-click adds)", "error")
             return
-        pin_mode = self.mode == "pin"
 
         def fn(s):  # from the scene as it is when the job runs (keys may come faster than frames)
             rest = {p.name: p.depth for p in s.data.pins}
@@ -366,8 +391,8 @@ class App:
 
         self.script = Script()
         self.timeline.reset()
+        self.mode = "pin" if picture else "pose"  # as the command line opens it, whatever was open before
         if picture:
-            self.mode = "pin"
             script.set_step(self, "image")
         self.session.open(path, picture=picture, recover_from=recover_from, rest=self.mode == "pin")
 

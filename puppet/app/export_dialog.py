@@ -28,6 +28,7 @@ class ExportForm:
         self.start = 0.0
         self.end = 1.0
         self.background = 0
+        self.reported = None  # the run whose end the status line told
 
     def open(self, app) -> None:
         """Fill the fields from the scene (called when the dialog opens)."""
@@ -71,10 +72,16 @@ def draw(app) -> None:
     busy = run.running
     imgui.begin_disabled(busy)
     imgui.text("Output file or folder/ (the extension picks the format):")
-    imgui.set_next_item_width(WIDTH)
+    imgui.set_next_item_width(WIDTH - 40)
     _, f.path = imgui.input_text("##export-path", f.path)
     imgui.set_item_tooltip(FORMATS)
     note("export:path")
+    imgui.same_line()
+    if button("...##export", "choose the output file in a file dialog"):
+        from puppet.app import native_dialogs
+
+        if not native_dialogs.ask("export", f.path, lambda path: setattr(f, "path", path)):
+            app.say("no file dialog here: type the output path", "error")
     imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + WIDTH)
     imgui.text_disabled(FORMATS)
     imgui.pop_text_wrap_pos()
@@ -106,6 +113,9 @@ def draw(app) -> None:
             else:
                 imgui.text(run.message)
             imgui.pop_text_wrap_pos()
+    if not busy and run.message and f.reported is not run:  # the status line says how it ended
+        f.reported = run
+        app.say(run.message, "error" if run.state == "failed" else "info")
     if not busy:
         if button("Export", "write the animation (the scene as it is now, unsaved edits too)",
                   enabled=bool(f.path.strip())):

@@ -65,7 +65,7 @@ def grab(app, press: CanvasEvent) -> dict | None:
     app.select(m.name, press.shift)
     if m.name not in app.selection:
         return None
-    return {n: app.marker_xy(app.marker(n)) for n in app.selection if app.marker(n) is not None}
+    return {n: app.marker_xy(app.marker(n)) for n in app.selection if app.posable(n)}
 
 
 def drag_pins(app, press: CanvasEvent, start: dict, *, time: float | None = None):

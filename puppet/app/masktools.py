@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.imaging.masks import canvas_to_image
 
 #: link segments are checked against the mask intersection every this many canvas pixels
 SAMPLE = 0.25
@@ -63,18 +64,6 @@ def on_canvas(mask_img: np.ndarray, offset, canvas) -> np.ndarray:
     y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
     if y1 > y0 and x1 > x0:
         out[y0:y1, x0:x1] = mask_img[y0 - oy:y1 - oy, x0 - ox:x1 - ox]
-    return out
-
-
-def to_image(canvas_mask: np.ndarray, offset, shape) -> np.ndarray:
-    """A canvas-grid mask moved into a layer image's grid (``shape`` (h, w), at ``offset``)."""
-    H, W = canvas_mask.shape
-    out = np.zeros(shape, bool)
-    ox, oy = int(round(offset[0])), int(round(offset[1]))
-    h, w = shape
-    y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
-    if y1 > y0 and x1 > x0:
-        out[y0 - oy:y1 - oy, x0 - ox:x1 - ox] = canvas_mask[y0:y1, x0:x1]
     return out
 
 
@@ -137,7 +126,7 @@ def apply_mask(s, layer: str, shape_fn, op: str, label: str, clone: bool = False
             s.add_layer(layer, mask={"file": s.pending.add(mask_rgba(new), f"{layer}-mask")})
         return f"{label}: new layer {layer} ({int(new.sum())} px)"
     im = s.built.images[k]
-    cut = to_image(stroke, im.offset, im.mask.shape)
+    cut = canvas_to_image(stroke, im.offset, im.mask.shape)
     new = im.mask | cut if op == "add" else im.mask & ~cut
     if op == "add":
         new &= im.rgba[..., 3] > 0 if not im.from_source else np.ones_like(new)
@@ -150,6 +139,34 @@ def apply_mask(s, layer: str, shape_fn, op: str, label: str, clone: bool = False
     return None
 
 
+def split(s, layer: str, region, name: str, cut: bool) -> str:
+    """Layer via Cut (``cut``) or via Copy: ``region`` (canvas polygon points, or a
+    function ``(H, W) -> bool mask`` of the canvas) of ``layer`` into the new layer
+    ``name`` in front of it (:meth:`puppet.scene.edits.Edits.split_layer`, one undo step)."""
+    W, H = s.canvas
+    s.split_layer(layer, region((H, W)) if callable(region) else [list(p) for p in region], name, cut=cut)
+    return f"layer via {'cut' if cut else 'copy'}: {name} from {layer}" + (" (refilled behind)" if cut else "")
+
+
+def select_region(app, region, label: str) -> None:
+    """What a selection (lasso, rectangle, clone brush) does in the Layers step: Layer via
+    Cut or Copy from the selected layer (its choice in the panel), or a clone into it (always
+    into a new empty layer made with *+*). ``region``: canvas polygon points or a function
+    ``(H, W) -> bool mask``."""
+    sc = app.script
+    layer = sc.target_layer(app)
+    if layer is None:
+        app.say("select a layer first (or add one with +)", "error")
+        return
+    shape_fn = region if callable(region) else (lambda sh: polygon_mask(sh, region))
+    if sc.select_op == "clone" or layer == sc.pending or sc.step != "layers":
+        app.edit(lambda s: apply_mask(s, layer, shape_fn, "add", label, True))
+        return
+    name, cut = sc.free_name(app), sc.select_op == "cut"
+    sc.select_after = name  # the new layer is selected once it shows
+    app.edit(lambda s: split(s, layer, region, name, cut))
+
+
 def paint(s, layer: str, shape_fn, color) -> None:
     """Repaint ``layer``'s pixels under the canvas-grid mask ``shape_fn((H, W))`` with
     ``color`` (r, g, b) inside its mask: the layer then has its own image (refills it had
@@ -159,7 +176,7 @@ def paint(s, layer: str, shape_fn, color) -> None:
         raise SceneError(f"layer {layer!r} has no pixels yet: clone some into it first")
     W, H = s.canvas
     im = s.built.images[k]
-    cut = to_image(shape_fn((H, W)), im.offset, im.mask.shape) & im.mask
+    cut = canvas_to_image(shape_fn((H, W)), im.offset, im.mask.shape) & im.mask
     if not cut.any():
         raise SceneError(f"the stroke does not touch layer {layer!r}")
     rgba = im.rgba.copy()
@@ -199,21 +216,22 @@ def brush_tool(app, press):
         color = tuple(int(round(c * 255)) for c in sc.color[:3])
         app.edit(lambda s: paint(s, layer, lambda sh: stroke_mask(sh, pts, r), color))
     else:
-        label = {"add": "brush add to", "sub": "erase from"}[op] if sc.tool != "clone-brush" else "clone brush"
-        clone = sc.tool == "clone-brush"
-        app.edit(lambda s: apply_mask(s, layer, lambda sh: stroke_mask(sh, pts, r), op, label, clone))
+        if sc.tool == "clone-brush":
+            select_region(app, lambda sh: stroke_mask(sh, pts, r), "clone brush")
+            return
+        label = {"add": "brush add to", "sub": "erase from"}[op]
+        app.edit(lambda s: apply_mask(s, layer, lambda sh: stroke_mask(sh, pts, r), op, label))
 
 
 def lasso_tool(app, press):
-    """Polygon (lasso) clone: drag around the region; the release closes it."""
+    """Lasso: drag around the region; the release closes it (see :func:`select_region`)."""
     sc = app.script
     sc.draft_kind = "lasso"
     pts = yield from _collect(app, press)
-    layer = sc.target_layer(app)
-    if layer is None or len(pts) < 3:
-        app.say("drag around the region to clone (and select a layer or add one with +)", "error")
+    if len(pts) < 3:
+        app.say("drag around the region (Layer via Cut / Copy, or clone into the layer)", "error")
         return
-    app.edit(lambda s: apply_mask(s, layer, lambda sh: polygon_mask(sh, pts), "add", "clone polygon", True))
+    select_region(app, pts, "clone polygon")
 
 
 def rect_tool(app, press):
@@ -236,7 +254,7 @@ def rect_tool(app, press):
         app.say("GrabCut...")
         app.edit(lambda s: s.set_mask(layer, {"grabcut": box}))
         return
-    app.edit(lambda s: apply_mask(s, layer, lambda sh: rect_mask(sh, a, b), "add", "clone rectangle", True))
+    select_region(app, lambda sh: rect_mask(sh, a, b), "clone rectangle")
 
 
 def link_tool(app, press):

@@ -18,6 +18,10 @@ def menu_bar(app, win) -> float:
         for title in ("File", "Edit", "View"):
             if imgui.begin_menu(title):
                 actions.menu(app, win, title)
+                if title == "File":
+                    from puppet.app import recent
+
+                    recent.menu(win)
                 imgui.end_menu()
         h = imgui.get_window_height()
         imgui.end_main_menu_bar()
@@ -25,25 +29,16 @@ def menu_bar(app, win) -> float:
     return 0.0
 
 
-def toolbar(app) -> None:
-    """Task-script steps, mode buttons and view toggles (inside the toolbar window)."""
+def toolbar(app, wrap: bool = False) -> float:
+    """Task-script steps, mode buttons and view toggles (inside the toolbar window); with
+    ``wrap``, the view toggles and the buttons after them go on a second row. Returns the
+    width all of it takes in one row (window pixels), to choose ``wrap`` next frame."""
     from puppet.app import script
 
     script.bar(app)
     imgui.text("|")
     imgui.same_line()
-    for mode in ("pin", "pose"):
-        a = actions.BY_NAME[f"{mode}_mode"]
-        active = app.mode == mode
-        if active:
-            imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.2, 0.45, 0.8, 1.0))
-        if button(a.label, actions.tip(a.name) + " or Tab"):
-            app.set_mode(mode)
-        if active:
-            imgui.pop_style_color()
-        imgui.same_line()
-    imgui.text("|")
-    imgui.same_line()
+    broke = _mode_buttons(app, wrap)
     for name, label in (("pins", "pins"), ("mesh", "mesh"), ("depth", "depth"), ("links", "links")):
         a = actions.BY_NAME[name]
         setattr(app, a.checked, toggle(label, getattr(app, a.checked), actions.tip(name)))
@@ -63,7 +58,41 @@ def toolbar(app) -> None:
         app.show_help = not app.show_help
     if app.snap.loaded:
         imgui.same_line()
-        imgui.text_disabled(f"  pose: {app.snap.shown}")
+        imgui.text_disabled("  " + shown_label(app))
+    style = imgui.get_style()
+    end = imgui.get_item_rect_max().x + style.window_padding.x
+    if broke is None:
+        return end
+    return broke + 2 * style.item_spacing.x + imgui.calc_text_size("|").x + end - imgui.get_window_pos().x
+
+
+def shown_label(app) -> str:
+    """What the canvas shows, for the toolbar: the pose, the animation time, or while
+    recording the playhead's time (it runs ahead of the shown snapshots)."""
+    if app.timeline.recording is not None:
+        return f"recording: {app.timeline.time:.2f} s"
+    return f"pose: {app.snap.shown}"
+
+
+def _mode_buttons(app, wrap: bool) -> float | None:
+    """Pin mode / Pose mode and a separator; with ``wrap`` a new row starts after them
+    (returns where the first row ended, None without ``wrap``)."""
+    for mode in ("pin", "pose"):
+        a = actions.BY_NAME[f"{mode}_mode"]
+        active = app.mode == mode
+        if active:
+            imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.2, 0.45, 0.8, 1.0))
+        if button(a.label, actions.tip(a.name) + " or Tab"):
+            app.set_mode(mode)
+        if active:
+            imgui.pop_style_color()
+        if not wrap or mode == "pin":
+            imgui.same_line()
+    if wrap:
+        return imgui.get_item_rect_max().x
+    imgui.text("|")
+    imgui.same_line()
+    return None
 
 
 def status_line(app, cursor_xy) -> None:

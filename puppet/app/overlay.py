@@ -10,8 +10,9 @@ from imgui_bundle import imgui
 
 from puppet.app import pick
 
-#: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points
-COLOURS = {"interior": (1.0, 0.85, 0.1, 1.0), "exterior": (0.2, 0.75, 1.0, 1.0), "auto": (0.55, 0.85, 1.0, 0.9)}
+#: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points, starch pins
+COLOURS = {"interior": (1.0, 0.85, 0.1, 1.0), "exterior": (0.2, 0.75, 1.0, 1.0), "auto": (0.55, 0.85, 1.0, 0.9),
+           "starch": (0.92, 0.92, 0.92, 1.0)}
 SELECTED = (1.0, 0.25, 0.2, 1.0)
 LINK = (0.1, 0.9, 0.35, 1.0)
 
@@ -21,10 +22,12 @@ def col(rgba) -> int:
 
 
 def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
-    """Pins as filled dots with a dark outline; selected pins ringed in red; the hovered
+    """Pins as filled dots with a dark outline and a light ring round it (they show on any
+    colour); selected pins ringed in red; the hovered
     pin's name next to it; the turning pin's angle as a tick."""
     view = app.view
     dark = col((0.0, 0.0, 0.0, 0.85))
+    light = col((1.0, 1.0, 1.0, 0.85))
     for m in app.markers():
         x, y = view.to_screen(app.marker_xy(m))
         c = col(COLOURS[m.kind])
@@ -32,6 +35,9 @@ def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
         if m.kind == "auto":
             dl.add_circle(imgui.ImVec2(x, y), r + 1, dark, 0, 3.0)
             dl.add_circle(imgui.ImVec2(x, y), r, c, 0, 2.0)
+        elif m.kind == "starch":  # a square: it stiffens, it holds no position
+            dl.add_rect_filled(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), c)
+            dl.add_rect(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), dark, 0.0, 1.5)
         elif m.kind == "exterior":  # a diamond
             pts = [imgui.ImVec2(x, y - r - 1), imgui.ImVec2(x + r + 1, y), imgui.ImVec2(x, y + r + 1),
                    imgui.ImVec2(x - r - 1, y)]
@@ -40,13 +46,15 @@ def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
         else:
             dl.add_circle_filled(imgui.ImVec2(x, y), r, c)
             dl.add_circle(imgui.ImVec2(x, y), r, dark, 0, 1.5)
-        if app.mode == "pose" and m.kind != "auto":
+        if m.kind != "auto":  # a light ring round the dark outline: the pin shows on any colour
+            dl.add_circle(imgui.ImVec2(x, y), r + (3.0 if m.kind != "interior" else 2.0), light, 0, 1.5)
+        if app.mode == "pose" and m.kind in ("interior", "exterior"):
             a = app.target_angle(m.name)
             if a:
                 t = math.radians(a)
                 dl.add_line(imgui.ImVec2(x, y), imgui.ImVec2(x + 14 * math.cos(t), y - 14 * math.sin(t)), c, 2.0)
         if m.name in app.selection:
-            dl.add_circle(imgui.ImVec2(x, y), r + 4, col(SELECTED), 0, 2.0)
+            dl.add_circle(imgui.ImVec2(x, y), r + 5.5, col(SELECTED), 0, 2.0)
     if hovered is not None:
         x, y = view.to_screen(app.marker_xy(hovered))
         label = f"{hovered.name} ({hovered.kind})" if hovered.kind != "interior" else hovered.name

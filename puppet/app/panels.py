@@ -1,5 +1,5 @@
 """The side panels: Layers (stacking order, thumbnails, visibility, drag to reorder, mesh
-options and inpainting of the selected layer), Poses, Pins, Reference picture."""
+options and inpainting of the selected layer), Poses, Pins, Reference picture, History."""
 from __future__ import annotations
 
 import os
@@ -8,6 +8,7 @@ from imgui_bundle import imgui
 
 from puppet.app.widgets import THUMB, button, live, note, toggle
 from puppet.scene.model import INPAINT_METHODS
+from puppet.scene.stiffness import STARCH_RADIUS
 
 _H = imgui.TreeNodeFlags_.default_open
 
@@ -23,6 +24,7 @@ class Panels:
         self.underlay_path = ""
         self._auto_area: dict[str, float] = {}
         self._had_underlay = False
+        self._picked = None  # a reference picture chosen in a native dialog
 
     def draw(self) -> None:
         app = self.app
@@ -42,8 +44,16 @@ class Panels:
         if has and not self._had_underlay:  # a picture was just set: show its settings
             imgui.set_next_item_open(True)
         self._had_underlay = has
-        if imgui.collapsing_header("Reference picture"):
+        opened = imgui.collapsing_header("Reference picture")
+        note("header:Reference picture")
+        if opened:
             self.reference()
+        opened = imgui.collapsing_header("History")
+        note("header:History")
+        if opened:
+            from puppet.app import history_panel
+
+            history_panel.draw(app)
 
     # -- layers ---------------------------------------------------------------------
     def layers(self) -> None:
@@ -217,6 +227,10 @@ class Panels:
                 app.selection = [new]
                 self.pin_name = ""
             imgui.same_line()
+            if pin.kind == "starch":  # stiffens around it, holds no position: no kind change, no target
+                imgui.text(f"starch, radius {pin.radius or STARCH_RADIUS:g}")
+                imgui.set_item_tooltip("a starch pin stiffens the shape around it; a pose cannot move it")
+                return
             kinds = ["interior", "exterior"]
             imgui.set_next_item_width(90)
             changed, i = imgui.combo("kind", kinds.index(pin.kind), kinds)
@@ -238,6 +252,21 @@ class Panels:
                 app.edit(lambda s: s.clear_target(name))
 
     # -- reference picture ----------------------------------------------------------
+    def _browse_picture(self) -> bool:
+        """*...*: a native dialog for the reference picture; True the frame it answered
+        (the path is then in the field)."""
+        from puppet.app import native_dialogs
+
+        if self._picked is not None:
+            self.underlay_path, self._picked = self._picked, None
+            return True
+        clicked = button("...##underlay", "choose the picture in a file dialog")
+        imgui.same_line()
+        if clicked and not native_dialogs.ask("picture", os.path.dirname(self.app.snap.file or "") + os.sep,
+                                              lambda path: setattr(self, "_picked", path)):
+            self.app.say("no file dialog here: type the picture's path", "error")
+        return False
+
     def reference(self) -> None:
         app, snap = self.app, self.app.snap
         u = snap.underlay
@@ -251,8 +280,9 @@ class Panels:
         imgui.set_item_tooltip("a PNG or JPEG path (relative to the current folder, or absolute)")
         note("field:underlay")
         imgui.same_line()
-        if button("Set", "use this picture as the reference", enabled=bool(self.underlay_path.strip())) or \
-                (enter and self.underlay_path.strip()):
+        chosen = self._browse_picture()
+        if chosen or button("Set", "use this picture as the reference", enabled=bool(self.underlay_path.strip())) \
+                or (enter and self.underlay_path.strip()):
             path = os.path.abspath(os.path.expanduser(self.underlay_path.strip()))
             keep = dict(opacity=u["opacity"], offset=u["offset"], scale=u["scale"]) if u else {}
             app.edit(lambda s: s.set_underlay(path, **keep))

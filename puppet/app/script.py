@@ -5,7 +5,8 @@ an edit touched, so later steps keep working).
 
 - Image: the first layer's mask: alpha, a brightness threshold (slider), GrabCut from a
   dragged rectangle, brush add / subtract.
-- Layers: + / - layers, clone from the picture by brush, lasso or rectangle, erase,
+- Layers: + / - layers; the lasso, rectangle and clone brush make a Layer via Cut or Copy of
+  the selected layer, or clone from the picture into it; erase,
   repaint with a colour, inpainting method with a before / after preview.
 - Link: two layers, their mask intersection tinted, a pencil for link segments.
 - Pins: the Pin tool, plus automatic exterior points (beta slider, live).
@@ -22,7 +23,7 @@ from puppet.app.widgets import RECTS, button, live, note
 STEPS = ("image", "layers", "link", "pins", "deform", "pose")
 LABELS = {"image": "Image", "layers": "Layers", "link": "Link", "pins": "Pins", "deform": "Deform", "pose": "Pose"}
 TIPS = {"image": "the first layer's mask: threshold, alpha, GrabCut, brush",
-        "layers": "make layers: clone parts of the picture into them, erase, paint, inpaint",
+        "layers": "make layers: cut (or copy) parts into new layers, clone, erase, paint, inpaint",
         "link": "draw link segments where two layers overlap (they then move together there)",
         "pins": "pins and exterior control points on the rest pose",
         "deform": "build the meshes and start posing",
@@ -34,13 +35,18 @@ TOOLS = {
     "image": [("brush-add", "Brush +", "paint pixels into the mask"),
               ("brush-sub", "Brush -", "paint pixels out of the mask"),
               ("grabcut", "GrabCut box", "drag a rectangle around the object (photos)")],
-    "layers": [("lasso", "Lasso", "drag around a region to clone it from the picture into the layer"),
-               ("clone-rect", "Rect", "drag a rectangle to clone it into the layer"),
-               ("clone-brush", "Clone brush", "brush pixels of the picture into the layer"),
+    "layers": [("lasso", "Lasso", "drag around a region: Layer via Cut / Copy from the layer, or clone into it"),
+               ("clone-rect", "Rect", "drag a rectangle: Layer via Cut / Copy from the layer, or clone into it"),
+               ("clone-brush", "Clone brush", "brush a region: Layer via Cut / Copy from the layer, or clone into it"),
                ("erase", "Erase", "brush pixels out of the layer"),
                ("paint", "Paint", "repaint the layer's pixels with the colour")],
     "link": [("link", "Pencil", "drag a link segment inside the tinted intersection")],
 }
+#: what a selection (lasso, rectangle, clone brush) does to an existing layer: (id, label, tooltip)
+SELECT_OPS = [("cut", "Layer via Cut", "the part becomes a new layer in front; the layer behind loses it "
+                                       "(refilled where it covered the layer's body)"),
+              ("copy", "Layer via Copy", "the part is copied into a new layer in front; the layer behind keeps it"),
+              ("clone", "Clone into layer", "the picture's pixels there are added to the selected layer")]
 
 
 class Script:
@@ -54,6 +60,8 @@ class Script:
         self.threshold = 250.0
         self.beta = 1.0
         self.pending: str | None = None  # a new layer not yet given pixels
+        self.select_op = "cut"  # what a selection does to an existing layer (SELECT_OPS)
+        self.select_after: str | None = None  # a layer made by a cut / copy, selected once it shows
         self.layer_name = ""  # the rename field of the Layers step
         self.show_tint = True
         self.link_a: str | None = None
@@ -83,6 +91,14 @@ class Script:
         if app.selected_layer is None and app.snap.loaded and self.step in ("image", "layers"):
             return app.snap.data.layers[0 if self.step == "image" else -1].name
         return app.selected_layer
+
+    def free_name(self, app) -> str:
+        """The first ``layerN`` (N >= 2) that no layer (nor the pending one) has."""
+        names = {L.name for L in app.snap.data.layers} | {self.pending}
+        k = 2
+        while f"layer{k}" in names:
+            k += 1
+        return f"layer{k}"
 
     def brush_op(self) -> str:
         return {"brush-add": "add", "brush-sub": "sub", "clone-brush": "add", "erase": "sub",
@@ -221,12 +237,11 @@ def _image(app, thumbs) -> None:
 
 def _layers(app, thumbs) -> None:
     sc, snap = app.script, app.snap
+    if sc.select_after is not None and app.layer_index(sc.select_after) is not None:
+        app.selected_layer, sc.select_after = sc.select_after, None  # made by a cut / copy
     if button("+", "a new empty layer in front: clone pixels into it"):
-        names = {L.name for L in snap.data.layers}
-        k = 2
-        while f"layer{k}" in names:
-            k += 1
-        sc.pending = f"layer{k}"
+        sc.pending = None  # a second + replaces the empty layer: its name is free again
+        sc.pending = sc.free_name(app)
         app.selected_layer = sc.pending
         sc.tool = "lasso"
         app.say(f"new layer {sc.pending}: clone pixels into it (lasso, rectangle or brush)")
@@ -255,6 +270,14 @@ def _layers(app, thumbs) -> None:
             app.edit(lambda s: s.rename_layer(target, new))
             app.selected_layer = new
         sc.layer_name = ""
+    if sc.tool in ("lasso", "clone-rect", "clone-brush") and target != sc.pending:
+        for j, (op, label, tip) in enumerate(SELECT_OPS):
+            if j == 1:
+                imgui.same_line()
+            if imgui.radio_button(f"{label}##select", sc.select_op == op):
+                sc.select_op = op
+            imgui.set_item_tooltip(tip)
+            note(f"select:{op}")
     if sc.tool == "paint":
         _, sc.color = imgui.color_edit4("colour", list(sc.color), imgui.ColorEditFlags_.no_alpha)
         imgui.set_item_tooltip("the Paint tool's colour")

@@ -167,6 +167,19 @@ class SceneSession:
     def end_block(self, key: str) -> int:
         return self._post(lambda: self._end_block(key))
 
+    def cancel_block(self, key: str) -> int:
+        """Close block ``key`` and take back what it did (no undo step, no redo step)."""
+        def job():
+            s, ctx = self.scene, self.blocks.pop(key, None)
+            if ctx is None or s is None:
+                return
+            top = s.history.undo_stack[-1] if s.history.undo_stack else None
+            ctx.__exit__(None, None, None)
+            if s.history.undo_stack and s.history.undo_stack[-1] is not top:
+                s.undo()
+                s.history.redo_stack.pop()
+        return self._post(job)
+
     def prefetch(self, times) -> int:
         """Solve the animation's frames at ``times`` ahead of playing, one a job (behind
         whatever the window posts meanwhile); stops when the scene changes."""

@@ -48,6 +48,8 @@ class Snapshot:
     underlay_image: Any = None
     undo_label: str | None = None
     redo_label: str | None = None
+    history: tuple[str, ...] = ()  # the undo stack's labels, oldest first (the History panel)
+    future: tuple[str, ...] = ()  # the redo stack's labels, the next redo first
     dirty: bool = False
     preview: bool = False
     done: int = 0  # id of the last job that had run when this was published
@@ -137,5 +139,6 @@ def build_snapshot(session, version: int, layers=None) -> Snapshot:
         background=s.background(), underlay=underlay, underlay_image=under_img,
         undo_label=h.undo_stack[-1].label if h.can_undo() else None,
         redo_label=h.redo_stack[-1].label if h.can_redo() else None,
+        history=tuple(step.label for step in h.undo_stack), future=tuple(step.label for step in reversed(h.redo_stack)),
         dirty=session.saved_doc is None or doc != session.saved_doc, done=session.done,
         time=t, animation=anim, ghosts=ghosts)

@@ -284,11 +284,25 @@ class Timeline:
         self.app.edit(lambda s: s.set_fps(float(fps)), key="fps")
 
 
+def key_pins(key: dict) -> dict:
+    """The pins a key (file form) sets: a pins key's, or a pose key's ``overrides`` that
+    are not null."""
+    if "pins" in key:
+        return key["pins"]
+    return {n: v for n, v in (key.get("overrides") or {}).items() if v is not None}
+
+
+def in_row(key: dict, pin: str | None) -> bool:
+    """Whether the key has a mark in the timeline row of ``pin`` (None: the poses row)."""
+    return "pose" in key if pin is None else pin in key_pins(key)
+
+
 def set_key_dict(s, t: float, k: dict) -> None:
-    """Set a key from its file form (``pose`` or ``pins``, ``ease``, ``curve``) at ``t``."""
+    """Set a key from its file form (``pose`` with its ``overrides``, or ``pins``; ``ease``,
+    ``curve``) at ``t``."""
     kw = {"ease": k.get("ease", "linear"), "curve": k.get("curve")}
     if "pose" in k:
-        s.set_key(t, k["pose"], **kw)
+        s.set_key(t, k["pose"], overrides=k.get("overrides") or None, **kw)
     else:
         s.set_key(t, pins=k["pins"], **kw)
 

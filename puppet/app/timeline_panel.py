@@ -16,7 +16,9 @@ from puppet.app.overlay import col
 from puppet.app.record import SPEEDS
 from puppet.app.widgets import button, note, toggle
 
-HEIGHT = 200  # window pixels
+HEIGHT = 200  # window pixels, at first (the top edge drags it)
+MIN_HEIGHT = 110  # the transport, the selection bar and the ruler with a row
+GRIP = 6  # the draggable top edge
 LABELS = 120  # width of the row labels
 RULER = 20
 ROW = 18
@@ -37,6 +39,7 @@ class TimelinePanel:
         self._press = None  # (kind "scrub" | "key", press x, press time, key times)
         self._drag_dt = 0.0
         self.fps_field = 24.0
+        self.height = float(HEIGHT)  # dragged by the top edge (see resize_grip)
 
     @property
     def tl(self) -> tl.Timeline:
@@ -47,8 +50,23 @@ class TimelinePanel:
         imgui.set_next_window_pos(imgui.ImVec2(rect[0], rect[1]))
         imgui.set_next_window_size(imgui.ImVec2(rect[2], rect[3]))
         imgui.begin("##timeline", None, flags | imgui.WindowFlags_.no_scrollbar)
+        self.resize_grip(rect[2])
         self.draw()
         imgui.end()
+
+    def resize_grip(self, width: float) -> None:
+        """The timeline's top edge: drag it up or down to give the rows more or less room
+        (the window clamps :attr:`height`)."""
+        imgui.set_cursor_pos(imgui.ImVec2(0, 0))
+        imgui.invisible_button("##timeline-grip", imgui.ImVec2(max(width, 1), GRIP))
+        imgui.set_item_tooltip("drag to make the timeline taller or shorter")
+        note("timeline:grip")
+        if imgui.is_item_active():
+            self.height -= imgui.get_io().mouse_delta.y
+        lit = imgui.is_item_hovered() or imgui.is_item_active()
+        a, b = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+        imgui.get_window_draw_list().add_rect_filled(a, imgui.ImVec2(b.x, a.y + (3 if lit else 1)),
+                                                     col((0.45, 0.65, 1.0, 0.9) if lit else (1, 1, 1, 0.15)))
 
     def draw(self) -> None:
         if not self.app.snap.loaded:
@@ -185,7 +203,9 @@ class TimelinePanel:
         imgui.text("|")
         imgui.same_line()
         what = f"key {keys[0]['time']:g} s" if len(keys) == 1 else f"{len(keys)} keys"
-        imgui.text(what + (f" ({keys[0]['pose']})" if len(keys) == 1 and "pose" in keys[0] else ""))
+        extra = len(tl.key_pins(keys[0])) if len(keys) == 1 and "pose" in keys[0] else 0
+        imgui.text(what + (f" ({keys[0]['pose']}" + (f" + {extra} pins" if extra else "") + ")"
+                           if len(keys) == 1 and "pose" in keys[0] else ""))
         imgui.same_line()
         ease = keys[0].get("ease", "linear")
         imgui.set_next_item_width(90)
@@ -216,7 +236,7 @@ class TimelinePanel:
     # -- the tracks -----------------------------------------------------------------------
     def rows(self) -> list[tuple[str, str | None]]:
         """(label, pin) for each row: pose keys (pin None), then each keyed pin."""
-        keyed = {n for k in self.tl.keys() for n in k.get("pins", {})}
+        keyed = {n for k in self.tl.keys() for n in tl.key_pins(k)}  # pins keys and pose keys' overrides
         order = [p.name for p in self.app.snap.data.pins] if self.app.snap.loaded else []
         pins = [n for n in order if n in keyed] + sorted(keyed - set(order))
         return [("poses", None)] + [(n, n) for n in pins]
@@ -261,7 +281,7 @@ class TimelinePanel:
                 dl.add_rect_filled(imgui.ImVec2(p0.x, y), imgui.ImVec2(x1, y + ROW), col((1, 1, 1, 0.04)))
             dl.add_text(imgui.ImVec2(p0.x + 4, y + 1), col((0.85, 0.85, 0.85, 1)), label[:16])
             for key in t.keys():
-                if (pin is None) != ("pose" in key) or (pin is not None and pin not in key.get("pins", {})):
+                if not tl.in_row(key, pin):
                     continue
                 kt = float(key["time"])
                 sel = any(tl.same(kt, s) for s in t.selected)
@@ -298,7 +318,7 @@ class TimelinePanel:
         pin = rows[r][1]
         best = None
         for key in self.tl.keys():
-            if (pin is None) != ("pose" in key) or (pin is not None and pin not in key.get("pins", {})):
+            if not tl.in_row(key, pin):
                 continue
             d = abs(tx(float(key["time"])) - mx)
             if d <= MARK + 2 and (best is None or d < best[0]):

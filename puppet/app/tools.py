@@ -7,7 +7,9 @@ callbacks. A tool is called with the press event, and each later event (``drag``
   Alt-click removes one, Shift-click extends the selection.
 - :func:`pose_tool` (Pose mode): drag moves pins' targets in the active pose through a
   drag session (preview while moving, exact on release), Alt-drag around a pin turns
-  it (the target's ``angle``), Alt-click removes it, Shift-click extends the selection.
+  it (the target's ``angle``) and selects it, Alt-click removes it, a click selects only
+  that pin, Shift-click adds it to the selection or takes it out. Esc / Ctrl+Z during a
+  gesture cancels it (:meth:`puppet.app.window.AppWindow.cancel_gesture`).
 """
 from __future__ import annotations
 
@@ -84,6 +86,8 @@ def pin_tool(app, press: CanvasEvent):
         app.move_pins(dict(app.overrides))
     elif m is None:
         app.overrides = {}
+    elif not press.shift:
+        app.selection = [m.name]  # a plain click selects only that pin
 
 
 def pose_tool(app, press: CanvasEvent):
@@ -103,7 +107,8 @@ def pose_tool(app, press: CanvasEvent):
         return
     start = grab(app, press)
     if start is not None:
-        yield from drag_pins(app, press, start)
+        if (yield from drag_pins(app, press, start)) is None and not press.shift:
+            app.selection = [m.name]  # a plain click selects only that pin
 
 
 def _rotate(app, press, m, *, remove_on_click: bool):
@@ -121,6 +126,7 @@ def _rotate(app, press, m, *, remove_on_click: bool):
         ev = yield
         if not went and moved(ev, press):
             went = True
+            app.selection = [m.name]  # the pin it turns is selected, as a click would
             app.begin_block("rotate", f"turn {m.name}")
         if not went:
             continue

@@ -18,19 +18,21 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import actions, autosave, menus, overlay, script
+from puppet.app import actions, autosave, menus, native_dialogs, overlay, recent, script
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
 from puppet.app.keys import ImGuiInput
 from puppet.app.onion import GhostRenderer
 from puppet.app.panels import Panels
-from puppet.app.timeline_panel import HEIGHT as TIMELINE_HEIGHT, TimelinePanel
+from puppet.app.timeline_panel import MIN_HEIGHT as TIMELINE_MIN, TimelinePanel
 from puppet.app.gestures import CanvasEvent
 from puppet.app.tools import choose_tool
 from puppet.app.widgets import Thumbs
 
 PANEL_WIDTH = 330
+#: the smallest window (every toolbar control and panel stays reachable down to it)
+MIN_SIZE = (960, 640)
 #: seconds a thread runs Python before it hands over the GIL: shorter than CPython's 5 ms
 #: default, so that the window is not kept waiting while the scene thread runs Python
 #: between its solves (which release the GIL)
@@ -75,11 +77,15 @@ class AppWindow:
     """
 
     def __init__(self, path: str | None = None, *, size=(1280, 800), visible: bool = True, ready=None,
-                 autosave_interval: float = autosave.INTERVAL):
+                 autosave_interval: float = autosave.INTERVAL, quit_on_open_error: bool = False,
+                 recent_file: str | None = None):
         config = pyglet.gl.Config(double_buffer=True, red_size=8, green_size=8, blue_size=8, alpha_size=8,
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
+        size = (max(int(size[0]), MIN_SIZE[0]), max(int(size[1]), MIN_SIZE[1]))
         self.win = pyglet.window.Window(int(size[0]), int(size[1]), caption="puppet", resizable=True,
-                                        config=config, visible=visible)
+                                        config=config, visible=visible, file_drops=True)
+        self.win.set_minimum_size(*MIN_SIZE)
+        self._toolbar_width = 0.0
         sys.setswitchinterval(SWITCH_INTERVAL)
         self.win.switch_to()
         moderngl.init_context()
@@ -95,7 +101,7 @@ class AppWindow:
         self.gui = ImGuiRenderer(self.ctx)
         self.input = _Input(self.win)
         self.win.push_handlers(self.input)
-        self.win.push_handlers(on_close=self._on_close)
+        self.win.push_handlers(on_close=self._on_close, on_file_drop=self._on_file_drop)
         self.app = App()
         self.canvas = CanvasRenderer(self.ctx)
         self.thumbs = Thumbs(self.ctx, self.gui)
@@ -117,6 +123,10 @@ class AppWindow:
         self._settle = 3
         self._last_frame = 0.0
         self._expect_scene = path is not None
+        self._quit_on_open_error = quit_on_open_error
+        self.recent_file = recent_file  # where recent files are kept (None: nowhere)
+        self._recent_last = None
+        self.open_error: str | None = None  # why the file given at start could not be opened
         self._rects_file = os.environ.get("PUPPET_APP_RECTS") or None
         if path is not None:
             self.open_scene(path)
@@ -148,10 +158,21 @@ class AppWindow:
             app.open(path)
 
     def open_dialog(self, kind: str) -> None:
+        """File > Open / Save As: the native dialog where one can show, else the path field."""
         app = self.app
-        app.dialog = kind
-        app.path_field = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
+        start = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
             os.path.dirname(app.snap.file) + os.sep if app.snap.file else os.getcwd() + os.sep)
+        if native_dialogs.ask(kind, start, lambda path: self._chosen(kind, path)):
+            return
+        app.dialog = kind
+        app.path_field = start
+
+    def _chosen(self, kind: str, path: str) -> None:
+        """A native dialog's answer: open, or save as."""
+        if kind == "open":
+            self.open_scene(path)
+        else:
+            self.app.save(path if path.lower().endswith(".json") else path + ".json")
 
     def proceed(self, after, require_saved: bool = False) -> None:
         """Go on after the unsaved-changes dialog: quit, or open ``("open", path)``; with
@@ -161,6 +182,21 @@ class AppWindow:
                 return  # the save failed: stay (its error is on the status line)
             self._then = after
         self.app.after_jobs(go)
+
+    def _on_file_drop(self, x, y, paths) -> None:
+        """A scene or a picture dropped on the window opens as File > Open opens it
+        (asking first about unsaved changes)."""
+        from puppet.app.opening import is_picture
+
+        path = next(iter(paths or ()), None)
+        if path is None:
+            return
+        path = os.fspath(path)
+        if not (path.lower().endswith(".json") or is_picture(path)):
+            self.app.say(f"{os.path.basename(path)}: drop a scene (.json) or a picture (PNG, JPEG, ...) here",
+                         "error")
+            return
+        self.open_scene(path)
 
     def _on_close(self):
         self.app.request_quit()
@@ -190,15 +226,20 @@ class AppWindow:
         self._last = t0
         imgui.new_frame()
         top = menus.menu_bar(app, self)
-        tool_h = imgui.get_frame_height() + 2 * imgui.get_style().window_padding.y
+        rows = 2 if self._toolbar_width > w else 1  # the toolbar wraps in a narrow window
+        tool_h = rows * imgui.get_frame_height() + (rows - 1) * imgui.get_style().item_spacing.y \
+            + 2 * imgui.get_style().window_padding.y
         status_h = imgui.get_frame_height() + 2 * imgui.get_style().window_padding.y
         imgui.set_next_window_pos(imgui.ImVec2(0, top))
         imgui.set_next_window_size(imgui.ImVec2(w, tool_h))
         imgui.begin("##toolbar", None, FIXED)
-        menus.toolbar(app)
+        self._toolbar_width = menus.toolbar(app, wrap=rows == 2)
+        settled = (rows == 2) == (self._toolbar_width > w)  # else the toolbar's rows change next frame
         imgui.end()
-        tl_h = TIMELINE_HEIGHT if app.snap.loaded else 0
         body = h - top - tool_h - status_h
+        panel = self.timeline_panel  # its height is dragged by its top edge; the canvas keeps >= 120 px
+        panel.height = min(max(panel.height, TIMELINE_MIN), max(body - 120.0, TIMELINE_MIN))
+        tl_h = panel.height if app.snap.loaded else 0
         imgui.set_next_window_pos(imgui.ImVec2(w - PANEL_WIDTH, top + tool_h))
         imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, body))
         imgui.begin("##panels", None, FIXED)
@@ -206,6 +247,8 @@ class AppWindow:
         imgui.end()
         app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
         cursor = self._canvas_window()
+        self._recent(app)
+        native_dialogs.poll()
         if tl_h:
             self.timeline_panel.window((0, h - status_h - tl_h, w - PANEL_WIDTH, tl_h), FIXED)
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
@@ -233,12 +276,36 @@ class AppWindow:
         if self._rects_file:
             self._dump_rects()
         self._autosave()
-        if not self._ready_sent and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
+        if self._quit_on_open_error and not self._ready_sent:
+            self._check_open_error()
+        if not self._ready_sent and settled and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
             self._ready_sent = True
             if self.ready is not None:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
                 self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
                             "file": app.snap.file})
+
+    def _recent(self, app) -> None:
+        """Keep the open scene's file among the recent files once it exists (a scene made
+        from a picture: after its first save); the start page when no scene is open."""
+        if not app.snap.loaded:
+            if app.dialog is None:
+                recent.start_page(app, self)
+            return
+        seen = (app.snap.file, app.snap.file is not None and os.path.isfile(app.snap.file))
+        if seen != self._recent_last:
+            self._recent_last = seen
+            if seen[1]:
+                recent.add(self.recent_file, seen[0])
+
+    def _check_open_error(self) -> None:
+        """The file named at start failed to open: quit with its one-line error (the CLI
+        prints it and exits 2, as every other command does)."""
+        app = self.app
+        if self._expect_scene and not app.snap.loaded and app.dialog is None and app.session.idle() \
+                and app.status is not None and app.status.level == "error":
+            self.open_error = app.status.text
+            app.quit_now = True
 
     def _dump_rects(self) -> None:
         """Where the widgets, the canvas, the pins and the timeline are (``PUPPET_APP_RECTS=FILE``:
@@ -306,6 +373,18 @@ class AppWindow:
         imgui.end()
         imgui.pop_style_var()
         return tuple(app.view.to_canvas(pos)) if hovered and app.snap.loaded else None
+
+    def gesture_held(self) -> bool:
+        """A canvas gesture is running or a mouse button is down (keys that change the mode
+        or the pose wait)."""
+        return self._gesture is not None or any(imgui.is_mouse_down(b) for b in range(3))
+
+    def cancel_gesture(self) -> None:
+        """Esc / Ctrl+Z during a drag: the gesture ends and nothing it did stays."""
+        g, self._gesture = self._gesture, None
+        if g is not None:
+            g.close()  # the tool's finally blocks run
+            self.app.cancel_gesture()
 
     def _event(self, kind, pos, button=0) -> CanvasEvent:
         io = imgui.get_io()

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from puppet.app import masktools as mt
+from puppet.imaging.masks import canvas_to_image
 
 
 def test_rect_mask_is_the_pixels_between_the_corners_in_any_order():
@@ -34,7 +35,7 @@ def test_canvas_and_image_grids_round_trip_with_an_offset():
     img[1, 2] = img[3, 4] = True
     canvas = mt.on_canvas(img, (3, 2), (10, 8))
     assert canvas.shape == (8, 10) and canvas.sum() == 2 and canvas[3, 5] and canvas[5, 7]
-    np.testing.assert_array_equal(mt.to_image(canvas, (3, 2), img.shape), img)
+    np.testing.assert_array_equal(canvas_to_image(canvas, (3, 2), img.shape), img)
     # partly off the canvas: what is outside is dropped
     assert mt.on_canvas(img, (-3, 0), (10, 8)).sum() == 1
 
