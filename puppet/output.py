@@ -184,12 +184,18 @@ def _signals_blocked():
     """Hold SIGINT/SIGTERM/SIGHUP for a few system calls, so a temporary is never created
     without being registered and a swap never stops half way."""
     main = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS) if main else None
+    if not main:
+        yield
+        return
+    # pthread_sigmask runs pending Python handlers after changing the mask, so the call that
+    # blocks may raise (a signal that came just before) with the signals already blocked:
+    # the mask is read first and the blocking call is inside the try that restores it.
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, ())
     try:
+        signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
         yield
     finally:
-        if main:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _temp(path: str, folder: str, make: Callable[[str, str], str]) -> str:

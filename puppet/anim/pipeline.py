@@ -16,6 +16,13 @@ identical to the sequential path (``threads=False``), which runs the same stage
 functions one after the other. An error in any stage stops the others and is raised in
 the calling thread; so is a signal (the threads are joined first, so no stage writes
 into a temporary output that is being removed).
+
+A signal's exception can land anywhere in the calling thread, even inside a lock's or
+a queue's own code, and leave a lock taken that a stage then waits on for ever (an
+import's module lock, a queue's mutex). So the calling thread never waits on a stage
+without a bound: a stage is started inside the ``try`` that stops it, the end of the
+encoding is waited for in short steps, and a stopped stage is given :data:`HALT_TIMEOUT`
+seconds to end before it is left behind (a daemon thread, blocked, not writing).
 """
 from __future__ import annotations
 
@@ -30,6 +37,8 @@ import numpy as np
 
 #: Frames waiting between two stages (per queue).
 DEPTH = 2
+#: Seconds a stopped stage gets to end (its current solve or encode) before it is left behind.
+HALT_TIMEOUT = 10.0
 _END = object()
 
 
@@ -53,10 +62,18 @@ class _StageThread(threading.Thread):
         super().__init__(name=name, daemon=True)
         self.body, self.error = body, None
         self.stop = threading.Event()
+        self.starting = False  # start() was called (a signal may cut it short after that)
+        self.began = threading.Event()  # run() was entered
+
+    def start(self) -> None:
+        self.starting = True
+        super().start()
 
     def run(self) -> None:
+        self.began.set()
         try:
-            self.body()
+            if not self.stop.is_set():
+                self.body()
         except _Stop:
             pass
         except BaseException as e:  # handed to the calling thread
@@ -79,9 +96,24 @@ class _StageThread(threading.Thread):
                 pass
         raise _Stop
 
-    def halt(self) -> None:
+    def halt(self, timeout: float | None = None) -> bool:
+        """Stop the stage and wait at most ``timeout`` seconds (:data:`HALT_TIMEOUT`) for
+        it to end; True when it has. A thread whose ``start()`` was cut short by a signal
+        (it may or may not run) is waited for the same way."""
         self.stop.set()
-        self.join()
+        if not self.starting:
+            return True
+        end = time.monotonic() + (HALT_TIMEOUT if timeout is None else timeout)
+        while not self.began.wait(0.01):
+            if time.monotonic() >= end:
+                return False
+        self.join(max(0.0, end - time.monotonic()))
+        return not self.is_alive()
+
+    def wait(self) -> None:
+        """Wait for the stage to end, in short steps (a signal is handled meanwhile)."""
+        while self.is_alive():
+            self.join(0.1)
 
 
 class Progress:
@@ -169,8 +201,8 @@ def frames(solve: Callable[[int], object], composite: Callable[[object], np.ndar
         return
     q: queue.Queue = queue.Queue(DEPTH)
     worker = _solver(solve, indices, q, timings, remote)
-    worker.start()
     try:
+        worker.start()
         while True:
             t = time.perf_counter()
             while True:
@@ -211,8 +243,8 @@ def run(source: Iterator[np.ndarray], add: Callable[[np.ndarray], None], *, thre
         return n
     inbox: queue.Queue = queue.Queue(DEPTH)
     worker = _encoder(add, inbox, timings)
-    worker.start()
     try:
+        worker.start()
         for rgba in source:
             t = time.perf_counter()
             while True:
@@ -233,7 +265,7 @@ def run(source: Iterator[np.ndarray], add: Callable[[np.ndarray], None], *, thre
                 break
             except queue.Full:
                 pass
-        worker.join()
+        worker.wait()
     finally:
         worker.halt()
         close = getattr(source, "close", None)

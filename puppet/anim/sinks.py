@@ -87,12 +87,13 @@ class DirSink(Sink):
     """``frame_00000.png``, ``frame_00001.png``, ... in the folder ``tmp``."""
 
     def __init__(self, tmp: str, level: int = DIR_LEVEL):
+        from puppet.anim.sheet import write_png  # imported here: the encoder thread imports nothing
+
         super().__init__()
-        self.tmp, self.level = tmp, level
+        self.tmp, self.level, self.write_png = tmp, level, write_png
 
     def add(self, rgba: np.ndarray) -> None:
-        from puppet.anim.sheet import write_png
-
+        write_png = self.write_png
         if rgba.shape[2] == 3:  # RGB frames (puppet video): opaque RGBA
             rgba = np.concatenate([rgba, np.full(rgba.shape[:2] + (1,), 255, np.uint8)], axis=2)
         with open(os.path.join(self.tmp, f"frame_{self.frames:05d}.png"), "wb") as f:
