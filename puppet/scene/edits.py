@@ -165,8 +165,9 @@ class Edits:
         return self._edit(Event("layer", new, "none", f"rename layer {old}"), m)
 
     def set_layer(self, name: str, **fields) -> bool:
-        """Change a layer's ``offset``, ``mask``, ``order``, ``inpaint``, ``mesh`` or
-        ``exterior`` (scene-format values; None removes the key, back to its default)."""
+        """Change a layer's ``offset``, ``mask``, ``order``, ``inpaint``, ``mesh``,
+        ``exterior``, ``deformer`` ({"mode": ...}) or ``stiffness`` ({"file": ...})
+        (scene-format values; None removes the key, back to its default)."""
         def m(doc):
             L = self._layer(doc, name)
             for k, v in _layer_fields(fields, keep_none=True).items():
@@ -372,7 +373,7 @@ def _ext_layer(name: str) -> str | None:
 
 
 def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
-    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior")
+    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior", "deformer", "stiffness")
     out = {}
     for k, v in fields.items():
         if k not in known:
@@ -381,7 +382,7 @@ def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
             continue
         if k == "offset" and v is not None:
             v = _xy(v)
-        if k == "mask" and isinstance(v, dict) and isinstance(v.get("file"), str):
+        if k in ("mask", "stiffness") and isinstance(v, dict) and isinstance(v.get("file"), str):
             v = dict(v, file=os.path.abspath(v["file"]))
         out[k] = v
     return out
