@@ -65,7 +65,10 @@ def grab(app, press: CanvasEvent) -> dict | None:
     app.select(m.name, press.shift)
     if m.name not in app.selection:
         return None
-    return {n: app.marker_xy(app.marker(n)) for n in app.selection if app.marker(n) is not None}
+    if m.kind == "starch":  # it stiffens the shape around it and holds no position
+        app.say(f"{m.name} is a starch pin: it holds no position (move it in Pin mode)")
+        return None
+    return {n: app.marker_xy(mk) for n in app.selection if (mk := app.marker(n)) is not None and mk.kind != "starch"}
 
 
 def drag_pins(app, press: CanvasEvent, start: dict, *, time: float | None = None):

@@ -12,6 +12,7 @@ from puppet.app import pick
 
 #: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points
 COLOURS = {"interior": (1.0, 0.85, 0.1, 1.0), "exterior": (0.2, 0.75, 1.0, 1.0), "auto": (0.55, 0.85, 1.0, 0.9)}
+COLOURS["starch"] = (0.95, 0.95, 0.9, 1.0)  # starch pins (issue 22): stiffen, hold nothing
 SELECTED = (1.0, 0.25, 0.2, 1.0)
 LINK = (0.1, 0.9, 0.35, 1.0)
 

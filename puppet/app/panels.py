@@ -38,6 +38,12 @@ class Panels:
             self.poses()
         if imgui.collapsing_header("Pins", _H):
             self.pins()
+        deform = imgui.collapsing_header("Deform")
+        note("header:Deform")
+        if deform:
+            from puppet.app import deformpanel
+
+            deformpanel.panel(app)
         has = app.snap.underlay is not None
         if has and not self._had_underlay:  # a picture was just set: show its settings
             imgui.set_next_item_open(True)
