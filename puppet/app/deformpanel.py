@@ -36,6 +36,7 @@ def panel(app) -> None:
     if st.tool == "stiffness":
         _, st.brush = imgui.slider_float("brush size##stiffness", st.brush, 2.0, 300.0, "%.0f px",
                                          imgui.SliderFlags_.logarithmic)
+        imgui.set_item_tooltip("the stiffness brush's diameter, canvas pixels")
         note("slider:stiffness brush")
         _, st.value = imgui.slider_int("stiffness##value", st.value, 0, 255)
         imgui.set_item_tooltip("grey the brush paints: 0 normal .. 255 stiffest (Alt-drag erases to 0)")
@@ -117,6 +118,7 @@ def starch(app) -> None:
 
         changed, r = imgui.slider_float(f"{p.name} radius", p.radius or STARCH_RADIUS, 4.0, 400.0, "%.0f px",
                                         imgui.SliderFlags_.logarithmic)
+        imgui.set_item_tooltip("how far the starch pin stiffens the layer around it")
         note("slider:starch radius")
         live(app, "starch", f"radius of {p.name}")
         if changed:

@@ -272,7 +272,7 @@ def draw_hinges(dl, app) -> None:
         r = snap.layers[k]
         for P in link.polygons:
             pts = [imgui.ImVec2(*map(float, view.to_screen(shown(r, q)))) for q in P]
-            dl.add_polyline(pts, green, imgui.ImDrawFlags_.closed, 2.0)
+            dl.add_polyline(pts, green, 2.0, imgui.ImDrawFlags_.closed)
         for q in link.points:
             c = imgui.ImVec2(*map(float, view.to_screen(shown(r, q))))
             dl.add_circle(c, 7.0, dark, 0, 4.0)

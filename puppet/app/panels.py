@@ -223,10 +223,10 @@ class Panels:
                 app.selection = [new]
                 self.pin_name = ""
             imgui.same_line()
-            kinds = ["interior", "exterior"]
+            kinds = ["interior", "exterior", "starch"]
             imgui.set_next_item_width(90)
             changed, i = imgui.combo("kind", kinds.index(pin.kind), kinds)
-            imgui.set_item_tooltip("interior pin or exterior (boundary) control point")
+            imgui.set_item_tooltip("interior pin, exterior (boundary) control point, or starch (stiffens, holds nothing)")
             note("combo:kind")
             if changed:
                 app.edit(lambda s: s.set_pin(name, kind=kinds[i]))

@@ -100,13 +100,15 @@ class Edits:
         return self._edit(Event("pin", new, "none", f"rename pin {old}"), m)
 
     def set_pin(self, name: str, *, depth: float | None = None, kind: str | None = None) -> bool:
-        """Set a pin's rest depth and/or kind (``interior`` or ``exterior``)."""
+        """Set a pin's rest depth and/or kind (``interior``, ``exterior`` or ``starch``)."""
         def m(doc):
             p = self._pin(doc, name)
             if depth is not None:
                 p["depth"] = float(depth)
             if kind is not None:
                 p["kind"] = kind
+                if kind != "starch":
+                    p.pop("radius", None)  # only a starch pin has a radius
         return self._edit(Event("pin", name, "precompute", f"change pin {name}"), m)
 
     # layers -------------------------------------------------------------------------
