@@ -230,15 +230,7 @@ def draw_overlay(dl, app) -> None:
             g = vertex_grey(app, k) if k not in hidden else None
             if g is None:
                 continue
-            r = app.snap.layers[k]
-            F = np.asarray(r.triangles)
-            tg = g[F].mean(1)
-            S = view.to_screen(r.deformed)
-            for t in np.flatnonzero(tg > 1.0):
-                a, b, c = S[F[t]]
-                alpha = 0.15 + 0.6 * tg[t] / 255.0
-                dl.add_triangle_filled(imgui.ImVec2(*a), imgui.ImVec2(*b), imgui.ImVec2(*c),
-                                       col(imgui.ImVec4(1.0, 0.1, 0.05, alpha)))
+            draw_heat(dl, view.to_screen(app.snap.layers[k].deformed), np.asarray(app.snap.layers[k].triangles), g)
     yellow = col(imgui.ImVec4(1.0, 0.9, 0.2, 1.0))
     if app.show_links or st.tool in ("hinge", "patch"):
         draw_hinges(dl, app)
@@ -255,6 +247,30 @@ def draw_overlay(dl, app) -> None:
         m = imgui.get_io().mouse_pos
         dl.add_circle(imgui.ImVec2(m.x, m.y), max(st.brush / 2 * view.scale, 2.0),
                       col(imgui.ImVec4(1.0, 1.0, 1.0, 0.8)), 0, 1.5)
+
+
+def heat_colours(g: np.ndarray) -> np.ndarray:
+    """Packed ImGui colours (n,) uint32 of grey levels g (n,) 0..255: transparent at 0,
+    red more opaque as it stiffens."""
+    alpha = np.where(g > 0.5, 0.2 + 0.6 * np.clip(g, 0, 255) / 255.0, 0.0)
+    a = np.rint(alpha * 255).astype(np.uint32)
+    return (a << 24) | (np.uint32(13) << 16) | (np.uint32(26) << 8) | np.uint32(255)  # ABGR: (255, 26, 13)
+
+
+def draw_heat(dl, S: np.ndarray, F: np.ndarray, g: np.ndarray) -> None:
+    """The heat map of one layer: its triangles F (m, 3) at window points S (n, 2),
+    coloured per vertex from grey g (n,) (Gouraud-shaded by ImGui's vertex colours)."""
+    from imgui_bundle import imgui
+
+    cols = heat_colours(g)
+    keep = np.flatnonzero(g[F].max(1) > 0.5)
+    if not len(keep):
+        return
+    uv = imgui.get_font_tex_uv_white_pixel()
+    dl.prim_reserve(3 * len(keep), 3 * len(keep))
+    for t in keep:
+        for v in F[t]:
+            dl.prim_vtx(imgui.ImVec2(float(S[v, 0]), float(S[v, 1])), uv, int(cols[v]))
 
 
 def draw_hinges(dl, app) -> None:
