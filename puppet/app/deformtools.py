@@ -234,6 +234,7 @@ def draw_overlay(dl, app) -> None:
     yellow = col(imgui.ImVec4(1.0, 0.9, 0.2, 1.0))
     if app.show_links or st.tool in ("hinge", "patch"):
         draw_hinges(dl, app)
+    draw_starch_reach(dl, app)
     if st.draft_screen:
         pts = [imgui.ImVec2(*map(float, view.to_screen(p))) for p in st.draft_screen]
         for p, q in zip(pts, pts[1:]):
@@ -287,18 +288,26 @@ def draw_hinges(dl, app) -> None:
             continue
         r = snap.layers[k]
         for P in link.polygons:
-            pts = [imgui.ImVec2(*map(float, view.to_screen(shown(r, q)))) for q in P]
+            pts = [imgui.ImVec2(*map(float, view.to_screen(pick.shown_point(r, q)))) for q in P]
             dl.add_polyline(pts, green, 2.0, imgui.ImDrawFlags_.closed)
         for q in link.points:
-            c = imgui.ImVec2(*map(float, view.to_screen(shown(r, q))))
+            c = imgui.ImVec2(*map(float, view.to_screen(pick.shown_point(r, q))))
             dl.add_circle(c, 7.0, dark, 0, 4.0)
             dl.add_circle(c, 7.0, green, 0, 2.0)
 
 
-def shown(r, rest) -> np.ndarray:
-    """Where layer result ``r``'s mesh shows rest canvas point ``rest`` (itself when off
-    the mesh)."""
-    w, t = pick._barycentric(np.asarray(r.rest, float), np.asarray(r.triangles), np.asarray(rest, float))
-    if t is None:
-        return np.asarray(rest, float)
-    return w @ np.asarray(r.deformed, float)[r.triangles[t]]
+
+def draw_starch_reach(dl, app) -> None:
+    """A faint circle of each selected starch pin's reach."""
+    from imgui_bundle import imgui
+
+    from puppet.scene.stiffness import STARCH_RADIUS
+
+    pins = {p.name: p for p in app.snap.data.pins if p.kind == "starch"}
+    white = imgui.get_color_u32(imgui.ImVec4(1.0, 1.0, 1.0, 0.7))
+    for name in app.selection:
+        p, m = pins.get(name), app.marker(name)
+        if p is not None and m is not None:
+            c = app.view.to_screen(app.marker_xy(m))
+            dl.add_circle(imgui.ImVec2(float(c[0]), float(c[1])), (p.radius or STARCH_RADIUS) * app.view.scale,
+                          white, 0, 1.0)

@@ -46,6 +46,8 @@ def markers(data, layers) -> list[Marker]:
         r = layers[k]
         if p.kind == "interior" and p.name in r.pins:
             xy = r.deformed[r.pins[p.name]]
+        elif p.kind == "starch":  # no mesh vertex: where the shown mesh carries its rest point
+            xy = shown_point(r, p.at)
         elif p.name in r.exterior:
             xy = r.exterior[p.name]
         else:
@@ -115,6 +117,15 @@ def rest_point(layer, xy) -> tuple[float, float] | None:
         return None
     rest = w @ np.asarray(layer.rest, float)[layer.triangles[t]]
     return (float(rest[0]), float(rest[1]))
+
+
+def shown_point(layer, rest) -> np.ndarray:
+    """Where ``layer`` (a LayerResult) shows rest canvas point ``rest`` (2,); the point
+    itself when it is off the layer's mesh."""
+    w, t = _barycentric(np.asarray(layer.rest, float), np.asarray(layer.triangles), np.asarray(rest, float))
+    if t is None:
+        return np.asarray(rest, float)
+    return w @ np.asarray(layer.deformed, float)[layer.triangles[t]]
 
 
 def _barycentric(U: np.ndarray, F: np.ndarray, p: np.ndarray):

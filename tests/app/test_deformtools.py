@@ -126,7 +126,7 @@ def test_stiffness_brush_paints_one_step_and_stiffens_the_band(arm_app):
     d.app.deform.brush = 60.0
     n = steps(d)
     shown = layer(d, "arm")
-    from puppet.app.deformtools import shown as shown_at
+    from puppet.app.pick import shown_point as shown_at
 
     # paint the band x 150..180 across the arm, where the posed arm shows it
     path = [d.screen_of(shown_at(shown, (x, 55.0))) for x in (150.0, 160.0, 170.0, 180.0)]
@@ -227,12 +227,21 @@ def test_starch_pins_are_added_in_pin_mode_and_never_dragged_in_pose_mode(arm_ap
     drag_slider(d, "slider:starch radius", 0.3, 0.6)
     p = next(q for q in d.scene().data.pins if q.name == p.name)
     assert steps(d) == n + 1 and p.radius > 40
-    # Pose mode: a drag from the starch pin moves nothing and makes no pose
+    # Pose mode: the marker rides on the posed mesh; a drag from it moves nothing, makes no pose
     d.app.set_mode("pose")
-    d.frame(2)
+    d.app.edit(lambda s: s.set_target("tip", (230, 75), pose="up"))
+    d.app.edit(lambda s: s.set_active_pose("up"))
+    d.settle()
+    m = d.app.marker(p.name)
+    np.testing.assert_allclose(m.xy, np.add(p.at, (-20, 20)), atol=0.5)  # the arm moved with its tip
     poses = dict(d.scene().to_dict().get("poses", {}))
     xy = d.pin_screen(p.name)
-    d.drag_path([xy, (xy[0] + 40, xy[1] + 30), (xy[0] + 80, xy[1] + 60)])
+    d.press(*xy)
+    assert "starch pin" in d.app.status.text  # told why nothing follows the pointer
+    for k in (1, 2):
+        d.drag(xy[0] + 40 * k, xy[1] + 30 * k)
+    d.release()
     d.settle()
     assert d.scene().to_dict().get("poses", {}) == poses
-    assert "starch" in d.app.status.text
+    np.testing.assert_allclose(d.app.marker(p.name).xy, m.xy)
+    assert d.app.status.level != "error", d.app.status.text  # not offered as a drag at all
