@@ -146,6 +146,10 @@ def hinge_tool(app, press):
         return
     a, b, at = pair
     state(app).link = (a, b)
+    for link in app.snap.data.links:
+        if set(link.layers) == {a, b} and any(np.hypot(*(q - at)) < 2.0 for q in link.points):
+            app.say(f"{a} and {b} are hinged there already", "error")
+            return
     app.edit(lambda s: s.add_link_point(a, b, at))
     app.say(f"hinge {a} and {b} at ({at[0]:.0f}, {at[1]:.0f})")
 

@@ -187,9 +187,14 @@ def test_hinge_keeps_the_body_still_where_a_segment_drags_it(arm_app):
     np.testing.assert_allclose(link.points[0], SHOULDER, atol=1.5)
     hinge = body_moves()
     assert hinge < 0.5 * seg and hinge <= 4.0  # (the body is held by two pins only)
+    d.app.edit(lambda s: s.set_active_pose("rest"))
+    d.settle()
+    d.click(*d.screen_of(SHOULDER))  # hinged there already: refused (showing a pose was a step)
+    d.settle()
+    assert steps(d) == n + 3 and len(d.scene().data.links[0].points) == 1
     d.click(*d.screen_of((250, 200)))  # not in the overlap: refused
     d.settle()
-    assert steps(d) == n + 2 and d.app.status.level == "error"
+    assert steps(d) == n + 3 and d.app.status.level == "error"
 
 
 def test_patch_tool_closes_a_polygon_and_strength_slider(arm_app):
