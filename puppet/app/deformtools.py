@@ -291,11 +291,14 @@ def draw_hinges(dl, app) -> None:
         if k is None:
             continue
         r = snap.layers[k]
+
+        def at(q, r=r):
+            s = pick.shown_point(r, q)
+            return imgui.ImVec2(*map(float, view.to_screen(q if s is None else s)))
         for P in link.polygons:
-            pts = [imgui.ImVec2(*map(float, view.to_screen(pick.shown_point(r, q)))) for q in P]
-            dl.add_polyline(pts, green, 2.0, imgui.ImDrawFlags_.closed)
+            dl.add_polyline([at(q) for q in P], green, 2.0, imgui.ImDrawFlags_.closed)
         for q in link.points:
-            c = imgui.ImVec2(*map(float, view.to_screen(pick.shown_point(r, q))))
+            c = at(q)
             dl.add_circle(c, 7.0, dark, 0, 4.0)
             dl.add_circle(c, 7.0, green, 0, 2.0)
 
