@@ -33,7 +33,7 @@ class DeformState:
     draft_pair: tuple | None = None  # the patch's two layers
     stroke: list | None = None  # the brush stroke in progress (canvas xy)
     link: tuple | None = None  # the selected link's layers (strength slider)
-    heat: dict = field(default_factory=dict)  # heat-map cache: (data id, k) -> per-vertex grey
+    heat: dict = field(default_factory=dict)  # heat-map cache: layer index -> (scene data, vertex count, grey)
 
 
 def state(app) -> DeformState:
@@ -205,20 +205,20 @@ def cancel_patch(app) -> None:
 # -- heat map and drafts ---------------------------------------------------------------
 def vertex_grey(app, k: int) -> np.ndarray | None:
     """Stiffness (grey 0..255) the solver sees at layer ``k``'s vertices: the painted image,
-    starch pins and link polygons (:func:`puppet.scene.stiffness.layer_grey`); cached per
-    scene version."""
+    starch pins and link polygons (:func:`puppet.scene.stiffness.layer_grey`); cached while
+    the scene data (and the mesh) stay the same."""
     from puppet.scene.stiffness import layer_grey
 
     snap, st = app.snap, state(app)
-    key = (id(snap.data), k)
-    if key not in st.heat:
-        if len(st.heat) > 64:
-            st.heat.clear()
+    rest = np.asarray(snap.layers[k].rest, float)
+    hit = st.heat.get(k)
+    if hit is None or hit[0] is not snap.data or hit[1] != len(rest):
         try:
-            st.heat[key] = layer_grey(snap.data, k, snap.images[k], np.asarray(snap.layers[k].rest, float))
+            g = layer_grey(snap.data, k, snap.images[k], rest)
         except SceneError:
-            st.heat[key] = None
-    return st.heat[key]
+            g = None
+        hit = st.heat[k] = (snap.data, len(rest), g)
+    return hit[2]
 
 
 def draw_overlay(dl, app) -> None:
