@@ -262,20 +262,38 @@ def heat_colours(g: np.ndarray) -> np.ndarray:
     return (a << 24) | (np.uint32(13) << 16) | (np.uint32(26) << 8) | np.uint32(255)  # ABGR: (255, 26, 13)
 
 
+#: ImGui's vertex layout (imgui.VERTEX_SIZE bytes): position, texture uv, packed colour
+_VERT = np.dtype([("pos", "<f4", 2), ("uv", "<f4", 2), ("col", "<u4")])
+
+
 def draw_heat(dl, S: np.ndarray, F: np.ndarray, g: np.ndarray) -> None:
     """The heat map of one layer: its triangles F (m, 3) at window points S (n, 2),
-    coloured per vertex from grey g (n,) (Gouraud-shaded by ImGui's vertex colours)."""
+    coloured per vertex from grey g (n,) (Gouraud-shaded by ImGui's vertex colours).
+
+    The vertices and indices are written into the draw list's buffers in one copy each
+    (reserved with ``prim_reserve``, as ImGui's own shapes do): a call per vertex costs
+    tens of ms a frame for a few thousand triangles."""
+    import ctypes
+
     from imgui_bundle import imgui
 
-    cols = heat_colours(g)
     keep = np.flatnonzero(g[F].max(1) > 0.5)
     if not len(keep):
         return
+    nv, ni = len(S), 3 * len(keep)  # every vertex (cheaper than picking the used ones)
+    assert imgui.VERTEX_SIZE == _VERT.itemsize and imgui.INDEX_SIZE == 4
+    vtx = np.empty(nv, _VERT)
+    vtx["pos"] = S
     uv = imgui.get_font_tex_uv_white_pixel()
-    dl.prim_reserve(3 * len(keep), 3 * len(keep))
-    for t in keep:
-        for v in F[t]:
-            dl.prim_vtx(imgui.ImVec2(float(S[v, 0]), float(S[v, 1])), uv, int(cols[v]))
+    vtx["uv"] = (uv.x, uv.y)
+    vtx["col"] = heat_colours(g)
+    dl.prim_reserve(ni, nv)
+    base = dl._vtx_current_idx
+    idx = (base + F[keep].reshape(-1)).astype(np.uint32)
+    vb, ib = dl.vtx_buffer, dl.idx_buffer
+    ctypes.memmove(vb.data_address() + (vb.size() - nv) * _VERT.itemsize, vtx.ctypes.data, vtx.nbytes)
+    ctypes.memmove(ib.data_address() + (ib.size() - ni) * 4, idx.ctypes.data, idx.nbytes)
+    dl._vtx_current_idx = base + nv
 
 
 def draw_hinges(dl, app) -> None:
