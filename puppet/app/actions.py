@@ -141,6 +141,8 @@ ACTIONS: tuple[Action, ...] = (
       ((K.d, False, None),), _toggle("depth_view"), menu="View", checked="depth_view"),
     A("links", "L", "Link segments", "show link segments", ((K.l, False, None),), _toggle("show_links"),
       menu="View", checked="show_links"),
+    A("stiffness", "", "Stiffness heat map", "the stiffness the solver sees, in red (Deform panel)", (),
+      _toggle("show_stiffness"), menu="View", checked="show_stiffness"),
     A("nudge", "Arrows / Shift + Arrows", "Nudge", "nudge the selected pins 1 px / 10 px",
       tuple((k, False, None) for k in (K.left_arrow, K.right_arrow, K.up_arrow, K.down_arrow)), _nudge,
       repeat=True),

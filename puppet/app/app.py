@@ -41,6 +41,7 @@ class App:
         self.show_mesh = False
         self.depth_view = False
         self.show_links = False
+        self.show_stiffness = False  # the stiffness heat map (puppet.app.deformtools)
         self.show_help = False
         self.status = Message("Open a scene with File > Open (Ctrl+O)")
         self.overrides: dict[str, tuple[float, float]] = {}  # marker positions during a gesture

@@ -65,6 +65,9 @@ def grab(app, press: CanvasEvent) -> dict | None:
     app.select(m.name, press.shift)
     if m.name not in app.selection:
         return None
+    if m.kind == "starch":  # it stiffens the shape around it and holds no position
+        app.say(f"{m.name} is a starch pin: it holds no position (move it in Pin mode)")
+        return None
     return {n: app.marker_xy(app.marker(n)) for n in app.selection if app.posable(n)}
 
 

@@ -83,16 +83,7 @@ def link_segments(app) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def shown_point(r, p) -> np.ndarray | None:
-    """Where layer result ``r`` shows rest point ``p`` (None when off its mesh)."""
-    F = np.asarray(r.triangles)
-    V = np.asarray(r.rest, float)
-    w, t = pick._barycentric(V, F, np.asarray(p, float))
-    if t is None:
-        d = np.hypot(*(V - p).T)  # a point on the outline: its nearest vertex
-        i = int(np.argmin(d))
-        return np.asarray(r.deformed[i], float) if d[i] < 3.0 else None
-    return w @ np.asarray(r.deformed, float)[F[t]]
+shown_point = pick.shown_point  # where a layer result shows a rest point (None when off its mesh)
 
 
 def draw_links(dl, app) -> None:

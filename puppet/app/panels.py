@@ -40,6 +40,12 @@ class Panels:
             self.poses()
         if imgui.collapsing_header("Pins", _H):
             self.pins()
+        deform = imgui.collapsing_header("Deform")
+        note("header:Deform")
+        if deform:
+            from puppet.app import deformpanel
+
+            deformpanel.panel(app)
         has = app.snap.underlay is not None
         if has and not self._had_underlay:  # a picture was just set: show its settings
             imgui.set_next_item_open(True)
@@ -227,17 +233,19 @@ class Panels:
                 app.selection = [new]
                 self.pin_name = ""
             imgui.same_line()
-            if pin.kind == "starch":  # stiffens around it, holds no position: no kind change, no target
-                imgui.text(f"starch, radius {pin.radius or STARCH_RADIUS:g}")
-                imgui.set_item_tooltip("a starch pin stiffens the shape around it; a pose cannot move it")
-                return
-            kinds = ["interior", "exterior"]
+            kinds = ["interior", "exterior", "starch"]
             imgui.set_next_item_width(90)
             changed, i = imgui.combo("kind", kinds.index(pin.kind), kinds)
-            imgui.set_item_tooltip("interior pin or exterior (boundary) control point")
+            imgui.set_item_tooltip("interior pin, exterior (boundary) control point, or starch (stiffens, holds nothing)")
             note("combo:kind")
             if changed:
                 app.edit(lambda s: s.set_pin(name, kind=kinds[i]))
+            if pin.kind == "starch":  # stiffens around it, holds no position: no target, no angle
+                imgui.same_line()
+                imgui.text(f"radius {pin.radius or STARCH_RADIUS:g}")
+                imgui.set_item_tooltip("a starch pin stiffens the shape around it; a pose cannot move it "
+                                       "(its radius: Deform panel)")
+                return
         if app.mode == "pose" and snap.active != "rest":
             t = snap.data.poses.get(snap.active, {}).get(name)
             angle = float(t.angle) if t is not None else 0.0

@@ -46,6 +46,8 @@ def markers(data, layers) -> list[Marker]:
         r = layers[k]
         if p.kind == "interior" and p.name in r.pins:
             xy = r.deformed[r.pins[p.name]]
+        elif p.kind == "starch" and (s := shown_point(r, p.at)) is not None:  # carried by the mesh
+            xy = s
         elif p.name in r.exterior:
             xy = r.exterior[p.name]
         else:
@@ -115,6 +117,20 @@ def rest_point(layer, xy) -> tuple[float, float] | None:
         return None
     rest = w @ np.asarray(layer.rest, float)[layer.triangles[t]]
     return (float(rest[0]), float(rest[1]))
+
+
+def shown_point(layer, rest) -> np.ndarray | None:
+    """Where ``layer`` (a LayerResult) shows rest canvas point ``rest`` (2,): through the
+    triangle that holds it, or a point on the outline by its nearest vertex (within 3
+    px); None when it is off the mesh."""
+    F = np.asarray(layer.triangles)
+    V = np.asarray(layer.rest, float)
+    w, t = _barycentric(V, F, np.asarray(rest, float))
+    if t is None:
+        d = np.hypot(*(V - rest).T)
+        i = int(np.argmin(d))
+        return np.asarray(layer.deformed[i], float) if d[i] < 3.0 else None
+    return w @ np.asarray(layer.deformed, float)[F[t]]
 
 
 def _barycentric(U: np.ndarray, F: np.ndarray, p: np.ndarray):

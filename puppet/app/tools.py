@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from puppet.app import animtools
+from puppet.app import animtools, deformtools
 from puppet.app.gestures import CanvasEvent, click_or_drag, delta, drag_pins, grab, moved, offset
 
 #: Alt-press this close to a pin (window pixels) turns it
@@ -31,6 +31,9 @@ def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
     step_tool = app.script.canvas_tool(app)  # the task script's mask, clone and link tools
     if step_tool is not None:
         return step_tool
+    deform_tool = deformtools.canvas_tool(app)  # stiffness brush, hinge, patch (Deform panel)
+    if deform_tool is not None:
+        return deform_tool
     app.timeline.focus = False
     if app.mode == "pose":
         anim_tool = animtools.choose(app, ev)  # keying at the playhead, record mode

@@ -18,7 +18,7 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import actions, autosave, menus, native_dialogs, overlay, recent, script
+from puppet.app import actions, autosave, deformtools, menus, native_dialogs, overlay, recent, script
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
 from puppet.app.imgui_gl import ImGuiRenderer
@@ -363,6 +363,7 @@ class AppWindow:
         dl = imgui.get_window_draw_list()
         if app.snap.loaded:
             script.draw_overlay(dl, app)
+            deformtools.draw_overlay(dl, app)
             if app.show_links:
                 overlay.draw_links(dl, app)
             if app.show_pins:

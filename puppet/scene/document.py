@@ -22,6 +22,7 @@ from puppet.imaging.io import load_rgba
 from puppet.output import write_text
 from puppet.scene import evaluate as ev, timeline
 from puppet.scene.cache import file_stamp, fingerprint
+from puppet.scene.deformedits import DeformEdits
 from puppet.scene.edits import Edits
 from puppet.scene.keyedits import KeyEdits
 from puppet.scene.files import PendingFiles
@@ -78,7 +79,7 @@ def _relative_to(folder: str) -> Callable[[str], str]:
     return rel
 
 
-class Document(Edits, KeyEdits):
+class Document(Edits, KeyEdits, DeformEdits):
     """An editable scene. Load with :meth:`load`; pose with :meth:`layers` / :meth:`mesh`."""
 
     def __init__(self, doc: dict, file: str):

@@ -100,13 +100,15 @@ class Edits:
         return self._edit(Event("pin", new, "none", f"rename pin {old}"), m)
 
     def set_pin(self, name: str, *, depth: float | None = None, kind: str | None = None) -> bool:
-        """Set a pin's rest depth and/or kind (``interior`` or ``exterior``)."""
+        """Set a pin's rest depth and/or kind (``interior``, ``exterior`` or ``starch``)."""
         def m(doc):
             p = self._pin(doc, name)
             if depth is not None:
                 p["depth"] = float(depth)
             if kind is not None:
                 p["kind"] = kind
+                if kind != "starch":
+                    p.pop("radius", None)  # only a starch pin has a radius
         return self._edit(Event("pin", name, "precompute", f"change pin {name}"), m)
 
     # layers -------------------------------------------------------------------------
@@ -165,8 +167,9 @@ class Edits:
         return self._edit(Event("layer", new, "none", f"rename layer {old}"), m)
 
     def set_layer(self, name: str, **fields) -> bool:
-        """Change a layer's ``offset``, ``mask``, ``order``, ``inpaint``, ``mesh`` or
-        ``exterior`` (scene-format values; None removes the key, back to its default)."""
+        """Change a layer's ``offset``, ``mask``, ``order``, ``inpaint``, ``mesh``,
+        ``exterior``, ``deformer`` ({"mode": ...}) or ``stiffness`` ({"file": ...})
+        (scene-format values; None removes the key, back to its default)."""
         def m(doc):
             L = self._layer(doc, name)
             for k, v in _layer_fields(fields, keep_none=True).items():
@@ -372,7 +375,7 @@ def _ext_layer(name: str) -> str | None:
 
 
 def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
-    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior")
+    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior", "deformer", "stiffness")
     out = {}
     for k, v in fields.items():
         if k not in known:
@@ -381,7 +384,7 @@ def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
             continue
         if k == "offset" and v is not None:
             v = _xy(v)
-        if k == "mask" and isinstance(v, dict) and isinstance(v.get("file"), str):
+        if k in ("mask", "stiffness") and isinstance(v, dict) and isinstance(v.get("file"), str):
             v = dict(v, file=os.path.abspath(v["file"]))
         out[k] = v
     return out
