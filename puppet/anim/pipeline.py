@@ -14,15 +14,16 @@ frames exist at once (memory is flat in the frame count), and frames are written
 order. Each frame is solved from its own time (trajectory invariance), so the output is
 identical to the sequential path (``threads=False``), which runs the same stage
 functions one after the other. An error in any stage stops the others and is raised in
-the calling thread; so is a signal (the threads are joined first, so no stage writes
+the calling thread; so is a signal (the threads are stopped first, so no stage writes
 into a temporary output that is being removed).
 
 A signal's exception can land anywhere in the calling thread, even inside a lock's or
 a queue's own code, and leave a lock taken that a stage then waits on for ever (an
 import's module lock, a queue's mutex). So the calling thread never waits on a stage
-without a bound: a stage is started inside the ``try`` that stops it, the end of the
-encoding is waited for in short steps, and a stopped stage is given :data:`HALT_TIMEOUT`
-seconds to end before it is left behind (a daemon thread, blocked, not writing).
+without a bound and never inside ``Thread.join``: a stage is started inside the ``try``
+that stops it, its end is a flag it sets (looked at in short sleeps), and a stopped stage
+is given :data:`HALT_TIMEOUT` seconds to end before it is left behind (a daemon thread,
+blocked, not writing).
 """
 from __future__ import annotations
 
@@ -62,15 +63,20 @@ class _StageThread(threading.Thread):
         super().__init__(name=name, daemon=True)
         self.body, self.error = body, None
         self.stop = threading.Event()
+        # Plain flags, read by the calling thread without a lock (a signal's exception there
+        # never lands inside Thread.join or is_alive, whose lock handling it can upset).
         self.starting = False  # start() was called (a signal may cut it short after that)
-        self.began = threading.Event()  # run() was entered
+        self.ended = False  # run() has returned
 
     def start(self) -> None:
         self.starting = True
-        super().start()
+        try:
+            super().start()
+        except Exception:  # no thread could be started: nothing to wait for
+            self.starting = False
+            raise
 
     def run(self) -> None:
-        self.began.set()
         try:
             if not self.stop.is_set():
                 self.body()
@@ -78,6 +84,12 @@ class _StageThread(threading.Thread):
             pass
         except BaseException as e:  # handed to the calling thread
             self.error = e
+        finally:
+            self.ended = True
+
+    def running(self) -> bool:
+        """Started and not ended (a stage whose start() was cut short counts as running)."""
+        return self.starting and not self.ended
 
     def put(self, q: queue.Queue, item) -> None:
         while not self.stop.is_set():
@@ -101,19 +113,15 @@ class _StageThread(threading.Thread):
         it to end; True when it has. A thread whose ``start()`` was cut short by a signal
         (it may or may not run) is waited for the same way."""
         self.stop.set()
-        if not self.starting:
-            return True
         end = time.monotonic() + (HALT_TIMEOUT if timeout is None else timeout)
-        while not self.began.wait(0.01):
-            if time.monotonic() >= end:
-                return False
-        self.join(max(0.0, end - time.monotonic()))
-        return not self.is_alive()
+        while self.running() and time.monotonic() < end:
+            time.sleep(0.005)
+        return not self.running()
 
     def wait(self) -> None:
-        """Wait for the stage to end, in short steps (a signal is handled meanwhile)."""
-        while self.is_alive():
-            self.join(0.1)
+        """Wait for the stage to end (a signal is handled meanwhile)."""
+        while self.running():
+            time.sleep(0.002)
 
 
 class Progress:
@@ -210,7 +218,7 @@ def frames(solve: Callable[[int], object], composite: Callable[[object], np.ndar
                     _, item = q.get(timeout=0.1)
                     break
                 except queue.Empty:
-                    if not worker.is_alive() and q.empty():
+                    if not worker.running() and q.empty():
                         raise worker.error or RuntimeError("the solver thread stopped") from None
             t1 = time.perf_counter()
             timings.add("wait", t1 - t)
@@ -248,7 +256,7 @@ def run(source: Iterator[np.ndarray], add: Callable[[np.ndarray], None], *, thre
         for rgba in source:
             t = time.perf_counter()
             while True:
-                if worker.error is not None or not worker.is_alive():
+                if worker.error is not None or not worker.running():
                     raise worker.error or RuntimeError("the encoder thread stopped")
                 try:
                     inbox.put(rgba, timeout=0.1)
@@ -259,7 +267,7 @@ def run(source: Iterator[np.ndarray], add: Callable[[np.ndarray], None], *, thre
             n += 1
             if progress:
                 progress.update()
-        while worker.is_alive():  # the end mark, then the last frames are written
+        while worker.running():  # the end mark, then the last frames are written
             try:
                 inbox.put(_END, timeout=0.1)
                 break

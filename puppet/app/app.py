@@ -154,14 +154,23 @@ class App:
         m = self.marker(name)
         return m is not None and m.kind != "starch"
 
-    def marker_at(self, cursor, radius: float = 9.0) -> pick.Marker | None:
+    def marker_at(self, cursor, radius: float = 9.0, *, starch: bool | None = None) -> pick.Marker | None:
+        """The marker under ``cursor`` (window pixels); starch pins only in Pin mode (they
+        hold no target), or only them with ``starch=True``."""
         if not self.show_pins:
             return None
-        ms = [m for m in self.markers() if self.mode == "pin" or m.kind != "starch"]  # starch holds no target
+        if starch is None:
+            ms = [m for m in self.markers() if self.mode == "pin" or m.kind != "starch"]
+        else:
+            ms = [m for m in self.markers() if (m.kind == "starch") == starch]
         if not ms:
             return None
         pts = self.view.to_screen(np.array([self.marker_xy(m) for m in ms]))
         return pick.marker_at(ms, pts, cursor, radius)
+
+    def starch_at(self, cursor) -> pick.Marker | None:
+        """The starch pin marker under ``cursor`` (window pixels), in any mode."""
+        return self.marker_at(cursor, starch=True)
 
     def layer_index(self, name: str | None) -> int | None:
         self.markers()

@@ -15,6 +15,7 @@ import numpy as np
 
 from puppet.app import masktools, pick
 from puppet.errors import SceneError
+from puppet.imaging.masks import canvas_to_image
 
 #: a click this close to a patch's first point (window pixels) closes the patch
 CLOSE_RADIUS = 9.0
@@ -92,7 +93,7 @@ def paint_stiffness(s, layer: str, shape_fn, value: int) -> str | None:
         raise SceneError(f"no layer named {layer!r}")
     L, im = s.data.layers[k], s.built.images[k]
     W, H = s.canvas
-    cut = masktools.to_image(shape_fn((H, W)), im.offset, im.mask.shape) & im.mask
+    cut = canvas_to_image(shape_fn((H, W)), im.offset, im.mask.shape) & im.mask
     if not cut.any():
         raise SceneError(f"the stroke does not touch layer {layer!r}")
     old = stiffness_image(s.data, L, im)

@@ -55,18 +55,23 @@ def click_or_drag(press: CanvasEvent):
     return ev, went
 
 
+def explain_starch(app, press: CanvasEvent) -> None:
+    """A press on a starch pin where only pose targets are picked: say why nothing follows."""
+    starch = app.starch_at(press.pos)
+    if starch is not None:
+        app.say(f"{starch.name} is a starch pin: it holds no position (move it in Pin mode)")
+
+
 def grab(app, press: CanvasEvent) -> dict | None:
     """Select the pin under the press (Shift: toggle it) and return the selected pins
     with where they are now, {name: (x, y)}; None when the press is beside the pins or
     Shift took the pin out of the selection."""
     m = app.marker_at(press.pos)
     if m is None:
+        explain_starch(app, press)
         return None
     app.select(m.name, press.shift)
     if m.name not in app.selection:
-        return None
-    if m.kind == "starch":  # it stiffens the shape around it and holds no position
-        app.say(f"{m.name} is a starch pin: it holds no position (move it in Pin mode)")
         return None
     return {n: app.marker_xy(app.marker(n)) for n in app.selection if app.posable(n)}
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from puppet.app import animtools, deformtools
-from puppet.app.gestures import CanvasEvent, click_or_drag, delta, drag_pins, grab, moved, offset
+from puppet.app.gestures import CanvasEvent, click_or_drag, delta, drag_pins, explain_starch, grab, moved, offset
 
 #: Alt-press this close to a pin (window pixels) turns it
 ROTATE_RADIUS = 80.0
@@ -106,6 +106,7 @@ def pose_tool(app, press: CanvasEvent):
     if m is None:
         if not press.shift:
             app.selection = []
+        explain_starch(app, press)
         yield from click_or_drag(press)
         return
     start = grab(app, press)

@@ -89,7 +89,7 @@ def test_signal_right_after_a_stage_starts_leaves_no_thread(monkeypatch, which):
     """The signal lands just as ``start()`` returns: that stage is stopped too (old code: it
     ran on for ever, the solver solving ahead into a full queue)."""
     assert not _stage_threads()
-    start = threading.Thread.start
+    start = pipeline._StageThread.start
 
     def start_then_signal(self):
         start(self)

@@ -27,8 +27,8 @@ class Driver:
         self.ready = {}
         self.w = AppWindow(path, size=size, visible=False, ready=self.ready.update, **kw)
         self.app = self.w.app
-        self.size = size
-        self.pos = (size[0] // 2, size[1] // 2)
+        self.size = tuple(self.w.win.get_size())  # a size under the window's minimum is raised to it
+        self.pos = (self.size[0] // 2, self.size[1] // 2)
         self.mods = 0
         self.settle()
 
