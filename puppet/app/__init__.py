@@ -9,7 +9,14 @@ import os
 
 
 def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headless: bool = False) -> int:
-    """Open the app window (on ``path`` when given) and run it until it quits; returns 0."""
+    """Open the app window (on ``path`` when given) and run it until it quits; returns 0.
+
+    ``path`` (a scene, a picture or layered art) is loaded before the window opens: one
+    that cannot be opened raises SceneError (the CLI's one line, exit 2) with no window."""
+    if path is not None:
+        from puppet.app import opening
+
+        path = opening.preload(path)
     import pyglet
 
     pyglet.options["debug_gl"] = False
