@@ -25,6 +25,19 @@ def menu_bar(app, win) -> float:
     return 0.0
 
 
+def recent_menu(win) -> None:
+    """File > Open Recent (the recent files that still exist)."""
+    from puppet.app import recent
+
+    paths = recent.existing()
+    if imgui.begin_menu("Open Recent", bool(paths)):
+        for i, path in enumerate(paths):
+            if imgui.menu_item_simple(f"{os.path.basename(path)}##recent{i}"):
+                win.open_scene(path)
+            imgui.set_item_tooltip(path)
+        imgui.end_menu()
+
+
 def toolbar(app) -> None:
     """Task-script steps, mode buttons and view toggles (inside the toolbar window)."""
     from puppet.app import script

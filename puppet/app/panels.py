@@ -238,6 +238,13 @@ class Panels:
                 app.edit(lambda s: s.clear_target(name))
 
     # -- reference picture ----------------------------------------------------------
+    def set_underlay(self, path: str) -> None:
+        """Use the picture at ``path`` as the reference (keeping its placement if one is set)."""
+        u = self.app.snap.underlay
+        path = os.path.abspath(os.path.expanduser(path))
+        keep = dict(opacity=u["opacity"], offset=u["offset"], scale=u["scale"]) if u else {}
+        self.app.edit(lambda s: s.set_underlay(path, **keep))
+
     def reference(self) -> None:
         app, snap = self.app, self.app.snap
         u = snap.underlay
@@ -253,10 +260,13 @@ class Panels:
         imgui.same_line()
         if button("Set", "use this picture as the reference", enabled=bool(self.underlay_path.strip())) or \
                 (enter and self.underlay_path.strip()):
-            path = os.path.abspath(os.path.expanduser(self.underlay_path.strip()))
-            keep = dict(opacity=u["opacity"], offset=u["offset"], scale=u["scale"]) if u else {}
-            app.edit(lambda s: s.set_underlay(path, **keep))
+            self.set_underlay(self.underlay_path.strip())
             self.underlay_path = ""
+        files = getattr(app, "files", None)
+        if files is not None and files.native:
+            imgui.same_line()
+            if button("Browse...##underlay", "choose the picture in a file dialog"):
+                files.ask("picture", self.set_underlay, os.path.dirname(snap.file or "") + os.sep)
         if u is None:
             return
         imgui.same_line()

@@ -18,9 +18,10 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import actions, autosave, menus, overlay, script
+from puppet.app import actions, autosave, menus, overlay, script, startpage
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
+from puppet.app.files import Files
 from puppet.app.imgui_gl import ImGuiRenderer
 from puppet.app.keys import ImGuiInput
 from puppet.app.onion import GhostRenderer
@@ -79,7 +80,7 @@ class AppWindow:
         config = pyglet.gl.Config(double_buffer=True, red_size=8, green_size=8, blue_size=8, alpha_size=8,
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
         self.win = pyglet.window.Window(int(size[0]), int(size[1]), caption="puppet", resizable=True,
-                                        config=config, visible=visible)
+                                        config=config, visible=visible, file_drops=True)
         sys.setswitchinterval(SWITCH_INTERVAL)
         self.win.switch_to()
         moderngl.init_context()
@@ -97,6 +98,8 @@ class AppWindow:
         self.win.push_handlers(self.input)
         self.win.push_handlers(on_close=self._on_close)
         self.app = App()
+        self.files = self.app.files = Files(self.app, self)  # dialogs, recent files, drops, Reload art
+        self.win.push_handlers(on_file_drop=self.files.on_drop)
         self.canvas = CanvasRenderer(self.ctx)
         self.thumbs = Thumbs(self.ctx, self.gui)
         self.panels = Panels(self.app, self.thumbs)
@@ -148,7 +151,13 @@ class AppWindow:
             app.open(path)
 
     def open_dialog(self, kind: str) -> None:
+        """File > Open / Save As: the native dialog (:mod:`puppet.app.files`), else the path field."""
         app = self.app
+        then = self.open_scene if kind == "open" else \
+            (lambda p: app.save(p if p.lower().endswith(".json") else p + ".json"))
+        start = app.snap.file or os.getcwd() + os.sep
+        if self.files.ask(kind, then, start if kind == "save_as" else os.path.dirname(start) + os.sep):
+            return
         app.dialog = kind
         app.path_field = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
             os.path.dirname(app.snap.file) + os.sep if app.snap.file else os.getcwd() + os.sep)
@@ -176,6 +185,7 @@ class AppWindow:
         if dispatch:
             win.dispatch_events()
         self._follow_up()
+        self.files.poll()
         app.timeline.tick()
         app.sync()
         if app.title != self._caption:
@@ -215,6 +225,7 @@ class AppWindow:
         imgui.end()
         actions.handle_keys(app, self)
         self.input.chars = ""
+        startpage.draw(self)
         menus.dialogs(app, self)
         menus.help_overlay(app)
         imgui.render()
@@ -385,6 +396,7 @@ class AppWindow:
         if self.closed:
             return
         self.closed = True
+        self.files.cancel()
         self.app.shutdown()
         self.win.switch_to()
         imgui.set_current_context(self.imgui_ctx)
