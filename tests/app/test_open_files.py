@@ -1,0 +1,191 @@
+"""Files in the app (issues 23 and 24): recent files, the start page, the path field when
+there is no native dialog, a file dropped on the window, layered art opened in the app
+and Reload art as one undo step.
+
+The native dialog itself runs under Xvfb in test_xvfb_files.py; here
+``PUPPET_FILE_DIALOG=field`` (tests/conftest.py) gives the path field."""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+
+import numpy as np
+import pytest
+
+from puppet.app import actions, recent, startpage
+from puppet.app.widgets import RECTS
+from tests import artfiles
+from tests.app.harness import Driver, widget
+from tests.conftest import SCENES
+
+
+@pytest.fixture
+def config(tmp_path, monkeypatch):
+    folder = tmp_path / "config"
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(folder))
+    return folder / "puppet"
+
+
+def test_recent_files_newest_first_capped_written_atomically(tmp_path, config):
+    assert recent.load() == []
+    files = []
+    for i in range(recent.KEEP + 2):
+        f = tmp_path / f"s{i}.json"
+        f.write_text("{}")
+        files.append(str(f))
+        recent.add(files[-1])
+    items = recent.load()
+    assert items == files[::-1][:recent.KEEP]  # newest first, at most KEEP
+    assert recent.add(files[5])[0] == files[5] and recent.load().count(files[5]) == 1
+    os.remove(files[-1])
+    assert files[-1] not in recent.existing() and files[-1] in recent.load()
+    assert os.listdir(config) == ["recent.json"]  # no temporary file left beside it
+    (config / "recent.json").write_text("{not json")
+    assert recent.load() == []  # an unreadable list reads as empty...
+    assert recent.add(files[0]) == [files[0]] and recent.load() == [files[0]]  # ...and is replaced
+
+
+def test_recent_files_never_an_error_when_the_config_folder_cannot_be_written(tmp_path, monkeypatch):
+    (tmp_path / "cfg").write_text("a file where the folder would go")
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "cfg"))
+    assert recent.add(str(tmp_path / "x.json")) == [str(tmp_path / "x.json")]
+    assert recent.load() == []
+
+
+def test_start_page_opens_an_example_then_lists_it_as_recent(config):
+    RECTS.clear()
+    d = Driver(None)
+    try:
+        assert startpage.shown(d.app) and "example:strips.json" in RECTS and "recent" not in str(RECTS)
+        d.click(*widget("example:strips.json"))
+        d.settle()
+        assert d.app.snap.file == os.path.join(SCENES, "strips.json") and not startpage.shown(d.app)
+        d.frame(2)
+        assert recent.load() == [os.path.join(SCENES, "strips.json")]
+    finally:
+        d.close()
+    RECTS.clear()
+    d = Driver(None)
+    try:
+        assert "recent:strips.json" in RECTS  # the next start lists it
+        d.click(*widget("recent:strips.json"))
+        d.settle()
+        assert d.app.snap.file == os.path.join(SCENES, "strips.json")
+    finally:
+        d.close()
+
+
+def test_without_a_dialog_program_open_is_the_path_field_and_takes_art(tmp_path, config):
+    from pyglet.window import key
+
+    art = tmp_path / "gbot.ora"
+    artfiles.write_ora(str(art))
+    d = Driver(None)
+    try:
+        assert not d.w.files.native
+        d.key(key.O, key.MOD_CTRL)
+        assert d.app.dialog == "open" and d.w.files.pending is None
+        d.key(key.A, key.MOD_CTRL)
+        d.type(str(art))
+        d.key(key.ENTER)
+        d.settle()
+        assert d.app.snap.file == str(tmp_path / "gbot.json") and d.w.files.art == str(art)
+        assert [r.name for r in d.scene().layers("rest")] == artfiles.NAMES
+    finally:
+        d.close()
+
+
+def sha(path):
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+def layer_rgba(scene, name):
+    from PIL import Image
+
+    path = next(L["image"] for L in scene.to_dict()["layers"] if L["name"] == name)
+    with Image.open(path) as im:
+        return np.asarray(im.convert("RGBA"))
+
+
+@pytest.fixture
+def art_app(tmp_path, config):
+    """The app with a seven-part PSD dropped on its start page."""
+    art = tmp_path / "gbot.psd"
+    artfiles.write_psd(str(art))
+    d = Driver(None)
+    d.w.win.dispatch_event("on_file_drop", 100, 100, [str(art)])
+    d.settle()
+    yield d, art
+    d.close()
+
+
+def test_dropped_art_opens_as_the_scene_beside_it(art_app, tmp_path):
+    d, art = art_app
+    scene = tmp_path / "gbot.json"
+    assert d.app.snap.file == str(scene) and [L["name"] for L in json.loads(scene.read_text())["layers"]] == \
+        artfiles.NAMES
+    assert d.app.status.text.startswith(str(scene)) and "7 layer(s)" in d.app.status.text
+    assert d.w.files.art == str(art) and not d.w.files.art_changed
+    assert actions.BY_NAME["reload_art"].enabled(d.app)
+    assert recent.load() == [str(scene)]
+
+
+def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
+    d, art = art_app
+    scene_file = tmp_path / "gbot.json"
+    on_disk = scene_file.read_text()
+    pins = d.scene().to_dict()["pins"]
+    old_head = layer_rgba(d.scene(), "head").copy()
+    artfiles.write_psd(str(art), recolour="head")
+    os.utime(art, ns=(os.stat(art).st_atime_ns, os.stat(art).st_mtime_ns + 10**9))  # a later date, surely
+    art_sha = sha(art)
+    d.w.files._looked = 0.0
+    d.frame()
+    assert d.w.files.art_changed and "gbot.psd changed on disk" in d.app.status.text
+    actions.BY_NAME["reload_art"].run(d.app, d.w)
+    d.settle()
+    assert d.app.status.text.startswith("reloaded the art: 7 replaced, 0 added, 0 removed; 1 hidden"), \
+        d.app.status.text
+    s = d.scene()
+    new_head = layer_rgba(s, "head")
+    opaque = old_head[..., 3] == 255
+    assert np.abs(new_head[..., :3][opaque].astype(int) + old_head[..., :3][opaque] - 255).max() <= 1  # inverted
+    assert s.to_dict()["pins"] == pins and d.app.snap.undo_label == "reload art"
+    assert scene_file.read_text() == on_disk and sha(art) == art_sha  # nothing written until a save
+    assert not d.w.files.art_changed
+    d.app.undo()
+    d.settle()
+    assert np.array_equal(layer_rgba(d.scene(), "head"), old_head)  # the old pixels are back
+    d.app.redo()
+    d.settle()
+    d.app.save()
+    d.settle()
+    from puppet.app.opening import from_art
+
+    res = from_art(str(art))  # `puppet app gbot.psd` again: the saved scene still counts as made from it
+    assert res.scene == str(scene_file) and res.replaced == artfiles.NAMES
+
+
+def test_art_newer_than_its_scene_is_offered_at_once(tmp_path, config):
+    art = tmp_path / "gbot.psd"
+    artfiles.write_psd(str(art))
+    from puppet.app.opening import from_art
+
+    scene = from_art(str(art)).scene
+    st = os.stat(scene)
+    os.utime(art, ns=(st.st_atime_ns, st.st_mtime_ns + 5 * 10**9))
+    d = Driver(scene)
+    try:
+        d.frame()
+        assert d.w.files.art_changed and "changed on disk" in d.app.status.text
+    finally:
+        d.close()
+
+
+def test_a_scene_without_art_has_no_reload(config):
+    d = Driver(os.path.join(SCENES, "strips.json"))
+    try:
+        assert d.w.files.art is None and not actions.BY_NAME["reload_art"].enabled(d.app)
+    finally:
+        d.close()
