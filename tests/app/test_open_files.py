@@ -189,3 +189,18 @@ def test_a_scene_without_art_has_no_reload(config):
         assert d.w.files.art is None and not actions.BY_NAME["reload_art"].enabled(d.app)
     finally:
         d.close()
+
+
+def test_start_page_lists_recent_newest_first(config):
+    """(``PUPPET_UPDATE_DOCS=1``: docs/app/start-page.png; the folders shown depend on the checkout.)"""
+    for name in ("horse.json", "dress.json", "trex-layers.json"):
+        recent.add(os.path.join(SCENES, name))
+    RECTS.clear()
+    d = Driver(None, size=(1100, 760))
+    try:
+        ys = [RECTS[f"recent:{n}"][1] for n in ("trex-layers.json", "dress.json", "horse.json")]
+        assert ys == sorted(ys) and RECTS["recent:horse.json"][1] < RECTS["example:character.json"][1]
+        if os.environ.get("PUPPET_UPDATE_DOCS"):
+            d.shot("start-page")
+    finally:
+        d.close()
