@@ -26,6 +26,11 @@ def kind(path: str) -> str:
     return "art" if is_art(path) else "picture" if is_picture(path) else "scene"
 
 
+def scene_file(path: str) -> str:
+    """The scene file that opening ``path`` shows: ``ART.json`` beside layered art, else ``path``."""
+    return os.path.splitext(path)[0] + ".json" if is_art(path) else path
+
+
 def check_exists(path: str) -> None:
     """SceneError unless ``path`` names a file (the first thing every open checks)."""
     if not os.path.exists(path):
@@ -84,7 +89,7 @@ def load(path: str, *, picture: bool, recover_from: str | None = None):
     check_exists(path)
     if is_art(path):  # File > Open or a drop of layered art: its scene beside it
         res = from_art(path)
-        scene, saved, _ = load(os.path.abspath(res.scene), picture=False)
+        scene, saved, _ = load(os.path.abspath(res.scene), picture=False, recover_from=recover_from)
         notes = f" ({len(res.notes)} note(s): {res.notes[0]}...)" if res.notes else ""
         return scene, saved, res.summary() + notes
     name = os.path.basename(path)

@@ -133,7 +133,9 @@ class AppWindow:
         if app.snap.loaded and app.snap.dirty and not discard:
             app.dialog, app.after_dialog = "unsaved", ("open", path)
             return
-        pending = autosave.pending(path) if os.path.isfile(path) else None
+        from puppet.app.opening import scene_file
+
+        pending = autosave.pending(scene_file(path)) if os.path.isfile(path) else None
         if pending:
             app.recover_path, app.path_field = pending, path
             app.dialog = "recover"
