@@ -8,14 +8,13 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 import time
 
 import pytest
 
 from tests.app.harness import DOCS_SHOTS
 from tests.app.test_xvfb import display, pytestmark, screenshot, wait_title, x  # noqa: F401
-from tests.cli.test_layered_xvfb import close
+from tests.cli.test_layered_xvfb import close, open_app
 from tests.conftest import ROOT, SCENES
 
 pytestmark = pytestmark + [pytest.mark.skipif(shutil.which("zenity") is None,
@@ -35,7 +34,7 @@ def test_native_open_dialog_is_polled_and_opens_the_file(display, tmp_path):  # 
     env = dict(os.environ, DISPLAY=display, PYTHONPATH=ROOT, PUPPET_FILE_DIALOG="native",
                PUPPET_APP_RECTS=str(info_file), XDG_CONFIG_HOME=str(tmp_path / "config"))
     env.pop("PYGLET_HEADLESS", None)
-    app, ready = _start(env, SCENES)  # the dialog starts in the folder the app was started in
+    app, ready = open_app(None, env, SCENES, "--size", "1100x800")  # the dialog starts in the cwd
     try:
         win = x(display, "xdotool", "search", "--name", "^puppet$").split()[0]
         x(display, "xdotool", "windowfocus", "--sync", win)
@@ -71,17 +70,3 @@ def test_native_open_dialog_is_polled_and_opens_the_file(display, tmp_path):  # 
         assert recent == [os.path.join(SCENES, "strips.json")]
     finally:
         close(app)
-
-
-def _start(env, cwd):
-    import select
-
-    app = subprocess.Popen([sys.executable, "-m", "puppet", "app", "--size", "1100x800"], env=env, cwd=str(cwd),
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    line, end = "", time.monotonic() + 90
-    while time.monotonic() < end and "ready" not in line:
-        if select.select([app.stdout], [], [], 1.0)[0]:
-            line = app.stdout.readline()
-        if app.poll() is not None:
-            raise RuntimeError(f"the app exited: {app.stderr.read()}")
-    return app, json.loads(line.split("ready", 1)[1])
