@@ -204,3 +204,39 @@ def test_start_page_lists_recent_newest_first(config):
             d.shot("start-page")
     finally:
         d.close()
+
+
+def test_reload_reports_a_layer_gone_with_its_pins_and_undo_brings_them_back(art_app):
+    from PIL import Image
+    from psd_tools import PSDImage
+
+    d, art = art_app
+    before = d.scene().to_dict()
+    psd = PSDImage.new("RGBA", artfiles.CANVAS, color=(0, 0, 0, 0))
+    for name, group, rgba, (x, y) in artfiles.parts():
+        if group is None and name != "arm_front":  # the arm and the legs' group are gone
+            psd.create_pixel_layer(Image.fromarray(rgba), name=name, top=y, left=x)
+    psd.save(str(art))
+    actions.BY_NAME["reload_art"].run(d.app, d.w)
+    d.settle()
+    text = d.app.status.text
+    assert text.startswith("reloaded the art: 4 replaced, 0 added, 3 removed"), text
+    assert "arm_front" in text and "pin(s) removed with their layers" in text
+    after = d.scene().to_dict()
+    assert [L["name"] for L in after["layers"]] == ["arm_back", "body", "neck", "head"]
+    assert not any(p["layer"] in ("arm_front", "legs/left", "legs/right") for p in after["pins"])
+    d.app.undo()
+    d.settle()
+    assert d.scene().to_dict()["pins"] == before["pins"] and len(d.scene().to_dict()["layers"]) == 7
+
+
+def test_dropping_several_files_on_unsaved_changes_asks_first(bar_app, tmp_path):
+    d = bar_app
+    d.app.move_pins({"left": (20.0, 22.0)})
+    d.settle()
+    assert d.app.snap.dirty
+    other = os.path.join(SCENES, "strips.json")
+    d.w.win.dispatch_event("on_file_drop", 50, 50, [other, os.path.join(SCENES, "horse.json")])
+    d.frame()
+    assert d.app.dialog == "unsaved" and d.app.after_dialog == ("open", other)
+    assert d.app.status.text.startswith("2 files dropped: opening the first, strips.json")
