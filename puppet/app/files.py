@@ -120,6 +120,7 @@ class Files:
                 self.pending = None
                 path = _answer(handle)
                 if path:
+                    self.app.say(f"chose {path}")  # (open and save say more once done)
                     then(path)
                 else:
                     self.app.say("cancelled")

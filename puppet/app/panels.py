@@ -252,7 +252,8 @@ class Panels:
                            "\"app\" key; render ignores it).")
         if u is not None:
             imgui.text(os.path.basename(u["image"]))
-        imgui.set_next_item_width(180)
+        files = getattr(app, "files", None)
+        imgui.set_next_item_width(110 if files is not None and files.native else 180)  # room for Browse...
         enter, self.underlay_path = imgui.input_text_with_hint("##underlay", "path to a picture", self.underlay_path,
                                                               imgui.InputTextFlags_.enter_returns_true)
         imgui.set_item_tooltip("a PNG or JPEG path (relative to the current folder, or absolute)")
@@ -262,7 +263,6 @@ class Panels:
                 (enter and self.underlay_path.strip()):
             self.set_underlay(self.underlay_path.strip())
             self.underlay_path = ""
-        files = getattr(app, "files", None)
         if files is not None and files.native:
             imgui.same_line()
             if button("Browse...##underlay", "choose the picture in a file dialog"):

@@ -29,6 +29,13 @@ def rects(path):
         return {}
 
 
+def wait_status(info_file, text: str, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and rects(info_file).get("status") != text:
+        time.sleep(0.2)
+    assert rects(info_file).get("status") == text, rects(info_file).get("status")
+
+
 def test_native_open_dialog_is_polled_and_opens_the_file(display, tmp_path):  # noqa: F811
     info_file = tmp_path / "rects.json"
     env = dict(os.environ, DISPLAY=display, PYTHONPATH=ROOT, PUPPET_FILE_DIALOG="native",
@@ -39,6 +46,14 @@ def test_native_open_dialog_is_polled_and_opens_the_file(display, tmp_path):  # 
         win = x(display, "xdotool", "search", "--name", "^puppet$").split()[0]
         x(display, "xdotool", "windowfocus", "--sync", win)
         x(display, "xdotool", "key", "--window", win, "ctrl+o")
+        wait_title(display, TITLE)
+        time.sleep(1.5)
+        dialog = x(display, "xdotool", "search", "--name", TITLE).split()[0]
+        x(display, "xdotool", "windowfocus", "--sync", dialog)
+        x(display, "xdotool", "key", "--window", dialog, "Escape")  # cancelled: nothing opens
+        wait_status(info_file, "cancelled")
+        x(display, "xdotool", "windowfocus", "--sync", win)
+        x(display, "xdotool", "key", "--window", win, "ctrl+o")  # again, and this time a file
         wait_title(display, TITLE)
         time.sleep(1.5)  # zenity draws its chooser
         before = os.stat(info_file).st_mtime_ns
@@ -59,10 +74,8 @@ def test_native_open_dialog_is_polled_and_opens_the_file(display, tmp_path):  # 
         x(display, "xdotool", "type", "--delay", "15", os.path.join(SCENES, "strips.json"))
         time.sleep(0.3)
         x(display, "xdotool", "key", "Return")
-        end = time.monotonic() + 60
-        while time.monotonic() < end and rects(info_file).get("status") != "opened strips.json":
-            time.sleep(0.2)
-        assert rects(info_file).get("status") == "opened strips.json", rects(info_file).get("status")
+        wait_status(info_file, "opened strips.json")
+        end = time.monotonic() + 30
         listed = tmp_path / "config" / "puppet" / "recent.json"
         while time.monotonic() < end and not listed.exists():  # noted in the frame after it showed
             time.sleep(0.2)
