@@ -240,3 +240,24 @@ def test_dropping_several_files_on_unsaved_changes_asks_first(bar_app, tmp_path)
     d.frame()
     assert d.app.dialog == "unsaved" and d.app.after_dialog == ("open", other)
     assert d.app.status.text.startswith("2 files dropped: opening the first, strips.json")
+
+
+def test_app_art_is_checked_kept_through_save_as_and_may_be_gone(tmp_path):
+    import puppet
+    from puppet.errors import SceneError
+    from puppet.scene.artreload import art_of
+    from tests.conftest import bar_image, bar_scene, write_rgba
+
+    write_rgba(tmp_path / "bar.png", bar_image())
+    doc = dict(bar_scene(), app={"art": 7})
+    (tmp_path / "s.json").write_text(json.dumps(doc))
+    with pytest.raises(SceneError, match="app.art"):
+        puppet.load_scene(str(tmp_path / "s.json"))
+    doc["app"] = {"art": "art/gone.psd"}  # the art need not exist (moved away, another machine)
+    (tmp_path / "s.json").write_text(json.dumps(doc))
+    s = puppet.load_scene(str(tmp_path / "s.json"))
+    (tmp_path / "sub").mkdir()
+    s.save(str(tmp_path / "sub" / "copy.json"))
+    saved = json.loads((tmp_path / "sub" / "copy.json").read_text())
+    assert saved["app"] == {"art": "../art/gone.psd"}  # relative to the new place, same file
+    assert art_of(saved, str(tmp_path / "sub" / "copy.json")) == str(tmp_path / "art" / "gone.psd")
