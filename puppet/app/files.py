@@ -90,6 +90,7 @@ class Files:
         self.art_stamp = None  # its (mtime, size) when the scene was loaded or reloaded
         self.art_changed = False
         self._file = None
+        self._reopen = False
         self._looked = 0.0
 
     # -- dialogs ----------------------------------------------------------------------
@@ -137,13 +138,19 @@ class Files:
     def _note_file(self) -> None:
         snap = self.app.snap
         f = snap.file if snap.loaded else None
-        if f == self._file:
+        again = self._reopen and not self.app.busy  # the same file opened again has loaded
+        if f == self._file and not again:
             return
         if f is None or os.path.isfile(f):  # a new scene over a picture: noted once saved
-            self._file = f
+            self._file, self._reopen = f, self._reopen and not again
             if f is not None:
                 recent.add(f)
                 self._art_loaded(snap)
+
+    def reopening(self) -> None:
+        """A file is being opened: look at its art again even if it is the same scene
+        file (opened again after its art changed)."""
+        self._reopen = True
 
     def on_drop(self, x, y, paths) -> None:
         """pyglet's ``on_file_drop``: open the first file dropped (a scene, a picture or

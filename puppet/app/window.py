@@ -140,6 +140,7 @@ class AppWindow:
             app.recover_path, app.path_field = pending, path
             app.dialog = "recover"
             return
+        self.files.reopening()
         app.open(path)
 
     def recover(self, yes: bool) -> None:

@@ -261,3 +261,18 @@ def test_app_art_is_checked_kept_through_save_as_and_may_be_gone(tmp_path):
     saved = json.loads((tmp_path / "sub" / "copy.json").read_text())
     assert saved["app"] == {"art": "../art/gone.psd"}  # relative to the new place, same file
     assert art_of(saved, str(tmp_path / "sub" / "copy.json")) == str(tmp_path / "art" / "gone.psd")
+
+
+def test_opening_the_art_again_takes_its_changes_and_clears_the_hint(art_app, tmp_path):
+    d, art = art_app
+    mtime = os.stat(art).st_mtime_ns
+    artfiles.write_psd(str(art), recolour="head")
+    os.utime(art, ns=(mtime - 10 * 10**9, mtime - 10 * 10**9))  # changed, yet older than its scene
+    d.w.files._looked = 0.0
+    d.frame()
+    assert d.w.files.art_changed
+    d.w.win.dispatch_event("on_file_drop", 100, 100, [str(art)])  # the art again: the scene updated from it
+    d.settle()
+    d.frame(2)
+    assert d.app.snap.file == str(tmp_path / "gbot.json") and "7 replaced" in d.app.status.text
+    assert not d.w.files.art_changed
