@@ -17,16 +17,16 @@ import time
 
 from puppet.app import recent
 from puppet.app.opening import PICTURES
+from puppet.imaging.layered import SUFFIXES as ART
 
 #: the environment variable that picks the dialogs: "field", "native", or unset (native
 #: when a dialog program is there)
 ENV = "PUPPET_FILE_DIALOG"
 #: dialog programs portable-file-dialogs runs on Linux
 PROGRAMS = ("zenity", "matedialog", "qarma", "kdialog")
-ART = (".psd", ".psb", ".ora", ".kra")
 #: filters per dialog kind: (label, patterns) pairs
 FILTERS = {
-    "open": ["Scenes, pictures, layered art", " ".join("*" + e for e in (".json",) + PICTURES + ART),
+    "open": ["Scenes, pictures, layered art", " ".join("*" + e for e in (".json", *PICTURES, *ART)),
              "All files", "*"],
     "save_as": ["Scenes (.json)", "*.json"],
     "export": ["Video, GIF, frames", "*.mp4 *.webm *.mov *.gif *.apng *.png", "All files", "*"],
@@ -96,8 +96,9 @@ class Files:
     # -- dialogs ----------------------------------------------------------------------
     def ask(self, kind: str, then, default: str = "") -> bool:
         """Show the native dialog of ``kind`` ("open", "save_as", "export", "picture") and
-        call ``then(path)`` when the user has chosen; False when there is no native dialog
-        (the caller shows its path field) or one is open already."""
+        call ``then(path)`` when the user has chosen. False when there is no native dialog
+        (the caller shows its path field); True also when one is open already (the user
+        is told to answer it first)."""
         if not self.native:
             return False
         if self.pending is not None:

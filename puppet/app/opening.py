@@ -21,11 +21,6 @@ def is_art(path: str) -> bool:
     return is_layered(path)
 
 
-def kind(path: str) -> str:
-    """What File > Open, a drop or ``puppet app`` does with ``path``: "art", "picture" or "scene"."""
-    return "art" if is_art(path) else "picture" if is_picture(path) else "scene"
-
-
 def scene_file(path: str) -> str:
     """The scene file that opening ``path`` shows: ``ART.json`` beside layered art, else ``path``."""
     return os.path.splitext(path)[0] + ".json" if is_art(path) else path

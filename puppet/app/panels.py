@@ -266,7 +266,7 @@ class Panels:
         if files is not None and files.native:
             imgui.same_line()
             if button("Browse...##underlay", "choose the picture in a file dialog"):
-                files.ask("picture", self.set_underlay, os.path.dirname(snap.file or "") + os.sep)
+                files.ask("picture", self.set_underlay, os.path.dirname(snap.file) + os.sep if snap.file else "")
         if u is None:
             return
         imgui.same_line()

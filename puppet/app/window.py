@@ -158,12 +158,11 @@ class AppWindow:
         app = self.app
         then = self.open_scene if kind == "open" else \
             (lambda p: app.save(p if p.lower().endswith(".json") else p + ".json"))
-        start = app.snap.file or os.getcwd() + os.sep
-        if self.files.ask(kind, then, start if kind == "save_as" else os.path.dirname(start) + os.sep):
-            return
-        app.dialog = kind
-        app.path_field = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
+        default = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
             os.path.dirname(app.snap.file) + os.sep if app.snap.file else os.getcwd() + os.sep)
+        if self.files.ask(kind, then, default):
+            return
+        app.dialog, app.path_field = kind, default
 
     def proceed(self, after, require_saved: bool = False) -> None:
         """Go on after the unsaved-changes dialog: quit, or open ``("open", path)``; with

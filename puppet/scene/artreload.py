@@ -67,6 +67,7 @@ def reload_art(scene):
         new["app"] = dict(new.get("app") or {}, art=art_file)
         doc.clear()
         doc.update(new)
-    scene._edit(Event("layer", "", "mesh", "reload art"), m)
-    res.pins, res.links = len(scene.to_dict().get("pins", [])), len(scene.to_dict().get("links", []))
+    scene._edit(Event("layer", "", "mesh", "reload art"), m)  # validated (and meshed) first: all or nothing
+    now = scene.to_dict()
+    res.pins, res.links = len(now.get("pins", [])), len(now.get("links", []))
     return res

@@ -276,3 +276,13 @@ def test_opening_the_art_again_takes_its_changes_and_clears_the_hint(art_app, tm
     d.frame(2)
     assert d.app.snap.file == str(tmp_path / "gbot.json") and "7 replaced" in d.app.status.text
     assert not d.w.files.art_changed
+
+
+def test_reload_of_a_broken_art_file_says_so_and_changes_nothing(art_app):
+    d, art = art_app
+    before = d.scene().to_dict()
+    art.write_bytes(b"8BPS\x00\x01 cut short by a crashed save")
+    actions.BY_NAME["reload_art"].run(d.app, d.w)
+    d.settle()
+    assert d.app.status.level == "error" and "gbot.psd" in d.app.status.text, d.app.status.text
+    assert d.scene().to_dict() == before and d.app.snap.undo_label is None
