@@ -93,7 +93,7 @@ def _keys_selected(app) -> bool:
 A = Action
 #: every action, in the order of the keys overlay (and, per menu, of the menu)
 ACTIONS: tuple[Action, ...] = (
-    A("open", "Ctrl+O", "Open scene or picture...", "open a scene (or a picture or layered art as a new scene)",
+    A("open", "Ctrl+O", "Open scene or picture...", "open a scene (or a picture as a new scene)",
       ((K.o, True, False),), lambda app, win: win.open_dialog("open"), menu="File", typing=True),
     A("save", "Ctrl+S", "Save", "save the scene", ((K.s, True, False),), lambda app, win: app.save(),
       _loaded, menu="File", typing=True),
