@@ -48,8 +48,12 @@ def test_app_on_a_file_it_cannot_open_fails_before_any_window(tmp_path):
     (tmp_path / "bad.json").write_text('{"puppet": 1, "layers": [{"name": "a", "image": "gone.png"}]}')
     (tmp_path / "typo.json").write_text('{"puppet": 1, "layers": [], "canvass": [1, 1]}')
     (tmp_path / "bad.psd").write_bytes(b"8BPS truncated")
+    from tests.conftest import bar_image, write_rgba
+
+    write_rgba(tmp_path / "typo.png", bar_image())  # a good picture, but typo.json is beside it
     cases = {"missing.json": "no such file", "bad.png": "bad.png", "bad.json": "gone.png",
-             "typo.json": "canvass", "bad.psd": "bad.psd", ".": "not a file"}
+             "typo.json": "canvass", "bad.psd": "bad.psd", ".": "not a file",
+             "typo.png": "typo.json exists beside the picture"}
     for name, words in cases.items():
         r = _app(tmp_path / name, tmp_path, display=False)
         assert r.returncode == 2, (name, r.stderr)
@@ -57,7 +61,7 @@ def test_app_on_a_file_it_cannot_open_fails_before_any_window(tmp_path):
         assert len(lines) == 1 and lines[0].startswith("puppet: error: "), (name, r.stderr)
         assert words in lines[0] and "display" not in lines[0], (name, r.stderr)
         assert "Traceback" not in r.stderr and r.stdout == ""
-    assert sorted(os.listdir(tmp_path)) == ["bad.json", "bad.png", "bad.psd", "typo.json"]  # nothing written
+    assert sorted(os.listdir(tmp_path)) == ["bad.json", "bad.png", "bad.psd", "typo.json", "typo.png"]  # nothing written
 
 
 def test_app_on_a_good_file_gets_as_far_as_the_display(tmp_path):
