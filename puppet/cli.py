@@ -253,19 +253,8 @@ def _layered(args) -> bool:
 
 
 def _notes(art: str, res) -> None:
-    for note in res.notes:
-        print(f"puppet: note: {art}: {note}", file=sys.stderr)
-
-
-def _scene_from_art(art: str) -> str:
-    """``puppet app ART.psd``: the scene beside the art, made or updated from it (notes and
-    the summary on stderr: stdout is the app's)."""
-    from puppet.scene.artimport import import_beside
-
-    res = import_beside(art)
-    _notes(art, res)
-    print(res.summary(), file=sys.stderr)
-    return res.scene
+    for line in res.note_lines(art):
+        print(line, file=sys.stderr)
 
 
 def _init_layered(args, out: str) -> int:
@@ -282,10 +271,7 @@ def run(argv: list[str] | None = None) -> int:
     if args.command == "app":  # imported here only: render and mesh never load pyglet
         import puppet.app
 
-        scene = args.scene
-        if scene and _is_art(scene):
-            scene = _scene_from_art(scene)
-        return puppet.app.run(scene, size=args.size)
+        return puppet.app.run(args.scene, size=args.size)  # art: puppet.app.opening.from_art
     if args.command in _PLUGGED:
         return _PLUGGED[args.command].run(args)
     if args.command == "init":

@@ -11,6 +11,15 @@ from PIL import Image
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ASSETS = os.path.join(ROOT, "assets")
 SCENES = os.path.join(ASSETS, "scenes")
+#: the app's native file dialogs cannot be clicked by a test: the path field instead
+#: (inherited by the apps the tests start under Xvfb; see puppet/app/files.py)
+os.environ["PUPPET_FILE_DIALOG"] = os.environ.get("PUPPET_TEST_FILE_DIALOG", "field")
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _config_home(tmp_path_factory):
+    """The app's recent files go to a temporary config folder, never the user's."""
+    os.environ["XDG_CONFIG_HOME"] = str(tmp_path_factory.mktemp("config"))
 
 
 def write_rgba(path, rgba):

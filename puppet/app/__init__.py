@@ -10,7 +10,13 @@ import os
 
 def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headless: bool = False) -> int:
     """Open the app window (on ``path`` when given) and run it until it quits; returns 0.
-    Raises SceneError when ``path`` cannot be opened (the window closes at once)."""
+
+    ``path`` (a scene, a picture or layered art) is loaded before the window opens: one
+    that cannot be opened raises SceneError (the CLI's one line, exit 2) with no window."""
+    if path is not None:
+        from puppet.app import opening
+
+        path = opening.preload(path)
     import pyglet
 
     pyglet.options["debug_gl"] = False
@@ -25,15 +31,7 @@ def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headles
         _connect_display()
     from puppet.app.window import AppWindow, print_ready
 
-    from puppet.app import recent
-
-    win = AppWindow(path, size=size, ready=print_ready, quit_on_open_error=path is not None,
-                    recent_file=recent.default_path())
-    win.run()
-    if win.open_error is not None:
-        from puppet.errors import SceneError
-
-        raise SceneError(win.open_error)  # already names the file
+    AppWindow(path, size=size, ready=print_ready).run()
     return 0
 
 

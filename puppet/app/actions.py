@@ -101,6 +101,10 @@ ACTIONS: tuple[Action, ...] = (
       lambda app, win: win.open_dialog("save_as"), _loaded, menu="File", typing=True),
     A("export", "Ctrl+E", "Export animation...", "export the animation (video, GIF, frames)",
       ((K.e, True, None),), _export, _loaded, menu="File", typing=True),
+    A("reload_art", "", "Reload art", "take the changed pixels of the art the scene was imported from "
+      "(pins, poses and keys stay; one undo step)", (), lambda app, win: app.files.reload_art(),
+      lambda app: app.snap.loaded and getattr(getattr(app, "files", None), "art", None) is not None,
+      menu="File", separator=True),
     A("quit", "Ctrl+Q", "Quit", "quit (asks about unsaved changes)", ((K.q, True, None),),
       lambda app, win: app.request_quit(), menu="File", separator=True, typing=True),
     A("undo", "Ctrl+Z", "Undo", "undo", ((K.z, True, False),), lambda app, win: app.undo(), _loaded,
@@ -228,6 +232,10 @@ def menu(app, win, title: str) -> None:
             continue
         if a.separator:
             imgui.separator()
+        if a.name == "save":  # File > Open Recent under Open
+            from puppet.app.menus import recent_menu
+
+            recent_menu(win)
         label, enabled = a.label, a.enabled(app)
         if a.name in ("undo", "redo"):  # named after the step, greyed when there is none
             step = app.snap.undo_label if a.name == "undo" else app.snap.redo_label

@@ -72,16 +72,16 @@ def draw(app) -> None:
     busy = run.running
     imgui.begin_disabled(busy)
     imgui.text("Output file or folder/ (the extension picks the format):")
-    imgui.set_next_item_width(WIDTH - 40)
+    files = getattr(app, "files", None)
+    native = files is not None and files.native
+    imgui.set_next_item_width(WIDTH - (90 if native else 0))
     _, f.path = imgui.input_text("##export-path", f.path)
     imgui.set_item_tooltip(FORMATS)
     note("export:path")
-    imgui.same_line()
-    if button("...##export", "choose the output file in a file dialog"):
-        from puppet.app import native_dialogs
-
-        if not native_dialogs.ask("export", f.path, lambda path: setattr(f, "path", path)):
-            app.say("no file dialog here: type the output path", "error")
+    if native:
+        imgui.same_line()
+        if button("Browse...##export", "choose the output file in a file dialog"):
+            files.ask("export", lambda p: setattr(f, "path", p), f.path)
     imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + WIDTH)
     imgui.text_disabled(FORMATS)
     imgui.pop_text_wrap_pos()

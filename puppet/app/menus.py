@@ -18,15 +18,24 @@ def menu_bar(app, win) -> float:
         for title in ("File", "Edit", "View"):
             if imgui.begin_menu(title):
                 actions.menu(app, win, title)
-                if title == "File":
-                    from puppet.app import recent
-
-                    recent.menu(win)
                 imgui.end_menu()
         h = imgui.get_window_height()
         imgui.end_main_menu_bar()
         return h
     return 0.0
+
+
+def recent_menu(win) -> None:
+    """File > Open Recent (the recent files that still exist)."""
+    from puppet.app import recent
+
+    paths = recent.existing()
+    if imgui.begin_menu("Open Recent", bool(paths)):
+        for i, path in enumerate(paths):
+            if imgui.menu_item_simple(f"{os.path.basename(path)}##recent{i}"):
+                win.open_scene(path)
+            imgui.set_item_tooltip(path)
+        imgui.end_menu()
 
 
 def toolbar(app, wrap: bool = False) -> float:

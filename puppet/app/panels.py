@@ -24,7 +24,6 @@ class Panels:
         self.underlay_path = ""
         self._auto_area: dict[str, float] = {}
         self._had_underlay = False
-        self._picked = None  # a reference picture chosen in a native dialog
 
     def draw(self) -> None:
         app = self.app
@@ -260,20 +259,12 @@ class Panels:
                 app.edit(lambda s: s.clear_target(name))
 
     # -- reference picture ----------------------------------------------------------
-    def _browse_picture(self) -> bool:
-        """*...*: a native dialog for the reference picture; True the frame it answered
-        (the path is then in the field)."""
-        from puppet.app import native_dialogs
-
-        if self._picked is not None:
-            self.underlay_path, self._picked = self._picked, None
-            return True
-        clicked = button("...##underlay", "choose the picture in a file dialog")
-        imgui.same_line()
-        if clicked and not native_dialogs.ask("picture", os.path.dirname(self.app.snap.file or "") + os.sep,
-                                              lambda path: setattr(self, "_picked", path)):
-            self.app.say("no file dialog here: type the picture's path", "error")
-        return False
+    def set_underlay(self, path: str) -> None:
+        """Use the picture at ``path`` as the reference (keeping its placement if one is set)."""
+        u = self.app.snap.underlay
+        path = os.path.abspath(os.path.expanduser(path))
+        keep = dict(opacity=u["opacity"], offset=u["offset"], scale=u["scale"]) if u else {}
+        self.app.edit(lambda s: s.set_underlay(path, **keep))
 
     def reference(self) -> None:
         app, snap = self.app, self.app.snap
@@ -282,19 +273,21 @@ class Panels:
                            "\"app\" key; render ignores it).")
         if u is not None:
             imgui.text(os.path.basename(u["image"]))
-        imgui.set_next_item_width(180)
+        files = getattr(app, "files", None)
+        imgui.set_next_item_width(110 if files is not None and files.native else 180)  # room for Browse...
         enter, self.underlay_path = imgui.input_text_with_hint("##underlay", "path to a picture", self.underlay_path,
                                                               imgui.InputTextFlags_.enter_returns_true)
         imgui.set_item_tooltip("a PNG or JPEG path (relative to the current folder, or absolute)")
         note("field:underlay")
         imgui.same_line()
-        chosen = self._browse_picture()
-        if chosen or button("Set", "use this picture as the reference", enabled=bool(self.underlay_path.strip())) \
-                or (enter and self.underlay_path.strip()):
-            path = os.path.abspath(os.path.expanduser(self.underlay_path.strip()))
-            keep = dict(opacity=u["opacity"], offset=u["offset"], scale=u["scale"]) if u else {}
-            app.edit(lambda s: s.set_underlay(path, **keep))
+        if button("Set", "use this picture as the reference", enabled=bool(self.underlay_path.strip())) or \
+                (enter and self.underlay_path.strip()):
+            self.set_underlay(self.underlay_path.strip())
             self.underlay_path = ""
+        if files is not None and files.native:
+            imgui.same_line()
+            if button("Browse...##underlay", "choose the picture in a file dialog"):
+                files.ask("picture", self.set_underlay, os.path.dirname(snap.file) + os.sep if snap.file else "")
         if u is None:
             return
         imgui.same_line()

@@ -18,9 +18,10 @@ import pyglet.window
 import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app import actions, autosave, deformtools, menus, native_dialogs, overlay, recent, script
+from puppet.app import actions, autosave, deformtools, menus, overlay, script, startpage
 from puppet.app.app import App
 from puppet.app.canvas import CanvasRenderer, depth_range
+from puppet.app.files import Files
 from puppet.app.imgui_gl import ImGuiRenderer
 from puppet.app.keys import ImGuiInput
 from puppet.app.onion import GhostRenderer
@@ -77,8 +78,7 @@ class AppWindow:
     """
 
     def __init__(self, path: str | None = None, *, size=(1280, 800), visible: bool = True, ready=None,
-                 autosave_interval: float = autosave.INTERVAL, quit_on_open_error: bool = False,
-                 recent_file: str | None = None):
+                 autosave_interval: float = autosave.INTERVAL):
         config = pyglet.gl.Config(double_buffer=True, red_size=8, green_size=8, blue_size=8, alpha_size=8,
                                   depth_size=24, major_version=3, minor_version=3, forward_compatible=True)
         size = (max(int(size[0]), MIN_SIZE[0]), max(int(size[1]), MIN_SIZE[1]))
@@ -101,8 +101,10 @@ class AppWindow:
         self.gui = ImGuiRenderer(self.ctx)
         self.input = _Input(self.win)
         self.win.push_handlers(self.input)
-        self.win.push_handlers(on_close=self._on_close, on_file_drop=self._on_file_drop)
+        self.win.push_handlers(on_close=self._on_close)
         self.app = App()
+        self.files = self.app.files = Files(self.app, self)  # dialogs, recent files, drops, Reload art
+        self.win.push_handlers(on_file_drop=self.files.on_drop)
         self.canvas = CanvasRenderer(self.ctx)
         self.thumbs = Thumbs(self.ctx, self.gui)
         self.panels = Panels(self.app, self.thumbs)
@@ -123,10 +125,6 @@ class AppWindow:
         self._settle = 3
         self._last_frame = 0.0
         self._expect_scene = path is not None
-        self._quit_on_open_error = quit_on_open_error
-        self.recent_file = recent_file  # where recent files are kept (None: nowhere)
-        self._recent_last = None
-        self.open_error: str | None = None  # why the file given at start could not be opened
         self._rects_file = os.environ.get("PUPPET_APP_RECTS") or None
         if path is not None:
             self.open_scene(path)
@@ -140,11 +138,14 @@ class AppWindow:
         if app.snap.loaded and app.snap.dirty and not discard:
             app.dialog, app.after_dialog = "unsaved", ("open", path)
             return
-        pending = autosave.pending(path) if os.path.isfile(path) else None
+        from puppet.app.opening import scene_file
+
+        pending = autosave.pending(scene_file(path)) if os.path.isfile(path) else None
         if pending:
             app.recover_path, app.path_field = pending, path
             app.dialog = "recover"
             return
+        self.files.reopening()
         app.open(path)
 
     def recover(self, yes: bool) -> None:
@@ -158,21 +159,15 @@ class AppWindow:
             app.open(path)
 
     def open_dialog(self, kind: str) -> None:
-        """File > Open / Save As: the native dialog where one can show, else the path field."""
+        """File > Open / Save As: the native dialog (:mod:`puppet.app.files`), else the path field."""
         app = self.app
-        start = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
+        then = self.open_scene if kind == "open" else \
+            (lambda p: app.save(p if p.lower().endswith(".json") else p + ".json"))
+        default = (app.snap.file or os.getcwd() + os.sep) if kind == "save_as" else (
             os.path.dirname(app.snap.file) + os.sep if app.snap.file else os.getcwd() + os.sep)
-        if native_dialogs.ask(kind, start, lambda path: self._chosen(kind, path)):
+        if self.files.ask(kind, then, default):
             return
-        app.dialog = kind
-        app.path_field = start
-
-    def _chosen(self, kind: str, path: str) -> None:
-        """A native dialog's answer: open, or save as."""
-        if kind == "open":
-            self.open_scene(path)
-        else:
-            self.app.save(path if path.lower().endswith(".json") else path + ".json")
+        app.dialog, app.path_field = kind, default
 
     def proceed(self, after, require_saved: bool = False) -> None:
         """Go on after the unsaved-changes dialog: quit, or open ``("open", path)``; with
@@ -182,21 +177,6 @@ class AppWindow:
                 return  # the save failed: stay (its error is on the status line)
             self._then = after
         self.app.after_jobs(go)
-
-    def _on_file_drop(self, x, y, paths) -> None:
-        """A scene or a picture dropped on the window opens as File > Open opens it
-        (asking first about unsaved changes)."""
-        from puppet.app.opening import is_picture
-
-        path = next(iter(paths or ()), None)
-        if path is None:
-            return
-        path = os.fspath(path)
-        if not (path.lower().endswith(".json") or is_picture(path)):
-            self.app.say(f"{os.path.basename(path)}: drop a scene (.json) or a picture (PNG, JPEG, ...) here",
-                         "error")
-            return
-        self.open_scene(path)
 
     def _on_close(self):
         self.app.request_quit()
@@ -212,6 +192,7 @@ class AppWindow:
         if dispatch:
             win.dispatch_events()
         self._follow_up()
+        self.files.poll()
         app.timeline.tick()
         app.sync()
         if app.title != self._caption:
@@ -247,8 +228,6 @@ class AppWindow:
         imgui.end()
         app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
         cursor = self._canvas_window()
-        self._recent(app)
-        native_dialogs.poll()
         if tl_h:
             self.timeline_panel.window((0, h - status_h - tl_h, w - PANEL_WIDTH, tl_h), FIXED)
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
@@ -258,6 +237,7 @@ class AppWindow:
         imgui.end()
         actions.handle_keys(app, self)
         self.input.chars = ""
+        startpage.draw(self)
         menus.dialogs(app, self)
         menus.help_overlay(app)
         imgui.render()
@@ -276,36 +256,12 @@ class AppWindow:
         if self._rects_file:
             self._dump_rects()
         self._autosave()
-        if self._quit_on_open_error and not self._ready_sent:
-            self._check_open_error()
         if not self._ready_sent and settled and (app.snap.loaded or not self._expect_scene or app.dialog == "recover"):
             self._ready_sent = True
             if self.ready is not None:
                 x, y, cw, ch = app.view.canvas_rect(app.snap.canvas) if app.snap.loaded else (0, 0, 0, 0)
                 self.ready({"canvas": [x, y, cw, ch], "scale": app.view.scale, "window": [w, h],
                             "file": app.snap.file})
-
-    def _recent(self, app) -> None:
-        """Keep the open scene's file among the recent files once it exists (a scene made
-        from a picture: after its first save); the start page when no scene is open."""
-        if not app.snap.loaded:
-            if app.dialog is None:
-                recent.start_page(app, self)
-            return
-        seen = (app.snap.file, app.snap.file is not None and os.path.isfile(app.snap.file))
-        if seen != self._recent_last:
-            self._recent_last = seen
-            if seen[1]:
-                recent.add(self.recent_file, seen[0])
-
-    def _check_open_error(self) -> None:
-        """The file named at start failed to open: quit with its one-line error (the CLI
-        prints it and exits 2, as every other command does)."""
-        app = self.app
-        if self._expect_scene and not app.snap.loaded and app.dialog is None and app.session.idle() \
-                and app.status is not None and app.status.level == "error":
-            self.open_error = app.status.text
-            app.quit_now = True
 
     def _dump_rects(self) -> None:
         """Where the widgets, the canvas, the pins and the timeline are (``PUPPET_APP_RECTS=FILE``:
@@ -465,6 +421,7 @@ class AppWindow:
         if self.closed:
             return
         self.closed = True
+        self.files.cancel()
         self.app.shutdown()
         self.win.switch_to()
         imgui.set_current_context(self.imgui_ctx)

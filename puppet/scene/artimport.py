@@ -43,6 +43,10 @@ class ImportResult:
     removed: list[str] = field(default_factory=list)
     replaced: list[str] = field(default_factory=list)
 
+    def note_lines(self, art: str) -> list[str]:
+        """The notes as the command line prints them on stderr, one line each."""
+        return [f"puppet: note: {art}: {note}" for note in self.notes]
+
     def summary(self) -> str:
         """One line for the command line."""
         w, h = self.size
@@ -57,9 +61,12 @@ def layers_folder(scene: str) -> str:
     return os.path.splitext(scene)[0] + "-layers"
 
 
-def made_from(scene: str) -> bool:
-    """Whether every layer of the scene file takes its image from the scene's layers folder
-    (as :func:`import_art` writes it); False for an unreadable file."""
+def made_from(scene: str, art_file: str | None = None) -> bool:
+    """Whether the scene file was made from layered art: it names ``art_file`` in
+    ``app.art`` (a scene rigged, reloaded and saved in the app keeps its new pixels in
+    ``SCENE.files/``), or every layer takes its image from the scene's layers folder (as
+    :func:`import_art` writes it). False for an unreadable file."""
+    from puppet.scene.artreload import art_of
     from puppet.scene.load import read_json
 
     try:
@@ -67,8 +74,18 @@ def made_from(scene: str) -> bool:
         images = [L.get("image") for L in doc["layers"]]
     except Exception:  # any unreadable or foreign file is "not made from the art"
         return False
+    named = art_of(doc, os.path.abspath(scene))
+    if art_file is not None and named is not None and _same_file(named, art_file):
+        return True
     folder = os.path.basename(layers_folder(scene))
     return bool(images) and all(isinstance(p, str) and p.split("/")[0] == folder for p in images)
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 def file_stem(name: str, taken: set[str]) -> str:
@@ -160,7 +177,7 @@ def import_beside(art_file: str) -> ImportResult:
     updated from it (its rig kept). A scene of that name made otherwise is refused."""
     scene = os.path.splitext(art_file)[0] + ".json"
     update = os.path.exists(scene)
-    if update and not made_from(scene):
+    if update and not made_from(scene, art_file):
         raise SceneError(f"{scene} exists and was not made from the art; open it, or make a new scene "
                          f"with 'puppet init {art_file} -o OTHER.json'", file=art_file)
     auto = "none" if update else "auto"
@@ -186,6 +203,7 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
         from puppet.scene.reimport import merge
 
         doc = merge(old, art, entries, res)
+    doc["app"] = dict(doc.get("app") or {}, art=os.path.abspath(art.path))  # what "Reload art" re-imports
     pinned = {p["layer"] for p in doc.get("pins", [])}
     if pins == "auto":
         new = [p for lay in art.layers if lay.name not in pinned for p in layer_pins(lay, max_pins)]

@@ -46,6 +46,9 @@ def map_paths(doc: dict, fn: Callable[[str], str]) -> dict:
     app = doc.get("app")
     if isinstance(app, dict) and isinstance(app.get("underlay"), dict) and isinstance(app["underlay"].get("image"), str):
         doc["app"] = dict(app, underlay=dict(app["underlay"], image=fn(app["underlay"]["image"])))
+    app = doc.get("app")
+    if isinstance(app, dict) and isinstance(app.get("art"), str):
+        doc["app"] = dict(app, art=fn(app["art"]))
     if not isinstance(doc.get("layers"), list):
         return doc
     layers = []

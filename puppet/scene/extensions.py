@@ -4,6 +4,10 @@
 stores a reference picture drawn under the canvas while editing (a garment placed over a
 target photo). ``puppet render``, ``mesh`` and ``animate`` ignore it; it is validated
 like every other key, so a typo is still an error.
+
+``"app": {"art": "gbot.psd"}`` names the layered art file a scene was imported from
+(``puppet init ART.psd``, ``puppet app ART.psd``), so that the app can offer "Reload
+art" when that file changes; the file need not exist.
 """
 from __future__ import annotations
 
@@ -16,8 +20,10 @@ UNDERLAY_DEFAULTS = {"opacity": 0.5, "offset": [0.0, 0.0], "scale": 1.0}
 
 def parse_app(c: Ctx, v, p: str, file_path) -> dict:
     """The validated ``app`` object: ``{"underlay": {...}}`` with the image path absolute."""
-    expect_object(c, v, p, optional=("underlay",))
+    expect_object(c, v, p, optional=("underlay", "art"))
     out = {}
+    if "art" in v:  # the layered art the scene was imported from (may have gone: not checked)
+        out["art"] = file_path(v["art"], join(p, "art"))
     if "underlay" in v:
         q = join(p, "underlay")
         u = expect_object(c, v["underlay"], q, required=("image",), optional=("image", "opacity", "offset", "scale"))

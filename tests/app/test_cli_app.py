@@ -33,28 +33,40 @@ def test_app_without_a_display_says_so():
     assert "Traceback" not in r.stderr
 
 
-BAD_OPEN = """
-import sys
-import puppet.app
-from puppet.errors import SceneError
-try:
-    puppet.app.run(sys.argv[1], headless=True)
-except SceneError as e:
-    print(f"puppet: error: {e}", file=sys.stderr)
-    sys.exit(2)
-"""
+def _app(path, cwd, display=True):
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    if not display:
+        env = {k: v for k, v in env.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    return subprocess.run([sys.executable, "-m", "puppet", "app", str(path)], capture_output=True, text=True,
+                          env=env, cwd=str(cwd), timeout=120)
 
 
-def test_app_on_a_file_it_cannot_open_says_so_and_quits(tmp_path):
-    """As `puppet app bad.png` does (the CLI prints the SceneError and exits 2): the window
-    closes at once with the one-line error, for a missing scene, a scene with a missing
-    image and a file that is not a picture."""
-    (tmp_path / "bad.png").write_text("not a png")
-    (tmp_path / "bad.json").write_text('{"puppet": 1, "layers": [{"name": "a", "image": "nope.png"}]}')
-    cases = {"missing.json": "no such scene file", "bad.json": "nope.png", "bad.png": "not an image file"}
+def test_app_on_a_file_it_cannot_open_fails_before_any_window(tmp_path):
+    """Missing, a corrupt picture, an invalid scene, a folder: one line and exit 2, checked
+    before the display (no display here: a window would fail differently)."""
+    (tmp_path / "bad.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")
+    (tmp_path / "text.png").write_text("not a png")
+    (tmp_path / "bad.json").write_text('{"puppet": 1, "layers": [{"name": "a", "image": "gone.png"}]}')
+    (tmp_path / "typo.json").write_text('{"puppet": 1, "layers": [], "canvass": [1, 1]}')
+    (tmp_path / "bad.psd").write_bytes(b"8BPS truncated")
+    from tests.conftest import bar_image, write_rgba
+
+    write_rgba(tmp_path / "typo.png", bar_image())  # a good picture, but typo.json is beside it
+    cases = {"missing.json": "no such file", "bad.png": "bad.png", "text.png": "not an image file",
+             "bad.json": "gone.png", "typo.json": "canvass", "bad.psd": "bad.psd", ".": "not a file",
+             "typo.png": "typo.json exists beside the picture"}
     for name, words in cases.items():
-        r = subprocess.run([sys.executable, "-c", BAD_OPEN, str(tmp_path / name)], capture_output=True, text=True,
-                           cwd=ROOT, timeout=120)
+        r = _app(tmp_path / name, tmp_path, display=False)
         assert r.returncode == 2, (name, r.stderr)
-        line = r.stderr.strip()
-        assert line.startswith("puppet: error: ") and words in line and name in line and "\n" not in line, line
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("puppet: error: "), (name, r.stderr)
+        assert words in lines[0] and "display" not in lines[0], (name, r.stderr)
+        assert "Traceback" not in r.stderr and r.stdout == ""
+    assert sorted(os.listdir(tmp_path)) == ["bad.json", "bad.png", "bad.psd", "text.png", "typo.json",
+                                          "typo.png"]  # nothing written
+
+
+def test_app_on_a_good_file_gets_as_far_as_the_display(tmp_path):
+    """A scene that opens passes the check: without a display the next line is the display's."""
+    r = _app(SCENES + "/strips.json", tmp_path, display=False)
+    assert r.returncode == 2 and "needs a display" in r.stderr

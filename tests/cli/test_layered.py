@@ -211,7 +211,7 @@ def test_update_and_links_are_refused_for_a_flat_picture(tmp_path, capsys):
 
 
 def test_app_on_art_makes_then_updates_the_scene_beside_it(tmp_path, capsys):
-    from puppet.cli import _scene_from_art
+    from puppet.app.opening import preload as _scene_from_art  # what `puppet app ART` runs first
     from puppet.errors import SceneError
 
     art = tmp_path / "gbot.psd"
@@ -220,6 +220,7 @@ def test_app_on_art_makes_then_updates_the_scene_beside_it(tmp_path, capsys):
     assert scene == str(tmp_path / "gbot.json")
     doc = load(scene)
     assert [L["name"] for L in doc["layers"]] == NAMES and doc["pins"] and doc["links"]
+    assert doc["app"] == {"art": "gbot.psd"}  # what Reload art re-imports
     doc["poses"] = {"p": {doc["pins"][0]["name"]: [1, 1]}}
     open(scene, "w").write(json.dumps(doc))
     artfiles.write_psd(str(art), recolour="head")

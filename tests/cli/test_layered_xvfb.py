@@ -18,8 +18,10 @@ from tests.app.test_xvfb import display, pytestmark, screenshot, wait_title, x  
 from tests.conftest import ROOT
 
 
-def open_app(art, env, cwd):
-    app = subprocess.Popen([sys.executable, "-m", "puppet", "app", str(art)], env=env, cwd=str(cwd),
+def open_app(art, env, cwd, *more):
+    """``puppet app ART MORE...`` (no file when ``art`` is None), once its ready line came."""
+    files = [] if art is None else [str(art)]
+    app = subprocess.Popen([sys.executable, "-m", "puppet", "app", *files, *more], env=env, cwd=str(cwd),
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line, end = "", time.monotonic() + 90
     while time.monotonic() < end and "ready" not in line:
