@@ -17,6 +17,9 @@ from puppet.errors import SceneError
 #: Logging level of Dask's loggers on the client and in embedded workers (the user's
 #: DASK_LOGGING__DISTRIBUTED wins).
 DASK_LOG_LEVEL = "critical"
+#: Memory counted per embedded worker when capping ``--workers`` (a worker holding a few
+#: scenes and a GL context measured 90-400 MB; animations and large canvases need more).
+WORKER_BYTES = 512 * 1024 * 1024
 
 
 def quiet_dask() -> None:
@@ -28,6 +31,46 @@ def quiet_dask() -> None:
         logging.getLogger(name).setLevel(getattr(logging, level, logging.CRITICAL))
 
 
+def capped_workers(asked: int | None, say) -> int:
+    """The embedded cluster's worker count: ``asked`` (default: one per core), at most one per
+    core and one per :data:`WORKER_BYTES` of available memory; a cut is said in one line."""
+    cores = default_workers()
+    memory = available_memory()
+    by_memory = max(1, memory // WORKER_BYTES) if memory else cores
+    cap = max(1, min(cores, by_memory))
+    if asked is None:
+        return cap
+    if asked > cap:
+        gib = f", {memory / 2 ** 30:.1f} GiB of memory available" if memory else ""
+        say(f"puppet batch: --workers {asked}: starting {cap} ({cores} cores{gib}; a worker runs one job at a "
+            f"time on one core and needs up to {WORKER_BYTES / 2 ** 30:.1f} GiB)")
+        return cap
+    return asked
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this process may still use: the system's available memory, or the
+    cgroup's limit left when lower; None when unknown."""
+    found = []
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    found.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        with open("/sys/fs/cgroup/memory.max", encoding="ascii") as f:
+            limit = f.read().strip()
+        with open("/sys/fs/cgroup/memory.current", encoding="ascii") as f:
+            used = int(f.read().strip())
+        if limit != "max":
+            found.append(max(0, int(limit) - used))
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None
+
+
 def default_workers() -> int:
     """One worker per core this process may use."""
     try:
@@ -37,17 +80,20 @@ def default_workers() -> int:
 
 
 @contextlib.contextmanager
-def connect(*, workers: int | None = None, scheduler: str | None = None, retries: int = 2) -> Iterator[tuple]:
+def connect(*, workers: int | None = None, scheduler: str | None = None, retries: int = 2,
+            say=lambda line: None) -> Iterator[tuple]:
     """A ``distributed.Client`` on the embedded cluster or on ``scheduler``.
 
     Yields
     ------
     (client, dashboard) : the client, and the dashboard address or None (no bokeh).
 
+    ``say`` prints a line for the user (more workers asked than the machine can run).
+
     Raises
     ------
     SceneError
-        The scheduler cannot be reached (one line).
+        The scheduler cannot be reached (one line, within :data:`CONNECT_SECONDS` or so).
     """
     quiet_dask()
     import dask
@@ -72,18 +118,15 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
                 "distributed.worker.memory.monitor-interval": "1s",
                 "distributed.deploy.cluster-repr-interval": "10s"}
     with dask.config.set(settings):
-        if scheduler:
-            try:
-                client = Client(scheduler, timeout="10s", set_as_default=False)
-            except (OSError, TimeoutError, ValueError) as e:
-                raise SceneError(f"--scheduler {scheduler}: cannot connect ({str(e).splitlines()[0]})") from None
+        if scheduler is not None:
+            client = _client(scheduler)
             try:
                 yield client, _dashboard(client)
             finally:
                 with contextlib.suppress(Exception):
                     client.close(timeout=10)
             return
-        n = workers or default_workers()
+        n = capped_workers(workers, say)
         # Mesa llvmpipe draws with one thread per core in each worker: as many workers as
         # cores would oversubscribe them. A worker with one core's share draws in its own
         # thread (0: no rasteriser thread; 1 would hand every draw to a second thread and
@@ -97,6 +140,8 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
         with tempfile.TemporaryDirectory(prefix="puppet-batch-") as scratch:
             cluster = client = None
             environ = dict(os.environ)
+            # Dask's own scratch space (dask-scratch-space/*.lock) goes there too, not into $TMPDIR
+            lp["temporary-directory"] = scratch
             try:
                 with _sigint_blocked(), dask.config.set(lp):  # the cluster's thread and workers never see Ctrl+C
                     cluster = LocalCluster(n_workers=n, threads_per_worker=1,
@@ -113,6 +158,19 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
                 if cluster is not None:
                     with contextlib.suppress(Exception):
                         cluster.close(timeout=20)
+
+
+def _client(scheduler: str):
+    """A client on an existing scheduler, checked first (:mod:`puppet.batch.reach`)."""
+    from distributed import Client
+
+    from puppet.batch.reach import CONNECT_SECONDS, check_scheduler, one_line_failure
+
+    address = check_scheduler(scheduler)
+    try:
+        return Client(address, timeout=f"{CONNECT_SECONDS}s", set_as_default=False)
+    except Exception as e:  # noqa: BLE001 - whatever Dask raises, the user gets one line
+        raise one_line_failure(scheduler, e) from None
 
 
 def _restore_environ(saved: dict[str, str]) -> None:
