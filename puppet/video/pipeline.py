@@ -128,7 +128,7 @@ def read_anchors(path: str) -> dict[int, dict[str, tuple[float, float]]]:
     from puppet.scene.reader import MAX_SCENE_BYTES, parse_text, read_file
     from puppet.scene.schema import Ctx, expect_object, expect_point, join
 
-    raw = parse_text(read_file(path, what="anchors file", max_bytes=MAX_SCENE_BYTES), path)
+    raw = parse_text(read_file(path, what="--anchors file", max_bytes=MAX_SCENE_BYTES), path)
     c = Ctx(path)
     expect_object(c, raw, "", optional=raw.keys() if isinstance(raw, dict) else ())
     out = {}

@@ -211,3 +211,115 @@ def test_unreachable_scheduler_leaves_no_out_dir(tmp_path):
     rc, err = batch(lst, "-o", "new", "--scheduler", "tcp://127.0.0.1:9", cwd=tmp_path)
     one_error(rc, err, "cannot connect")
     assert not (tmp_path / "new").exists()
+
+
+# -- runs with workers (one cluster each) ------------------------------------------------------
+def _hand_manifest(tmp_path, lst, out) -> None:
+    """The manifest a finished run would leave, with each output in place (no cluster needed)."""
+    from puppet.batch.jobs import read_job_list
+    from puppet.batch.runner import client_digest
+
+    jobs, cache, entries = read_job_list(str(lst), str(out), {}), {}, {}
+    for j in jobs:
+        os.makedirs(os.path.dirname(j["output"]), exist_ok=True)
+        with open(j["output"], "wb") as f:
+            f.write(b"an earlier output of " + j["rel"].encode())
+        entries[j["rel"]] = {"inputs": client_digest(j, cache), "finished": "2026-11-26T00:00:00+00:00"}
+    (out / "manifest.json").write_text(json.dumps({"puppet_batch_manifest": 1, "outputs": entries}))
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_resume_after_tampering_runs_once_with_workers_capped(tmp_path):
+    for name in "abcde":
+        write_bar(tmp_path, name=f"{name}.json", image=f"{name}.png")
+    lst = write_list(tmp_path / "jobs.json", [{"scene": f"{n}.json", "output": f"{n}.png"} for n in "abcde"])
+    out = tmp_path / "out"
+    _hand_manifest(tmp_path, lst, out)
+    for name, target in (("a", "/dev/zero"), ("b", "/dev/urandom")):
+        os.remove(tmp_path / f"{name}.png")
+        os.symlink(target, tmp_path / f"{name}.png")  # was hashed without a regular-file check: hung
+    os.remove(tmp_path / "c.png")
+    os.mkfifo(tmp_path / "c.png")
+    os.remove(out / "d.png")
+    (out / "d.png").mkdir()  # an output that became a folder is not "done"
+    (out / "d.png" / "keep.txt").write_text("mine")
+    before = {k: v for k, v in snapshot(tmp_path).items() if not k.startswith("out/") or k.startswith("out/d.png")}
+    scratch = tmp_path.parent / f"{tmp_path.name}-tmp"
+    scratch.mkdir()
+    env = dict(os.environ, TMPDIR=str(scratch))
+    rc, err = batch(lst, "-o", out, "--resume", "--workers", "64", cwd=tmp_path, timeout=300, env=env)
+    assert rc == 3 and "Traceback" not in err, err
+    assert err.startswith("puppet batch: --workers 64: starting ") and err.count("\n") == 1, err
+    report = json.loads((out / "report.json").read_text())
+    status = {j["output"]: (j["status"], j["error"]) for j in report["jobs"]}
+    assert status["e.png"] == ("skipped", None)
+    assert all(status[f"{n}.png"][0] == "failed" for n in "abcd"), status
+    assert "folder" in status["d.png"][1]
+    after = snapshot(tmp_path)
+    assert {k: after[k] for k in before} == before
+    assert after["out/e.png"] == ("file", b"an earlier output of e.png")
+    assert os.listdir(scratch) == []  # no dask-scratch-space/*.lock left in $TMPDIR
+
+
+def _stopped(tmp_path, sig, when: str):
+    write_bar(tmp_path)
+    lst = write_list(tmp_path / "jobs.json", [{"scene": "bar.json", "time": round(0.01 * k, 2), "size": [400, 300],
+                                               "output": f"t/{k:03d}.png"} for k in range(150)])
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "manifest.json").write_text('{"puppet_batch_manifest": 1, "outputs": {}}\n')
+    p = subprocess.Popen([sys.executable, "-m", "puppet", "batch", lst, "-o", out, "--workers", "1"], cwd=tmp_path,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.time() + 240
+    ready = (lambda: (out / "t").exists()) if when == "running" else (lambda: True)
+    while time.time() < deadline and p.poll() is None and not ready():
+        time.sleep(0.02)
+    time.sleep(0.8 if when == "start" else 0)
+    assert p.poll() is None, p.communicate()
+    os.killpg(p.pid, sig)
+    _, err = p.communicate(timeout=120)
+    return p.returncode, err, out
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_ctrl_c_in_the_first_second_leaves_a_report_and_the_manifest(tmp_path):
+    rc, err, out = _stopped(tmp_path, signal.SIGINT, "start")
+    assert rc == 130 and "Traceback" not in err, err
+    assert err.splitlines()[-1] == "puppet: interrupted", err
+    report = json.loads((out / "report.json").read_text())
+    assert report["interrupted"] is True and report["counts"]["not-run"] >= 1
+    if report["counts"]["done"] == 0:  # stopped before anything ran: the manifest is as it was
+        assert (out / "manifest.json").read_text() == '{"puppet_batch_manifest": 1, "outputs": {}}\n'
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_sighup_to_the_process_group_is_one_line(tmp_path):
+    rc, err, out = _stopped(tmp_path, signal.SIGHUP, "running")
+    assert rc == -signal.SIGHUP and "Traceback" not in err and "resource_tracker" not in err, err
+    assert err.splitlines()[-1] == "puppet: stopped by SIGHUP", err
+    assert json.loads((out / "report.json").read_text())["interrupted"] is True
+
+
+# -- puppet video --anchors: read like a job list ------------------------------------------------
+@pytest.mark.parametrize("content, words", [
+    (None, ["no such --anchors file"]),
+    ('{"\\u00b2": {}}', ["expected a frame number"]),
+    ('{"' + "9" * 5000 + '": {}}', ["expected a frame number"]),
+    ("{" * 100_000, ["nested deeper"]),
+    ("fifo", ["not a regular file"]),
+])
+def test_anchors_files_are_one_line(tmp_path, content, words):
+    write_bar(tmp_path)
+    anchors = tmp_path / "anchors.json"
+    if content == "fifo":
+        os.mkfifo(anchors)
+    elif content is not None:
+        anchors.write_text(content)
+    before = snapshot(tmp_path)
+    p = subprocess.run([sys.executable, "-m", "puppet", "video", "bar.json", "--pose", "rest", "-o", "v.mp4",
+                        "--anchors", "anchors.json"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    one_error(p.returncode, p.stderr, "anchors.json", *words)
+    assert snapshot(tmp_path) == before
