@@ -88,6 +88,7 @@ class Batch:
         self.bar = None
         self.dispatch: Dispatch | None = None
         self.keep: frozenset[str] = frozenset()  # real paths of the run's inputs (never swept)
+        self.checked = False  # guard() passed: report.json is no input of the run
         self.cache: dict = {}  # scene path -> its input files (None: unreadable), for client_digest
 
     # -- before -------------------------------------------------------------------
@@ -191,6 +192,7 @@ def guard(batch: "Batch", reads: list[tuple[str, str]], source: str | None) -> N
     check_outputs(batch.jobs, inputs, source)
     check_own_files(batch.out_dir, inputs)
     batch.keep = frozenset(inputs)
+    batch.checked = True
 
 
 def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, scheduler: str | None = None,
@@ -223,9 +225,11 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
     from puppet.batch.cluster import connect
 
     batch = Batch(jobs, out_dir, resume=resume, progress=progress)
-    guard(batch, list(reads), source)
+    reads = list(reads)
+    check_own_files(out_dir, {os.path.realpath(p): what for p, what in reads})  # at once: may a report be written
     up = False  # the cluster is there: from then on the manifest is rewritten at the end
     try:
+        guard(batch, reads, source)
         todo = batch.plan()
         if client is not None:
             session = contextlib.nullcontext((client, None))
@@ -247,7 +251,7 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
     except SceneError:
         raise  # before the cluster was up (it cannot be reached): nothing written, the manifest kept
     except BaseException:  # Ctrl+C, SIGTERM before the cluster was up: the report still says so
-        if not up:
+        if not up and (batch.checked or not os.path.lexists(os.path.join(out_dir, "report.json"))):
             batch.interrupted = True
             summary = batch.finish(manifest=False)
         raise

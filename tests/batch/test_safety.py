@@ -286,7 +286,7 @@ def _stopped(tmp_path, sig, when: str):
 @pytest.mark.slow
 def test_ctrl_c_in_the_first_second_leaves_a_report_and_the_manifest(tmp_path):
     rc, err, out = _stopped(tmp_path, signal.SIGINT, "start")
-    assert rc == 130 and "Traceback" not in err, err
+    assert rc in (130, -signal.SIGINT) and "Traceback" not in err, err
     assert err.splitlines()[-1] == "puppet: interrupted", err
     report = json.loads((out / "report.json").read_text())
     assert report["interrupted"] is True and report["counts"]["not-run"] >= 1
