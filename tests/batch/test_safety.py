@@ -146,15 +146,16 @@ def test_deep_jsonl_line_is_one_line(tmp_path):
 
 
 # -- schedulers ---------------------------------------------------------------------------
-class _Server:
-    """A TCP server on a free port that accepts and then stays silent, or answers garbage."""
+class FakeServer:
+    """A TCP server on a free port that accepts and then stays silent, or answers ``answer``
+    (and hangs up at once with ``close``). Also used by tests/safety/campaign_batch.py."""
 
-    def __init__(self, answer: bytes | None):
+    def __init__(self, answer: bytes | None, close: bool = False):
         self.sock = socket.socket()
         self.sock.bind(("127.0.0.1", 0))
-        self.sock.listen(8)
+        self.sock.listen(16)
         self.port = self.sock.getsockname()[1]
-        self.answer, self.conns = answer, []
+        self.answer, self.hang_up, self.conns = answer, close, []
         threading.Thread(target=self._serve, daemon=True).start()
 
     def _serve(self):
@@ -164,8 +165,13 @@ class _Server:
             except OSError:
                 return
             self.conns.append(c)
-            if self.answer:
-                c.sendall(self.answer)
+            try:
+                if self.answer:
+                    c.sendall(self.answer)
+                if self.hang_up:
+                    c.close()
+            except OSError:
+                pass
 
     def close(self):
         for c in self.conns:
@@ -194,7 +200,7 @@ def test_unreachable_schedulers_fail_in_one_line_and_keep_the_manifest(tmp_path,
     if address in ("silent", "garbage", "huge"):
         answer = {"silent": None, "garbage": b"HTTP/1.0 200 OK\r\n\r\nhello\n" * 4,
                   "huge": (2 ** 40).to_bytes(8, "little")}[address]  # a length Dask would allocate
-        server = _Server(answer)
+        server = FakeServer(answer)
         address = f"tcp://127.0.0.1:{server.port}"
     try:
         t0 = time.monotonic()

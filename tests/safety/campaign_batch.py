@@ -23,12 +23,10 @@ import os
 import resource
 import shutil
 import signal
-import socket
 import stat
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from dataclasses import dataclass, field
 
@@ -36,6 +34,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 sys.path.insert(0, ROOT)
 
 from tests.batch.conftest import write_bar  # noqa: E402
+from tests.batch.test_safety import FakeServer as Server  # noqa: E402
 
 MEMORY_CAP = 8 * 2 ** 30  # address space per process (inherited by the workers)
 FAST_TIMEOUT, CLUSTER_TIMEOUT = 60, 300
@@ -116,38 +115,6 @@ def batch_args(folder: str, lst: str, *extra, out: str = "out") -> list[str]:
 
 def one_job(folder: str, **job) -> str:
     return jobs(folder, [dict({"scene": "bar.json"}, **job)])
-
-
-class Server:
-    """A TCP server on a free port: silent, or answering ``answer`` then closing or not."""
-
-    def __init__(self, answer: bytes | None, close: bool = False):
-        self.sock = socket.socket()
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.listen(16)
-        self.port = self.sock.getsockname()[1]
-        self.answer, self.close_after, self.conns = answer, close, []
-        threading.Thread(target=self._serve, daemon=True).start()
-
-    def _serve(self):
-        while True:
-            try:
-                c, _ = self.sock.accept()
-            except OSError:
-                return
-            self.conns.append(c)
-            try:
-                if self.answer:
-                    c.sendall(self.answer)
-                if self.close_after:
-                    c.close()
-            except OSError:
-                pass
-
-    def stop(self):
-        for c in self.conns:
-            c.close()
-        self.sock.close()
 
 
 SERVERS: list[Server] = []
@@ -563,7 +530,7 @@ def main() -> int:
                     print(f"        | {line[:200]}")
     finally:
         for s in SERVERS:
-            s.stop()
+            s.close()
         shutil.rmtree(base, ignore_errors=True)
 
     def count(word):
