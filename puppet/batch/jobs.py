@@ -153,8 +153,8 @@ def job_from_entry(e, base: str, out_dir: str, defaults: dict, file: str, path: 
     job["kind"] = kind
     if kind == "pose":
         pose = e.get("pose", "rest")
-        if not isinstance(pose, str) or not pose:
-            raise SceneError("pose must be a pose name", file=file, path=f"{path}.pose")
+        if not isinstance(pose, str) or not pose or _CONTROL.search(pose):
+            raise SceneError("pose must be a pose name (no control characters)", file=file, path=f"{path}.pose")
         job["pose"] = pose
     elif kind == "time":
         job["time"] = _number(e["time"], file, f"{path}.time", "time")

@@ -329,3 +329,19 @@ def test_anchors_files_are_one_line(tmp_path, content, words):
                         "--anchors", "anchors.json"], cwd=tmp_path, capture_output=True, text=True, timeout=60)
     one_error(p.returncode, p.stderr, "anchors.json", *words)
     assert snapshot(tmp_path) == before
+
+
+def test_worker_refuses_a_folder_that_became_a_link_after_the_check(tmp_path):
+    from puppet.batch.guard import output_present, unchanged_path
+
+    out = tmp_path / "out"
+    (out / "a").mkdir(parents=True)
+    (tmp_path / "elsewhere").mkdir()
+    target = str(out / "a" / "x.png")
+    assert unchanged_path(target) is None
+    (out / "a").rmdir()
+    os.symlink(tmp_path / "elsewhere", out / "a")  # swapped in after the client resolved the output
+    assert "symbolic link" in unchanged_path(target)
+    assert not output_present({"output": target})
+    (tmp_path / "elsewhere" / "x.png").write_bytes(b"x")
+    assert not output_present({"output": str(out / "a") + os.sep})  # a link is not the frame folder
