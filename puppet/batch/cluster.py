@@ -210,23 +210,32 @@ _GROUP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGHUP") if hasat
 def _sigint_blocked():
     """Block Ctrl+C and SIGHUP in this thread while the cluster starts: threads started
     meanwhile inherit the mask, and a signal that arrives is handled after the block (by
-    this thread or by one started earlier, never lost).
+    this thread or by one started earlier, never lost). A SIGTERM is acted on after it too.
 
     multiprocessing's resource tracker is started here, from this thread, so it inherits
     the block and never sees the terminal's hang-up: killed by SIGHUP, it was relaunched by
     the client and printed a traceback for every semaphore it no longer knew."""
     main = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(_GROUP_SIGNALS)) if main else None
+    if not main:
+        yield
+        return
+    # SIGTERM stays unblocked (the nannies stop their workers with it) but its handler waits too
+    term, came = signal.getsignal(signal.SIGTERM), []
+    if callable(term):
+        signal.signal(signal.SIGTERM, lambda signum, frame: came.append((signum, frame)))
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(_GROUP_SIGNALS))
     try:
-        if main:
-            from multiprocessing import resource_tracker
+        from multiprocessing import resource_tracker
 
-            resource_tracker.ensure_running()
-            signal.pthread_sigmask(signal.SIG_BLOCK, set(_GROUP_SIGNALS))  # it unblocks SIGINT on its way out
+        resource_tracker.ensure_running()
+        signal.pthread_sigmask(signal.SIG_BLOCK, set(_GROUP_SIGNALS))  # it unblocks SIGINT on its way out
         yield
     finally:
-        if main:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        if callable(term):
+            signal.signal(signal.SIGTERM, term)
+            if came:
+                term(*came[0])
 
 
 def _dashboard(client) -> str | None:

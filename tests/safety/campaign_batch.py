@@ -5,8 +5,9 @@ every file before and after. A script, not a test module (pytest does not collec
     .venv/bin/python tests/safety/campaign_batch.py [--fast] [--only SUBSTRING] [-v]
 
 Prints one line per case and the counts: cases, tracebacks, hangs, inputs modified, writes
-outside -o, error messages that are not one line, temporaries left behind, unexpected exit
-statuses. ``--fast`` leaves out the cases that start a Dask cluster.
+outside -o, error messages that are not one line, temporaries left behind, stray stderr
+lines (warnings of Dask or multiprocessing), unexpected exit statuses. ``--against DIR``
+runs an older checkout (``git archive REV | tar -x -C DIR``) through the same cases. ``--fast`` leaves out the cases that start a Dask cluster.
 
 Each case's folder holds ``in/`` (scenes, images, the job list), ``out/`` (OUT_DIR, unless the
 case writes with ``-o in``), ``outside/`` (files nobody should touch) and ``tmp/`` (the run's
@@ -416,7 +417,8 @@ def cluster_cases() -> list[Case]:
     cases.append(Case("output is a hard link of an input", hard_link, (0, 3), True, ("out/h.png",)))
     for sig, after in ((signal.SIGINT, 0.5), (signal.SIGINT, 1.0), (signal.SIGINT, 1.5), (signal.SIGINT, 2.0),
                        (signal.SIGINT, 3.0), (signal.SIGINT, 5.0), (signal.SIGHUP, 1.0), (signal.SIGHUP, 2.0),
-                       (signal.SIGHUP, 4.0), (signal.SIGTERM, 1.5), (signal.SIGTERM, 4.0)):
+                       (signal.SIGHUP, 4.0), (signal.SIGTERM, 0.7), (signal.SIGTERM, 1.2), (signal.SIGTERM, 1.5),
+                       (signal.SIGTERM, 2.5), (signal.SIGTERM, 4.0)):
         cases.append(Case(f"{signal.Signals(sig).name} to the group after {after:g} s",
                           lambda f: batch_args(f, many(f), "--workers", "2"), (130, -sig, 0), True,
                           signal_after=(sig, after)))
@@ -496,6 +498,9 @@ def run_case(base: str, case: Case, python: str) -> Result:
         res.flags.append(f"exit {res.rc} (expected {'/'.join(map(str, case.expect))})")
     if res.rc == 2 and not (err.startswith("puppet: error: ") and err.count("\n") == 1):
         res.flags.append("not one line")
+    stray = [line for line in err.splitlines() if line.strip() and not line.startswith("puppet")]
+    if stray and "traceback" not in res.flags:
+        res.flags.append(f"stray stderr: {stray[0][:80]}")
     judge(case, before, snapshot(f), res)
     shutil.rmtree(f, ignore_errors=True)
     return res
@@ -552,7 +557,7 @@ def main() -> int:
     print(f"\ncases {len(results)} in {time.monotonic() - t0:.0f} s: tracebacks {count('traceback')}, "
           f"hangs {count('hang')}, inputs modified {count('input modified')}, "
           f"writes outside -o {count('write outside')}, not one line {count('not one line')}, "
-          f"left behind {count('left behind')}, writes by refused runs "
+          f"left behind {count('left behind')}, stray stderr {count('stray')}, writes by refused runs "
           f"{count('write by a refused') + count('own file rewritten')}, unexpected exit {count('exit ')}, "
           f"setup failures {count('setup failed')}")
     return 1 if any(r.flags for r in results) else 0
