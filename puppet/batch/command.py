@@ -133,11 +133,25 @@ def _out_dir(path: str) -> str:
     return real
 
 
+def _reads(args: argparse.Namespace) -> dict:
+    """What :func:`puppet.batch.runner.run_batch` must protect besides the jobs' own files,
+    and the file its command errors name."""
+    if args.template is not None:
+        return {"reads": [(os.path.abspath(args.template), "--template")], "source": args.images}
+    if os.path.isdir(args.jobs):
+        return {"reads": [], "source": args.jobs}
+    return {"reads": [(os.path.abspath(args.jobs), "the job list")], "source": args.jobs}
+
+
 def run(args: argparse.Namespace) -> int:
     from puppet.batch.runner import SOME_FAILED, run_batch
 
-    if args.scheduler and args.workers:
-        raise SceneError("--workers is for the embedded cluster; an existing --scheduler has its own workers")
+    if args.scheduler is not None:
+        from puppet.batch.reach import parse_address
+
+        parse_address(args.scheduler)  # its form now; whether it answers once the jobs are known
+        if args.workers:
+            raise SceneError("--workers is for the embedded cluster; an existing --scheduler has its own workers")
     if args.output and os.path.exists(args.output) and not os.path.isdir(args.output):
         raise SceneError("exists and is not a folder", file=args.output)
     out_dir = os.path.realpath(args.output)
@@ -150,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         summary = run_batch(jobs, out_dir, workers=args.workers, scheduler=args.scheduler, retries=args.retries,
-                            resume=args.resume, progress=sys.stderr.isatty(), say=say)
+                            resume=args.resume, progress=sys.stderr.isatty(), say=say, **_reads(args))
     except SceneError:  # e.g. the scheduler cannot be reached: nothing ran, leave nothing behind
         if created:
             with contextlib.suppress(OSError):

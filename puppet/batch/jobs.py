@@ -15,7 +15,6 @@ job (see :func:`folder_jobs`).
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -34,6 +33,8 @@ FRAME_EXTS = (".png",)
 ANIM_EXTS = tuple(e for e in formats.suffixes(single=True) if e != "/")
 JOB_KEYS = {"scene", "pose", "time", "animate", "size", "output", "wireframe", "budget"}
 ANIM_KEYS = {"fps", "from", "to"}
+#: Largest job list read (bytes).
+MAX_LIST_BYTES = 64 * 1024 * 1024
 
 
 def parse_size(v, file: str | None, path: str, check=None) -> list[int] | None:
@@ -73,6 +74,9 @@ def resolve_output(out_dir: str, rel: str, file: str | None, path: str) -> tuple
     """
     if not isinstance(rel, str) or not rel.strip():
         raise SceneError("output must be a non-empty path relative to OUT_DIR", file=file, path=path)
+    if _CONTROL.search(rel):
+        raise SceneError(f"output {rel!r}: a control character (NUL, newline, ...) in a file name", file=file,
+                         path=path)
     folder = rel.endswith(("/", os.sep))
     if os.path.isabs(rel):
         raise SceneError(f"output {rel!r} must be relative to OUT_DIR", file=file, path=path)
@@ -80,10 +84,31 @@ def resolve_output(out_dir: str, rel: str, file: str | None, path: str) -> tuple
     full = os.path.realpath(os.path.join(out_dir, norm))
     if not full.startswith(out_dir.rstrip(os.sep) + os.sep):
         raise SceneError(f"output {rel!r} leaves OUT_DIR", file=file, path=path)
+    link = _link_on_the_way(out_dir, norm)
+    if link is not None:
+        raise SceneError(f"output {rel!r} goes through the symbolic link {link!r}: outputs never follow "
+                         "links they did not make", file=file, path=path)
     norm = os.path.relpath(full, out_dir).replace(os.sep, "/")
     if norm in RESERVED:
         raise SceneError(f"output {rel!r} is the batch's own {norm}", file=file, path=path)
     return full + (os.sep if folder else ""), norm + ("/" if folder else "")
+
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
+
+
+def _link_on_the_way(out_dir: str, norm: str) -> str | None:
+    """The first part of OUT_DIR/``norm`` that is a symbolic link (relative to OUT_DIR), or None."""
+    cur = out_dir
+    for part in norm.split(os.sep):
+        if part in ("", "."):
+            continue
+        cur = os.path.join(cur, part)
+        if os.path.islink(cur):
+            return os.path.relpath(cur, out_dir)
+        if not os.path.isdir(cur):
+            return None
+    return None
 
 
 def _fmt_time(t: float) -> str:
@@ -120,6 +145,8 @@ def job_from_entry(e, base: str, out_dir: str, defaults: dict, file: str, path: 
         raise SceneError(f"unknown key {unknown[0]!r} (keys: {', '.join(sorted(JOB_KEYS))})", file=file, path=path)
     if not isinstance(e.get("scene"), str) or not e["scene"]:
         raise SceneError("'scene' (a scene file) is required", file=file, path=f"{path}.scene")
+    if "\x00" in e["scene"]:
+        raise SceneError("scene: a NUL byte in a file name", file=file, path=f"{path}.scene")
     job = {"scene": os.path.normpath(os.path.join(base, e["scene"])), "size": defaults.get("size"),
            "wireframe": False, "budget": defaults.get("budget")}
     given = [k for k in ("pose", "time", "animate") if k in e]
@@ -129,8 +156,8 @@ def job_from_entry(e, base: str, out_dir: str, defaults: dict, file: str, path: 
     job["kind"] = kind
     if kind == "pose":
         pose = e.get("pose", "rest")
-        if not isinstance(pose, str) or not pose:
-            raise SceneError("pose must be a pose name", file=file, path=f"{path}.pose")
+        if not isinstance(pose, str) or not pose or _CONTROL.search(pose):
+            raise SceneError("pose must be a pose name (no control characters)", file=file, path=f"{path}.pose")
         job["pose"] = pose
     elif kind == "time":
         job["time"] = _number(e["time"], file, f"{path}.time", "time")
@@ -141,6 +168,7 @@ def job_from_entry(e, base: str, out_dir: str, defaults: dict, file: str, path: 
         if not isinstance(a, dict) or set(a) - ANIM_KEYS:
             raise SceneError("animate is true or an object with fps, from, to", file=file, path=f"{path}.animate")
         job["animate"] = {k: _number(a[k], file, f"{path}.animate.{k}", k) for k in ANIM_KEYS if k in a}
+        _check_fps(job["animate"], file, f"{path}.animate.fps")
     if "size" in e:
         job["size"] = parse_size(e["size"], file, f"{path}.size", defaults.get("check_size"))
     if "wireframe" in e:
@@ -155,27 +183,37 @@ def job_from_entry(e, base: str, out_dir: str, defaults: dict, file: str, path: 
     return job
 
 
+def _check_fps(anim: dict, file, path) -> None:
+    from puppet.anim.export import MAX_FPS, MIN_FPS  # the limits of ``puppet animate --fps``
+
+    if "fps" in anim and not MIN_FPS <= anim["fps"] <= MAX_FPS:
+        raise SceneError(f"fps {anim['fps']:g} is outside {MIN_FPS:g}..{MAX_FPS:g} (as animate --fps)",
+                         file=file, path=path)
+
+
 def read_job_list(file: str, out_dir: str, defaults: dict) -> list[dict]:
-    """Jobs of a JSON (a list, or ``{"jobs": [...]}``) or JSONL (one object a line) file."""
-    try:
-        with open(file, encoding="utf-8") as f:
-            text = f.read()
-    except (OSError, UnicodeDecodeError) as e:
-        raise SceneError(f"cannot read the job list: {getattr(e, 'strerror', None) or e}", file=file) from None
+    """Jobs of a JSON (a list, or ``{"jobs": [...]}``) or JSONL (one object a line) file.
+
+    The file is read as a scene file is (:mod:`puppet.scene.reader`): a regular file of at
+    most :data:`MAX_LIST_BYTES`, strict JSON (no NaN, integers up to 2^53, nesting up to
+    32 levels, no repeated key); anything else is one SceneError naming the file."""
+    from puppet.scene.reader import parse_text, read_file
+
+    text = read_file(file, what="job list", max_bytes=MAX_LIST_BYTES)
     base = os.path.dirname(os.path.abspath(file))
     entries: list[tuple[object, str]] = []
     if file.lower().endswith(".jsonl"):
         for n, line in enumerate(text.splitlines(), 1):
             if line.strip():
                 try:
-                    entries.append((json.loads(line), f"line {n}"))
-                except json.JSONDecodeError as e:
-                    raise SceneError(f"not JSON: {e.msg} (column {e.colno})", file=file, path=f"line {n}") from None
+                    entries.append((parse_text(line, file), f"line {n}"))
+                except SceneError as e:
+                    sub = e.path or ""
+                    where = f"line {n}" + ("." if sub and not sub.startswith("[") else "") + sub
+                    raise SceneError(e.message.replace("at line 1 column", "at column"), file=file,
+                                     path=where) from None
     else:
-        try:
-            raw = json.loads(text)
-        except json.JSONDecodeError as e:
-            raise SceneError(f"not JSON: {e.msg} (line {e.lineno}, column {e.colno})", file=file) from None
+        raw = parse_text(text, file)
         if isinstance(raw, dict) and "layers" in raw and "jobs" not in raw:
             raise SceneError("this is a scene, not a job list: give a folder of scenes or a job list "
                              "(puppet render / animate for one scene)", file=file)

@@ -13,8 +13,10 @@ from collections.abc import Callable
 
 from puppet.batch.dispatch import Dispatch
 from puppet.batch.feed import Feeder
+from puppet.batch.guard import all_inputs, check_outputs, check_own_files, output_present, scene_inputs
 from puppet.batch.jobs import describe, spec
 from puppet.batch.state import Manifest, inputs_digest, now, write_report
+from puppet.errors import SceneError
 
 #: Exit status when the batch ran to its end but some jobs failed (0: every job done).
 SOME_FAILED = 3
@@ -41,13 +43,13 @@ def client_digest(job: dict, cache: dict) -> str | None:
         inputs = inputs + [(job["image"], "image")]
     try:
         return inputs_digest(spec(job), inputs)
-    except OSError:
+    except (OSError, ValueError):  # unreadable, not a regular file (a FIFO, /dev/zero), a NUL in a name
         return None
 
 
-def sweep_temporaries(jobs: list[dict]) -> int:
+def sweep_temporaries(jobs: list[dict], keep: frozenset[str] = frozenset()) -> int:
     """Remove the temporary files and folders (``.NAME.*.tmp``) that a stopped or killed
-    worker left beside the outputs; returns how many."""
+    worker left beside the outputs (never one of ``keep``, real paths); returns how many."""
     folders: dict[str, set[str]] = {}
     for j in jobs:
         out = j["output"].rstrip(os.sep)
@@ -62,6 +64,8 @@ def sweep_temporaries(jobs: list[dict]) -> int:
         for name in names:
             if name.endswith(".tmp") and any(name.startswith(p) for p in prefixes):
                 path = os.path.join(folder, name)
+                if path in keep:
+                    continue
                 with contextlib.suppress(OSError):
                     shutil.rmtree(path) if os.path.isdir(path) and not os.path.islink(path) else os.remove(path)
                     n += 1
@@ -83,22 +87,23 @@ class Batch:
         self._saved = 0.0
         self.bar = None
         self.dispatch: Dispatch | None = None
+        self.keep: frozenset[str] = frozenset()  # real paths of the run's inputs (never swept)
+        self.checked = False  # guard() passed: report.json is no input of the run
+        self.cache: dict = {}  # scene path -> its input files (None: unreadable), for client_digest
 
     # -- before -------------------------------------------------------------------
     def plan(self) -> list[dict]:
         """Jobs to run; those --resume finds up to date are recorded as skipped."""
-        todo, cache = [], {}
+        todo, cache = [], self.cache
         for j in self.jobs:
-            if self.resume and os.path.exists(j["output"]) and j["rel"] in self.manifest.outputs:
+            if self.resume and j["rel"] in self.manifest.outputs and output_present(j):
                 digest = client_digest(j, cache)
                 if digest is not None and self.manifest.matches(j["rel"], digest):
                     self.records[j["id"]] = {"status": "skipped", "error": None, "inputs": digest}
                     continue
             self.manifest.drop(j["rel"])  # re-rendered: not up to date until it is done again
             todo.append(j)
-        if self.manifest.dirty:
-            self.manifest.save()
-        return todo
+        return todo  # the manifest is saved once the run did something (a result, or its end)
 
     # -- while --------------------------------------------------------------------
     def run(self, client, todo: list[dict], *, retries: int, on_result: Callable | None = None) -> None:
@@ -148,10 +153,12 @@ class Batch:
             c[self.records.get(j["id"], {}).get("status", "not-run")] += 1
         return c
 
-    def finish(self) -> dict:
-        """Remove leftovers of stopped workers; write the manifest and the report; the summary."""
-        sweep_temporaries(self.jobs)
-        self.manifest.save()
+    def finish(self, *, manifest: bool = True) -> dict:
+        """Remove leftovers of stopped workers; write the manifest (unless ``manifest`` is
+        False: stopped before the cluster was there) and the report; the summary."""
+        sweep_temporaries(self.jobs, keep=self.keep)
+        if manifest:
+            self.manifest.save()
         seconds = time.perf_counter() - self.t0
         counts = self.counts()
         jobs = []
@@ -178,9 +185,20 @@ def threads_warning(workers: dict) -> str | None:
             "job at a time: start one worker process per core (dask worker --nthreads 1 --nworkers N)")
 
 
+def guard(batch: "Batch", reads: list[tuple[str, str]], source: str | None) -> None:
+    """The checks of :mod:`puppet.batch.guard` before anything is written (SceneError)."""
+    batch.cache = scene_inputs(batch.jobs)
+    inputs = all_inputs(batch.jobs, batch.cache, reads)
+    check_outputs(batch.jobs, inputs, source)
+    check_own_files(batch.out_dir, inputs)
+    batch.keep = frozenset(inputs)
+    batch.checked = True
+
+
 def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, scheduler: str | None = None,
               retries: int = 2, resume: bool = False, progress: bool = False, client=None,
-              say: Callable[[str], None] = lambda s: None, on_result: Callable | None = None) -> dict:
+              say: Callable[[str], None] = lambda s: None, on_result: Callable | None = None,
+              reads: list[tuple[str, str]] = (), source: str | None = None) -> dict:
     """Run ``jobs`` (see :mod:`puppet.batch.jobs`) on Dask and write ``OUT_DIR/report.json``.
 
     Parameters
@@ -188,44 +206,69 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
     client : a ``distributed.Client`` to use (tests, benchmarks); else one is made on an
         embedded LocalCluster of ``workers`` processes, or on ``scheduler``.
     say : prints a line for the user (the dashboard address).
+    reads : (path, what) of files the run reads besides the jobs' scenes and pictures (the
+        job list): no output may replace one. source : the file named in command errors.
 
     Returns
     -------
     dict with ``counts`` (done / failed / no-match / skipped / not-run), ``seconds``,
     ``report`` (its path) and ``jobs_per_s``. A KeyboardInterrupt or the CLI's stop
-    exception propagates after OUT_DIR is left consistent.
+    exception propagates after OUT_DIR is left consistent (the report written, also when
+    it came before the cluster was up).
+
+    Raises
+    ------
+    SceneError
+        An output on a file the run reads, the batch's own files not regular files, a
+        scheduler that cannot be reached: nothing is written (the manifest is left as it was).
     """
     from puppet.batch.cluster import connect
 
     batch = Batch(jobs, out_dir, resume=resume, progress=progress)
-    todo = batch.plan()
-    if client is not None:
-        session = contextlib.nullcontext((client, None))
-    elif todo:
-        session = connect(workers=workers, scheduler=scheduler, retries=retries)
-    else:
-        session = contextlib.nullcontext((None, None))
+    reads = list(reads)
+    check_own_files(out_dir, {os.path.realpath(p): what for p, what in reads})  # at once: may a report be written
+    up = False  # the cluster is there: from then on the manifest is rewritten at the end
     try:
+        guard(batch, reads, source)
+        todo = batch.plan()
+        if client is not None:
+            session = contextlib.nullcontext((client, None))
+        elif todo:
+            session = connect(workers=workers, scheduler=scheduler, retries=retries, say=say)
+        else:
+            session = contextlib.nullcontext((None, None))
         with session as (c, dashboard):  # a scheduler that cannot be reached: SceneError, nothing written
+            up = True
             try:
                 if c is not None:
-                    batch.cluster = scheduler or ("given client" if client is not None else
-                                                  f"local, {len(c.scheduler_info()['workers'])} workers")
-                    if dashboard:
-                        say(f"puppet batch: Dask dashboard at {dashboard}")
-                    warning = threads_warning(c.scheduler_info()["workers"])
-                    if warning:
-                        say(warning)
+                    _started(batch, c, client, scheduler, dashboard, say)
                     batch.run(c, todo, retries=retries, on_result=on_result)
             except BaseException:
                 batch.interrupted = True
                 raise
             finally:
                 summary = batch.finish()
+    except SceneError:
+        raise  # before the cluster was up (it cannot be reached): nothing written, the manifest kept
+    except BaseException:  # Ctrl+C, SIGTERM before the cluster was up: the report still says so
+        if not up and (batch.checked or not os.path.lexists(os.path.join(out_dir, "report.json"))):
+            batch.interrupted = True
+            summary = batch.finish(manifest=False)
+        raise
     finally:
-        sweep_temporaries(jobs)  # again, once the embedded workers are gone
+        sweep_temporaries(jobs, keep=batch.keep)  # again, once the embedded workers are gone
         if batch.interrupted and "summary" in locals():
             c = summary["counts"]
             say(f"puppet batch: stopped: {c['done']} done, {c['failed'] + c['no-match']} failed, "
                 f"{c['not-run']} not run; run it again with --resume to finish the rest")
     return summary
+
+
+def _started(batch: Batch, c, client, scheduler: str | None, dashboard: str | None, say) -> None:
+    info = c.scheduler_info()
+    batch.cluster = scheduler or ("given client" if client is not None else f"local, {len(info['workers'])} workers")
+    if dashboard:
+        say(f"puppet batch: Dask dashboard at {dashboard}")
+    warning = threads_warning(info["workers"])
+    if warning:
+        say(warning)

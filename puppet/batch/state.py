@@ -4,9 +4,11 @@
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import hashlib
 import json
 import os
+import stat
 import threading
 
 from puppet.output import write_text
@@ -27,9 +29,18 @@ def file_hash(path: str) -> str:
         if key in _hashes:
             return _hashes[key]
     h = hashlib.blake2b(digest_size=16)
-    with open(path, "rb") as f:
-        while block := f.read(_CHUNK):
+    # opened without blocking and checked regular before a byte is read: an input that
+    # became a FIFO or a link to /dev/zero fails (its job runs again) instead of hanging
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    with os.fdopen(fd, "rb") as f:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise OSError(errno.EINVAL, "not a regular file", path)
+        left = st.st_size  # no more than the file held when opened (a growing file: the job re-runs)
+        while left > 0 and (block := f.read(min(_CHUNK, left))):
             h.update(block)
+            left -= len(block)
+        key = (path, st.st_size, st.st_mtime_ns, st.st_ino)
     with _lock:
         if len(_hashes) > 100_000:
             _hashes.clear()
@@ -60,11 +71,21 @@ def now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
+#: Largest manifest read (bytes); a larger one counts as empty.
+MAX_MANIFEST_BYTES = 64 * 1024 * 1024
+
+
 def _read(path: str) -> dict | None:
+    """The manifest's JSON, read bounded and strictly (:func:`puppet.scene.reader.read_file`);
+    None when missing, not a regular file, too large, too deep or not JSON."""
+    from puppet.errors import SceneError
+    from puppet.scene.reader import parse_text, read_file
+
+    if not os.path.lexists(path):
+        return None
     try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-    except (OSError, ValueError):
+        data = parse_text(read_file(path, what="manifest", max_bytes=MAX_MANIFEST_BYTES), path)
+    except SceneError:
         return None
     return data if isinstance(data, dict) else None
 

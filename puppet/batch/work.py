@@ -168,8 +168,15 @@ def _make_parent(output: str) -> None:
 def _render(job: dict, scene, inputs) -> None:
     from puppet.output import save_png
 
+    from puppet.batch.guard import unchanged_path
+
     size = tuple(job["size"]) if job.get("size") else None
-    _make_parent(job["output"])
+    for step in ("before", "after"):  # a folder on the way swapped for a symbolic link since the client checked
+        why = unchanged_path(job["output"])
+        if why:
+            raise SceneError(why, file=job["output"])
+        if step == "before":
+            _make_parent(job["output"])
     if job["kind"] == "animate":
         from puppet.anim.export import animate_to
 

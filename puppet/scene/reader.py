@@ -38,44 +38,7 @@ class _Refused(ValueError):
 def read_text(path: str) -> str:
     """The text of a scene file, refusing anything that is not a readable regular
     UTF-8 file of at most MAX_SCENE_BYTES (a leading byte-order mark is allowed)."""
-    def fail(msg: str) -> SceneError:
-        return SceneError(msg, file=path)
-
-    try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise fail("no such scene file") from None
-    except OSError as e:
-        raise fail(f"cannot be read ({e.strerror})") from None
-    _check_stat(st, fail)
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
-    except OSError as e:
-        raise fail(f"cannot be read ({e.strerror})") from None
-    try:
-        _check_stat(os.fstat(fd), fail)  # the file may have been swapped since stat
-        with os.fdopen(fd, "rb", closefd=False) as f:
-            data = f.read(MAX_SCENE_BYTES + 1)
-    except OSError as e:
-        raise fail(f"cannot be read ({e.strerror})") from None
-    finally:
-        os.close(fd)
-    if len(data) > MAX_SCENE_BYTES:
-        raise fail(f"too large for a scene file (more than {MAX_SCENE_BYTES // (1024 * 1024)} MiB)")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise fail(f"not a text (UTF-8) file (byte 0x{data[e.start]:02x} at offset {e.start})") from None
-
-
-def _check_stat(st: os.stat_result, fail) -> None:
-    if stat.S_ISDIR(st.st_mode):
-        raise fail("is a folder, not a scene file")
-    if not stat.S_ISREG(st.st_mode):
-        raise fail("is not a regular file (a FIFO, device or socket cannot be a scene)")
-    if st.st_size > MAX_SCENE_BYTES:
-        raise fail(f"too large for a scene file ({st.st_size} bytes; at most "
-                   f"{MAX_SCENE_BYTES // (1024 * 1024)} MiB)")
+    return read_file(path, what="scene file", max_bytes=MAX_SCENE_BYTES)
 
 
 def parse_text(text: str, file: str):
@@ -127,3 +90,48 @@ def _located(structure: Structure, kinds, file: str, fallback: str) -> SceneErro
     found = structure.first_problem(MAX_DEPTH, MAX_INT, kinds)
     where, problem = found if found else ("", fallback)
     return SceneError(problem, file=file, path=where or None)
+
+
+def read_file(path: str, *, what: str, max_bytes: int) -> str:
+    """The UTF-8 text of a scene file (:func:`read_text`) or of another JSON file a command
+    reads (a job list, a manifest, an anchors file): a regular file only (opened without blocking
+    and checked with ``fstat``, so a FIFO or a link to ``/dev/zero`` cannot hang or fill
+    memory) and at most ``max_bytes``. ``what`` names the file in messages ("job list").
+
+    Raises
+    ------
+    SceneError
+        Naming ``path``: missing, not a regular file, too large, unreadable or not UTF-8.
+    """
+    def fail(msg: str) -> SceneError:
+        return SceneError(msg, file=path)
+
+    def check(st: os.stat_result) -> None:
+        if stat.S_ISDIR(st.st_mode):
+            raise fail(f"is a folder, not a {what}")
+        if not stat.S_ISREG(st.st_mode):
+            raise fail(f"is not a regular file (a FIFO, device or socket cannot be a {what})")
+        if st.st_size > max_bytes:
+            raise fail(f"too large for a {what} ({st.st_size} bytes; at most {max_bytes // (1024 * 1024)} MiB)")
+
+    try:
+        check(os.stat(path))
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        raise fail(f"no such {what}") from None
+    except (OSError, ValueError) as e:  # ValueError: a NUL byte in the path
+        raise fail(f"cannot be read ({getattr(e, 'strerror', None) or e})") from None
+    try:
+        check(os.fstat(fd))  # the file may have been swapped since stat
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            data = f.read(max_bytes + 1)
+    except OSError as e:
+        raise fail(f"cannot be read ({e.strerror})") from None
+    finally:
+        os.close(fd)
+    if len(data) > max_bytes:
+        raise fail(f"too large for a {what} (more than {max_bytes // (1024 * 1024)} MiB)")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise fail(f"not a text (UTF-8) file (byte 0x{data[e.start]:02x} at offset {e.start})") from None

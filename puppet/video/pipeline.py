@@ -127,10 +127,10 @@ def plan_video(doc, pose: str, *, first: int | None = None, last: int | None = N
 def read_anchors(path: str) -> dict[int, dict[str, tuple[float, float]]]:
     """``{"frame": {"pin": [x, y]}}`` from a JSON file (canvas coordinates); SceneError naming
     the file and the JSON path when it is not that."""
-    from puppet.scene.reader import parse_text, read_text
+    from puppet.scene.reader import MAX_SCENE_BYTES, parse_text, read_file
     from puppet.scene.schema import Ctx, expect_object, expect_point, join
 
-    raw = parse_text(read_text(path), path)
+    raw = parse_text(read_file(path, what="--anchors file", max_bytes=MAX_SCENE_BYTES), path)
     c = Ctx(path)
     expect_object(c, raw, "", optional=raw.keys() if isinstance(raw, dict) else ())
     out = {}

@@ -140,6 +140,6 @@ def test_unreachable_scheduler_is_one_line(tmp_path):
     lst = write_list(tmp_path / "jobs.json", [{"scene": "bar.json"}])
     p = _puppet(lst, "-o", tmp_path / "out", "--scheduler", "tcp://127.0.0.1:9")
     _, err = p.communicate(timeout=120)
-    assert p.returncode == 2 and err.startswith("puppet: error: --scheduler tcp://127.0.0.1:9: cannot connect"), err
+    assert p.returncode == 2 and err.startswith("puppet: error: --scheduler 'tcp://127.0.0.1:9': cannot connect"), err
     assert err.count("\n") == 1
     assert not (tmp_path / "out").exists()

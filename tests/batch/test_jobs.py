@@ -42,7 +42,7 @@ def test_jsonl_list_and_its_line_numbers(tmp_path):
     with pytest.raises(SceneError, match=r"bad.jsonl: line 2.pose: pose must be a pose name"):
         J.read_job_list(str(tmp_path / "bad.jsonl"), str(tmp_path / "out"), {})
     (tmp_path / "broken.jsonl").write_text('{"scene": "bar.json"}\n{"scene": \n')
-    with pytest.raises(SceneError, match=r"line 2: not JSON"):
+    with pytest.raises(SceneError, match=r"line 2\S*: invalid JSON at column"):
         J.read_job_list(str(tmp_path / "broken.jsonl"), str(tmp_path / "out"), {})
 
 
