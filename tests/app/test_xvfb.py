@@ -63,6 +63,20 @@ def x(display, *args, check=True) -> str:
     return out.stdout
 
 
+def wait_ready(app, timeout: float = 90.0) -> dict:
+    """The JSON an app process prints after ``ready`` once its first frame is drawn
+    (RuntimeError with its stderr if it exits first)."""
+    line, end = "", time.monotonic() + timeout
+    while time.monotonic() < end and "ready" not in line:
+        if select.select([app.stdout], [], [], 1.0)[0]:
+            line = app.stdout.readline()
+        if app.poll() is not None:
+            raise RuntimeError(f"the app exited: {app.stderr.read()}")
+    if "ready" not in line:
+        raise TimeoutError("the app printed no ready line")
+    return json.loads(line.split("ready", 1)[1])
+
+
 def wait_title(display, pattern: str, timeout: float = 30.0) -> None:
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -108,15 +122,7 @@ def test_drag_save_render_matches_the_window(display, tmp_path):
     app = subprocess.Popen([sys.executable, "-m", "puppet", "app", str(path)], env=env, cwd=str(tmp_path),
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        line = ""
-        end = time.monotonic() + 90
-        while time.monotonic() < end and "ready" not in line:
-            r, _, _ = select.select([app.stdout], [], [], 1.0)
-            if r:
-                line = app.stdout.readline()
-            if app.poll() is not None:
-                raise RuntimeError(f"the app exited: {app.stderr.read()}")
-        info = json.loads(line.split("ready", 1)[1])
+        info = wait_ready(app)
         wait_title(display, r"^puppet .*trex\.json$")
         s, (ox, oy) = info["scale"], info["canvas"][:2]
         hand = np.array([124.0, 251.0])  # the T-rex's front hand pin

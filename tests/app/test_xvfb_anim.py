@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import select
 import subprocess
 import sys
 import time
@@ -14,7 +13,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tests.app.test_xvfb import MISSING, canvas_from_screen, display, screenshot, wait_title, x  # noqa: F401
+from tests.app.test_xvfb import (MISSING, canvas_from_screen, display, screenshot, wait_ready,  # noqa: F401
+                                 wait_title, x)
 from tests.app.harness import pin_keys
 from tests.conftest import ROOT, bar_image, bar_scene
 
@@ -57,12 +57,7 @@ def test_record_a_drag_save_and_render(display, tmp_path):
     app = subprocess.Popen([sys.executable, "-m", "puppet", "app", str(path), "--size", "1100x700"], env=env,
                            cwd=str(tmp_path), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        line, end = "", time.monotonic() + 90
-        while time.monotonic() < end and "ready" not in line:
-            if select.select([app.stdout], [], [], 1.0)[0]:
-                line = app.stdout.readline()
-            if app.poll() is not None:
-                raise RuntimeError(f"the app exited: {app.stderr.read()}")
+        wait_ready(app)
         wait_title(display, r"^puppet .*scene\.json$")
         info = wait_info(rects, lambda i: "timeline" in i["rects"] and not i["busy"])
         # scrub to 0.5 s on the ruler (the ruler shows 2 s), then Record

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import select
 import shutil
 import subprocess
 import sys
@@ -22,7 +21,7 @@ from PIL import Image
 
 import puppet
 from tests.app.test_script import ARM, FIST, OUTSIDE, SHOULDER, flat_runner
-from tests.app.test_xvfb import MISSING, display, render, x  # noqa: F401 - display is a fixture
+from tests.app.test_xvfb import MISSING, display, render, wait_ready, x  # noqa: F401 - display is a fixture
 from tests.conftest import ROOT
 
 pytestmark = [
@@ -45,13 +44,7 @@ class XApp:
         self.proc = subprocess.Popen([sys.executable, "-m", "puppet", "app", picture, "--size", "%dx%d" % SIZE],
                                      env=env, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self.env = env
-        line, end = "", time.monotonic() + 90
-        while time.monotonic() < end and "ready" not in line:
-            r, _, _ = select.select([self.proc.stdout], [], [], 1.0)
-            if r:
-                line = self.proc.stdout.readline()
-            if self.proc.poll() is not None:
-                raise RuntimeError(f"the app exited: {self.proc.stderr.read()}")
+        wait_ready(self.proc)
         self.settle()
 
     def info(self) -> dict:

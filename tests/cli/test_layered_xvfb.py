@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import select
 import subprocess
 import sys
 import time
@@ -14,7 +13,7 @@ import time
 import numpy as np
 
 from tests import artfiles
-from tests.app.test_xvfb import display, pytestmark, screenshot, wait_title, x  # noqa: F401
+from tests.app.test_xvfb import display, pytestmark, screenshot, wait_ready, wait_title, x  # noqa: F401
 from tests.conftest import ROOT
 
 
@@ -23,13 +22,7 @@ def open_app(art, env, cwd, *more):
     files = [] if art is None else [str(art)]
     app = subprocess.Popen([sys.executable, "-m", "puppet", "app", *files, *more], env=env, cwd=str(cwd),
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    line, end = "", time.monotonic() + 90
-    while time.monotonic() < end and "ready" not in line:
-        if select.select([app.stdout], [], [], 1.0)[0]:
-            line = app.stdout.readline()
-        if app.poll() is not None:
-            raise RuntimeError(f"the app exited: {app.stderr.read()}")
-    return app, json.loads(line.split("ready", 1)[1])
+    return app, wait_ready(app)
 
 
 def close(app):
