@@ -155,12 +155,14 @@ class Batch:
 
     def finish(self, *, manifest: bool = True) -> dict:
         """Remove leftovers of stopped workers; write the manifest (unless ``manifest`` is
-        False: stopped before the cluster was there) and the report; the summary."""
+        False: stopped before the cluster was there; or the run was stopped before any job
+        gave a result) and the report; the summary."""
         sweep_temporaries(self.jobs, keep=self.keep)
-        if manifest:
+        counts = self.counts()
+        ran = counts["done"] + counts["failed"] + counts["no-match"]
+        if manifest and (ran or not self.interrupted):  # stopped before any result: the manifest stays
             self.manifest.save()
         seconds = time.perf_counter() - self.t0
-        counts = self.counts()
         jobs = []
         for j in self.jobs:
             r = self.records.get(j["id"], {"status": "not-run", "error": None})
@@ -170,7 +172,6 @@ class Batch:
                   "seconds": round(seconds, 3), "cluster": self.cluster, "interrupted": self.interrupted,
                   "counts": counts, "jobs": jobs}
         path = write_report(self.out_dir, report)
-        ran = counts["done"] + counts["failed"] + counts["no-match"]
         return {"counts": counts, "seconds": seconds, "report": path, "jobs_per_s": ran / seconds if seconds else 0.0}
 
 
