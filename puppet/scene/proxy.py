@@ -46,10 +46,19 @@ def proxy_for(rig, built, gi: int) -> Proxy | None:
     cache), or None when the group is small or not a plain one-layer group."""
     g, data = built.groups[gi], built.data
     if (len(g.mesh.V) <= PROXY_MIN or len(g.layers) != 1 or built.exterior[gi].frame is not None
-            or data.deformer.method != "arap" or not len(g.pins)):
+            or data.deformer.method != "arap" or not len(g.pins) or not _plain_rigid(data, g.layers[0])):
         return None
     return rig.memo.get("precompute", fingerprint("proxy", built.pre_keys[gi], PROXY_VERTICES),
                         lambda: _build(built, gi))
+
+
+def _plain_rigid(data, k: int) -> bool:
+    """Layer ``k`` is deformed by plain ARAP cells (rigid mode, no painted stiffness, no
+    starch pin): what the proxy solves. Other cells are previewed on the fine mesh, so
+    that a preview never shows another mode than its release."""
+    L = data.layers[k]
+    return ((L.mode or data.deformer.mode) == "rigid" and L.stiffness is None
+            and not any(p.kind == "starch" and p.layer == L.name for p in data.pins))
 
 
 def _build(built, gi: int) -> Proxy | None:

@@ -315,6 +315,22 @@ def test_a_big_group_is_previewed_on_its_proxy(monkeypatch):
     same_layers(got, doc.layers(pose=doc.to_dict()["poses"][doc.active_pose]))
 
 
+@pytest.mark.parametrize("mode", ["similar", "distort"])
+def test_a_big_group_in_another_mode_is_previewed_on_its_own_mesh(monkeypatch, mode):
+    from puppet.scene import proxy
+
+    monkeypatch.setattr(proxy, "PROXY_MIN", 500)  # the horse's one group would count as big
+    monkeypatch.setattr(proxy, "PROXY_VERTICES", 300)
+    doc = Document.load(SCENES + "/horse.json")
+    doc.set_layer(doc.data.layers[0].name, deformer={"mode": mode})
+    fine = doc.built.meshes[0]
+    d = doc.drag(["head"])
+    (r,) = d.move_layers({"head": np.asarray(pin_at(doc, "head")) + [6.0, -4.0]})
+    assert len(r.rest) == len(fine.V)  # no rigid proxy standing in for the mode
+    assert ("proxy", 0) not in d._U
+    d.cancel()
+
+
 @pytest.fixture(scope="module")
 def solver_process():
     from puppet.scene.dragproc import DragProcess
