@@ -12,8 +12,6 @@ import tempfile
 import threading
 from collections.abc import Iterator
 
-from puppet.errors import SceneError
-
 #: Logging level of Dask's loggers on the client and in embedded workers (the user's
 #: DASK_LOGGING__DISTRIBUTED wins).
 DASK_LOG_LEVEL = "critical"
