@@ -1,6 +1,12 @@
 """What every canvas tool shares: the pointer event, the drag threshold, and the pin
-drag gesture (press on pins, drag, release) that both the pose tools
-(:mod:`puppet.app.tools`) and the animation tools (:mod:`puppet.app.animtools`) run.
+drag gesture (press on pins, drag, release) that both the pose tool and the animation
+tools (:mod:`puppet.app.animtools`) run; and Pose mode's tool itself:
+
+- :func:`pose_tool`: drag moves pins' targets in the active pose through a drag session
+  (preview while moving, exact on release), Alt-drag around a pin turns it (the target's
+  ``angle``) and selects it, Alt-click removes it, a click selects only that pin,
+  Shift-click adds it to the selection or takes it out. Esc / Ctrl+Z during a gesture
+  cancels it (:meth:`puppet.app.window.AppWindow.cancel_gesture`).
 
 A tool is a generator function over (app, event), like napari's mouse callbacks: called
 with the press, sent each later event (``drag``, then ``release``) with ``gen.send``; it
@@ -15,6 +21,8 @@ import numpy as np
 
 #: window pixels the pointer must travel before a press becomes a drag
 DRAG_THRESHOLD = 3.0
+#: Alt-press this close to a pin (window pixels) turns it
+ROTATE_RADIUS = 80.0
 
 
 @dataclass
@@ -99,3 +107,64 @@ def drag_pins(app, press: CanvasEvent, start: dict, *, time: float | None = None
         app.follow_pointer(pos)
         app.end_drag(pos)
     return pos if started else None
+
+
+def remove_on_click(app, press, marker):
+    ev, went = yield from click_or_drag(press)
+    if not went:
+        app.remove_pins([marker.name])
+    return went
+
+
+def pose_tool(app, press: CanvasEvent):
+    m = app.marker_at(press.pos)
+    if press.alt:
+        if m is not None:
+            yield from _rotate(app, press, m, click_removes=True)
+            return
+        near = app.marker_at(press.pos, radius=ROTATE_RADIUS)
+        if near is not None:
+            yield from _rotate(app, press, near, click_removes=False)
+        return
+    if m is None:
+        if not press.shift:
+            app.selection = []
+        explain_starch(app, press)
+        yield from click_or_drag(press)
+        return
+    start = grab(app, press)
+    if start is not None:
+        if (yield from drag_pins(app, press, start)) is None and not press.shift:
+            app.selection = [m.name]  # a plain click selects only that pin
+
+
+def _rotate(app, press, m, *, click_removes: bool):
+    """Alt-drag around pin ``m``: its target angle in the active pose turns with the pointer
+    (counter-clockwise on screen is positive); an Alt-click on the pin removes it."""
+    centre = app.view.to_screen(app.marker_xy(m))
+    a0 = app.target_angle(m.name)
+
+    def screen_angle(pos):
+        return math.degrees(math.atan2(-(pos[1] - centre[1]), pos[0] - centre[0]))
+
+    last, total = screen_angle(press.pos), 0.0
+    ev, went = press, False
+    while ev.type != "release":
+        ev = yield
+        if not went and moved(ev, press):
+            went = True
+            app.selection = [m.name]  # the pin it turns is selected, as a click would
+            app.begin_block("rotate", f"turn {m.name}")
+        if not went:
+            continue
+        a = screen_angle(ev.pos)
+        total += (a - last + 180.0) % 360.0 - 180.0  # unwrapped: several turns add up
+        last = a
+        angle, name = a0 + total, m.name
+        app.say(f"{name}: {angle:.1f}°")
+        app.edit(lambda s, angle=angle: s.set_target(name, angle=angle), key="rotate")
+    if went:
+        app.end_block("rotate")
+    elif click_removes:
+        app.remove_pins([m.name])
+    return ev, went

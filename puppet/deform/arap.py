@@ -33,7 +33,7 @@ from scipy.sparse import csgraph
 
 from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
-from puppet.deform.threads import blas_capped
+from puppet.deform.threads import blas_capped, one_blas_thread
 from puppet.geom.laplacian import cotangent_weights, spring_weights, uniform_weights
 from puppet.geom.mesh import check_mesh
 
@@ -387,7 +387,6 @@ def _rigid_rhs(data: ArapData, xb):
     return rhs_of
 
 
-@blas_capped
 def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
                callback: Callable[[int, np.ndarray], None] | None = None, held=None, scale=None) -> np.ndarray:
     """Deform the mesh so that the pins reach their targets, as rigidly as possible.
@@ -421,6 +420,12 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
         iterate). Work: ``iterations`` units of :mod:`puppet.deform.budget` plus the
         initial guess.
     """
+    with one_blas_thread():  # a context, not the decorator: no extra frame in every drag's stack
+        return _arap_solve(data, bc, iterations, U0, callback, held, scale)
+
+
+def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
+    """The body of :func:`arap_solve`, run under one BLAS thread."""
     bc = _check_bc(data, bc)
     V, b = data.V, data.b
     if U0 is None:

@@ -3,7 +3,7 @@ at a time on the timeline, and record mode, with fast previews and an exact rele
 
 While the pointer moves, only the groups holding a moved pin are re-solved (in record
 mode, every group with pins, as the others move with time too), each warm-started from
-its previous frame (:meth:`Rig.preview <puppet.scene.rig.Rig.preview>`); the other groups
+its previous frame (:func:`~puppet.scene.solve.preview_group`); the other groups
 come from the exact solve of the pose the drag started from (cached). The release
 records the targets in one undo step and returns the exact layers, solved from scratch:
 exactly what ``render(pose=...)`` (a pose drag) or ``render(time=...)`` (a key drag, a
@@ -20,7 +20,7 @@ import numpy as np
 from puppet.errors import SceneError
 from puppet.scene.dragproc import unpack
 from puppet.scene.proxy import proxy_for, proxy_layer, proxy_solve
-from puppet.scene.solve import PinState
+from puppet.scene.solve import PinState, preview_group
 
 
 def pose_with(pose: dict, targets: Mapping) -> dict:
@@ -165,7 +165,8 @@ class DragSession:
             U0 = self._U.get(gi)
             if U0 is None:  # the first frame starts from the exact solve it moves away from
                 U0 = rig.solve(built, gi, self._start)[0]
-            solved[gi] = rig.preview(built, gi, state, U0, iterations=self.iterations)
+            solved[gi] = preview_group(built.pre[gi], g, built.data.deformer, built.exterior[gi],
+                                       built.group_pose(gi, state), U0, iterations=self.iterations)
             self._U[gi] = solved[gi][0]
         layers = self._evaluate(state, solved)
         for gi, (proxy, U) in proxies.items():

@@ -25,7 +25,7 @@ from puppet.scene.exterior import GroupExterior, build_exterior
 from puppet.scene.links import link_parts
 from puppet.scene.stiffness import group_cells
 from puppet.scene.model import SceneData
-from puppet.scene.solve import GroupPose, GroupPre, PinState, precompute_group, preview_group, solve_group
+from puppet.scene.solve import GroupPose, GroupPre, PinState, precompute_group, solve_group
 
 #: how many of each kind of built part are kept (least recently used dropped first)
 CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
@@ -157,11 +157,6 @@ class Rig:
         key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]])
         return self.memo.get("solve", key, lambda: solve_group(built.pre[gi], built.groups[gi], d,
                                                                built.exterior[gi], gp))
-
-    def preview(self, built: Built, gi: int, state: PinState, U0: np.ndarray | None, *, iterations: int = 4):
-        """A fast approximate solve of group ``gi`` warm-started from ``U0`` (not cached)."""
-        return preview_group(built.pre[gi], built.groups[gi], built.data.deformer, built.exterior[gi],
-                             built.group_pose(gi, state), U0, iterations=iterations)
 
     def evaluate(self, built: Built, state: PinState, solved: dict | None = None) -> list[LayerResult]:
         """Per-layer results of one pose, in scene layer order. ``solved`` may give some
