@@ -5,6 +5,8 @@
 //   CHECKER      the checkerboard behind transparency (u_cell: cell size in pixels)
 //   GHOST        an onion-skin ghost: premultiplied in, tinted towards u_tint by u_mix,
 //                times u_opacity, premultiplied out
+//   PASTEBOARD   the composited layers (premultiplied), times u_dim outside the canvas
+//                rect u_canvas (x0, y0, x1, y1 in framebuffer pixels, y up)
 #if defined VERTEX_SHADER
 uniform vec2 u_screen;
 in vec2 in_pos;
@@ -36,6 +38,16 @@ in vec2 v_uv;
 void main() {
     vec4 c = texture(u_texture, v_uv);
     f_color = vec4(mix(c.rgb, u_tint * c.a, u_mix), c.a) * u_opacity;
+}
+#elif defined PASTEBOARD
+uniform sampler2D u_texture;
+uniform vec4 u_canvas;
+uniform float u_dim;
+in vec2 v_uv;
+void main() {
+    vec4 c = texture(u_texture, v_uv);
+    bool inside = all(greaterThanEqual(gl_FragCoord.xy, u_canvas.xy)) && all(lessThan(gl_FragCoord.xy, u_canvas.zw));
+    f_color = inside ? c : c * u_dim;
 }
 #else
 uniform sampler2D u_texture;

@@ -21,6 +21,8 @@ from puppet.render.programs import load_program
 
 #: most pixels a drag preview is composited at (about 500x500); the exact frame is full size
 PREVIEW_PIXELS = 250_000
+#: opacity of the layers' parts past the canvas edge, drawn on the pasteboard (as Spine)
+PASTEBOARD_DIM = 0.4
 
 
 def depth_range(layers) -> tuple[float, float]:
@@ -49,11 +51,13 @@ class CanvasRenderer:
         self.compositor = compositor or Compositor(ctx)
         self.tex_prog = load_program(ctx, "app_quad")
         self.checker_prog = load_program(ctx, "app_quad", defines={"CHECKER": 1})
+        self.paste_prog = load_program(ctx, "app_quad", defines={"PASTEBOARD": 1})
         self.depth_prog = load_program(ctx, "app_mesh", defines={"DEPTH": 1})
         self.wire_prog = load_program(ctx, "app_mesh", defines={"WIRE": 1})
         self.quad_vbo = ctx.buffer(reserve=4 * 4 * 4)
         self.quads = {self.tex_prog: ctx.vertex_array(self.tex_prog, [(self.quad_vbo, "2f 2f", "in_pos", "in_uv")]),
-                      self.checker_prog: ctx.vertex_array(self.checker_prog, [(self.quad_vbo, "2f 8x", "in_pos")])}
+                      self.checker_prog: ctx.vertex_array(self.checker_prog, [(self.quad_vbo, "2f 8x", "in_pos")]),
+                      self.paste_prog: ctx.vertex_array(self.paste_prog, [(self.quad_vbo, "2f 2f", "in_pos", "in_uv")])}
         self.mesh_vbo = ctx.buffer(reserve=1 << 16, dynamic=True)
         self.mesh_ibo = ctx.buffer(reserve=1 << 16, dynamic=True)
         self.solid = ctx.texture((1, 1), 4)
@@ -119,15 +123,16 @@ class CanvasRenderer:
             ctx.scissor = None
             return
         vis = view.visible(snap.canvas, area)
-        if vis is None:
+        shown = [(r, im) for r, im in zip(snap.layers, snap.images) if r.name not in hidden]
+        rect = vis[0] if vis is not None else None
+        full = self._content_rect(shown, view, area, rect)  # the canvas and what sticks out of it
+        if full is None:
             ctx.scissor = None
             return
-        (x0, y0, x1, y1), crect = vis
-        rect = (x0, y0, x1, y1)
-        shown = [(r, im) for r, im in zip(snap.layers, snap.images) if r.name not in hidden]
         bg = snap.background
         u = snap.underlay if snap.underlay_image is not None else None
-        if not isinstance(bg, np.ndarray) and bg[3] == 255 and u is None and not depth_view and under is None:
+        if full == rect and not isinstance(bg, np.ndarray) and bg[3] == 255 and u is None and not depth_view \
+                and under is None:
             # the common case: one opaque composite over the scene's colour, as `puppet render`
             tex = self._composite(shown, view, rect, snap, background=tuple(bg))
             ctx.enable_only(moderngl.NOTHING)
@@ -136,32 +141,19 @@ class CanvasRenderer:
             ctx.enable_only(moderngl.BLEND)
             ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
                               moderngl.ONE_MINUS_SRC_ALPHA)
-            if isinstance(bg, np.ndarray) or bg[3] < 255:
-                self.checker_prog["u_cell"].value = 8.0
-                self._quad(self.checker_prog, screen, rect)
-            if isinstance(bg, np.ndarray):
-                self._image(screen, view, bg, (0, 0), snap.canvas, 1.0, "\0background")
-            elif bg[3] > 0:
-                self.solid.write(np.asarray(bg, np.uint8).tobytes())
-                self.solid.use(0)
-                self.tex_prog["u_texture"].value = 0
-                self.tex_prog["u_alpha"].value = 1.0
-                self._quad(self.tex_prog, screen, rect)
-            if u is not None:
-                h, w = snap.underlay_image.shape[:2]
-                s = float(u.get("scale", 1.0))
-                self._image(screen, view, snap.underlay_image, u.get("offset", (0, 0)), (w * s, h * s),
-                            float(u.get("opacity", 0.5)), "\0underlay")
-            if under is not None:
-                under(screen, view, rect)
-            if depth_view:
+            if rect is not None:
+                self._canvas_under(snap, view, screen, rect, under)
+            if depth_view and rect is not None:
                 self._draw_depth(shown, view, screen, rect)
                 ctx.scissor = (int(ax), int(fb_h - ay - ah), int(aw), int(ah))
-            else:
-                tex = self._composite(shown, view, rect, snap)
+            elif not depth_view:
+                tex = self._composite(shown, view, full, snap)
                 ctx.enable_only(moderngl.BLEND)
                 ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)  # premultiplied
-                self._frame_quad(tex, screen, rect)
+                if full == rect:
+                    self._frame_quad(tex, screen, rect)
+                else:  # content past the canvas edge shows dimmed on the pasteboard
+                    self._pasteboard_quad(tex, screen, full, rect, fb_h)
         if tint is not None:
             ctx.enable_only(moderngl.BLEND)
             ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
@@ -178,6 +170,58 @@ class CanvasRenderer:
         self.tex_prog["u_texture"].value = 0
         self.tex_prog["u_alpha"].value = 1.0
         self._quad(self.tex_prog, screen, rect)
+
+    def _pasteboard_quad(self, tex, screen, rect, canvas, fb_h: int) -> None:
+        """The composited ``rect``, its part outside window rect ``canvas`` (or all of it,
+        when the canvas is out of view) at :data:`PASTEBOARD_DIM`."""
+        prog = self.paste_prog
+        tex.use(0)
+        prog["u_texture"].value = 0
+        prog["u_dim"].value = PASTEBOARD_DIM
+        cx0, cy0, cx1, cy1 = canvas if canvas is not None else (0, 0, 0, 0)
+        prog["u_canvas"].value = (float(cx0), float(fb_h - cy1), float(cx1), float(fb_h - cy0))  # GL's y is up
+        self._quad(prog, screen, rect)
+
+    def _canvas_under(self, snap, view, screen, rect, under) -> None:
+        """What lies under the layers on the canvas's own rect: the checkerboard behind a
+        transparent background, the background picture or colour, the reference underlay,
+        the onion skin's ghosts."""
+        bg = snap.background
+        if isinstance(bg, np.ndarray) or bg[3] < 255:
+            self.checker_prog["u_cell"].value = 8.0
+            self._quad(self.checker_prog, screen, rect)
+        if isinstance(bg, np.ndarray):
+            self._image(screen, view, bg, (0, 0), snap.canvas, 1.0, "\0background")
+        elif bg[3] > 0:
+            self.solid.write(np.asarray(bg, np.uint8).tobytes())
+            self.solid.use(0)
+            self.tex_prog["u_texture"].value = 0
+            self.tex_prog["u_alpha"].value = 1.0
+            self._quad(self.tex_prog, screen, rect)
+        if snap.underlay_image is not None:
+            u = snap.underlay
+            h, w = snap.underlay_image.shape[:2]
+            sc = float(u.get("scale", 1.0))
+            self._image(screen, view, snap.underlay_image, u.get("offset", (0, 0)), (w * sc, h * sc),
+                        float(u.get("opacity", 0.5)), "\0underlay")
+        if under is not None:
+            under(screen, view, rect)
+
+    def _content_rect(self, shown, view, area, rect):
+        """Window rect (ints) of the visible canvas ``rect`` grown to the layers' posed
+        bounds, both cut to ``area``; None when neither shows."""
+        out = rect
+        pts = [np.asarray(r.deformed) for r, _ in shown if len(r.deformed)]
+        if pts:
+            lo = np.min([p.min(axis=0) for p in pts], axis=0)
+            hi = np.max([p.max(axis=0) for p in pts], axis=0)
+            (x0, y0), (x1, y1) = view.to_screen(lo), view.to_screen(hi)
+            ax, ay, aw, ah = area
+            b = (max(int(np.floor(x0)), int(np.floor(ax))), max(int(np.floor(y0)), int(np.floor(ay))),
+                 min(int(np.ceil(x1)), int(np.ceil(ax + aw))), min(int(np.ceil(y1)), int(np.ceil(ay + ah))))
+            if b[2] > b[0] and b[3] > b[1]:
+                out = b if out is None else (min(out[0], b[0]), min(out[1], b[1]), max(out[2], b[2]), max(out[3], b[3]))
+        return out
 
     def _composite(self, shown, view, rect, snap, background=(0, 0, 0, 0)) -> moderngl.Texture:
         """The visible layers composited at window resolution over ``background`` (cached

@@ -1,0 +1,63 @@
+"""Content posed past the canvas edge stays on screen, dimmed on the pasteboard (as in
+Spine), and its pins can still be grabbed there: drag a pin out of the canvas, look at
+the window's pixels on both sides of the edge, and drag the pin back from out there."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from puppet.app.canvas import PASTEBOARD_DIM
+from tests.app.harness import Driver
+from tests.conftest import bar_image, bar_scene
+
+PASTEBOARD = np.array([0.16, 0.16, 0.17]) * 255  # the canvas area's clear colour
+RED = np.array([200, 40, 40])
+
+
+@pytest.fixture
+def bar_out(make_scene):
+    doc = bar_scene()
+    doc["poses"]["bend"] = {"right": [150, 20]}  # the bar's right end lies 30 px past the edge
+    d = Driver(make_scene(doc, {"bar.png": bar_image()}), size=(1100, 700))
+    d.app.edit(lambda s: s.set_active_pose("bend"))
+    d.app.view.zoom_at(d.screen_of((60, 20)), 0.5)  # room round the canvas
+    d.settle()
+    yield d
+    d.close()
+
+
+def colour_at(d, xy) -> np.ndarray:
+    x, y = (int(round(v)) for v in d.screen_of(xy))
+    return d.pixels()[y - 1:y + 2, x - 1:x + 2].reshape(-1, 3).mean(axis=0)
+
+
+def test_content_past_the_edge_shows_dimmed(bar_out):
+    d = bar_out
+    s = d.scene()
+    right = [r for r in s.layers("bend") if r.name == "bar"][0]
+    assert right.deformed[:, 0].max() > 140  # the pose does reach past the canvas (120 px wide)
+    inside = colour_at(d, (100, 20))
+    outside = colour_at(d, (135, 20))
+    beyond = colour_at(d, (135, 36))  # past the edge, off the bar: bare pasteboard
+    np.testing.assert_allclose(inside, RED, atol=3)
+    np.testing.assert_allclose(beyond, PASTEBOARD, atol=2)
+    want = PASTEBOARD * (1 - PASTEBOARD_DIM) + RED * PASTEBOARD_DIM
+    np.testing.assert_allclose(outside, want, atol=4)
+    # the canvas inside the edge keeps the scene's white background
+    np.testing.assert_allclose(colour_at(d, (110, 36)), [255, 255, 255], atol=2)
+
+
+def test_a_pin_past_the_edge_can_be_dragged_back(bar_out):
+    d = bar_out
+    x, y = d.pin_screen("right")
+    assert d.app.view.to_canvas((x, y))[0] > 120  # its marker is out on the pasteboard
+    d.press(x, y)
+    for k in range(1, 6):
+        d.drag(x - 10 * k * d.app.view.scale, y)
+        d.settle()
+    d.release()
+    d.settle()
+    got = d.scene().to_dict()["poses"]["bend"]["right"]
+    xy = got["to"] if isinstance(got, dict) else got
+    assert abs(xy[0] - 100) < 1.5 and abs(xy[1] - 20) < 1.5, got
+    assert np.abs(colour_at(d, (135, 20)) - PASTEBOARD).max() <= 2  # nothing left out there
