@@ -154,7 +154,7 @@ def stored(app, p: Preview) -> bool:
 def draw(dl, app) -> None:
     """The segment being drawn: the kept part solid (as a link), the dropped parts dashed;
     after the release the dropped parts stay (faint) while the link holds the kept part,
-    and a refused segment stays dashed red until the next gesture."""
+    and a refused segment stays dashed with a red cross until the next gesture."""
     from imgui_bundle import imgui
 
     from puppet.app.overlay import LINK
@@ -167,12 +167,18 @@ def draw(dl, app) -> None:
     refused = p.kept is None
     if p.done and not refused and not stored(app, p):
         return  # not shown yet (the edit is on its way), or undone
-    drop = col(imgui.ImVec4(1.0, 0.25, 0.2, 0.95) if refused else imgui.ImVec4(1.0, 1.0, 1.0, 0.75 if not p.done else 0.5))
+    drop = col(imgui.ImVec4(1.0, 1.0, 1.0, 0.5 if p.done and not refused else 0.8))
     dark = col(imgui.ImVec4(0.0, 0.0, 0.0, 0.6))
     for seg in p.dropped():
         s0, s1 = (np.asarray(view.to_screen(q), float) for q in seg)
         dashed(dl, s0, s1, dark, 4.0)
         dashed(dl, s0, s1, drop, 2.0)
+    if refused and p.done:  # a red cross on the refused segment (dashes alone say "dropped")
+        m = np.asarray(view.to_screen((p.p0 + p.p1) / 2), float)
+        for w, c in ((6.0, dark), (3.0, col(imgui.ImVec4(1.0, 0.2, 0.15, 1.0)))):
+            for d in ((1, 1), (1, -1)):
+                dl.add_line(imgui.ImVec2(m[0] - 8 * d[0], m[1] - 8 * d[1]), imgui.ImVec2(m[0] + 8 * d[0], m[1] + 8 * d[1]),
+                            c, w)
     if not refused and not p.done:  # once done, the stored link draws the kept part
         k0, k1 = (imgui.ImVec2(*map(float, view.to_screen(q))) for q in p.kept)
         dl.add_line(k0, k1, col(imgui.ImVec4(0.0, 0.0, 0.0, 0.8)), 5.0)
