@@ -93,15 +93,19 @@ def preview(app, a: str, b: str, p0, p1) -> Preview:
 
 
 def message(p: Preview) -> str:
-    """The status line after the release of ``p`` (kept: info; refused: the reason)."""
+    """The status line for ``p``: while it drags, what the release would do; after the
+    release, what was kept (info) or why nothing was (an error)."""
     a, b = p.pair
+    where = f"where {a} and {b} overlap"
     if p.kept is None:
-        return (f"no part of the segment lies where {a} and {b} overlap (the tinted area): not added; "
-                "draw it across the tint")
+        if not p.done:
+            return f"no part of the segment lies {where} (the tinted area): it would not be added"
+        return f"no part of the segment lies {where} (the tinted area): not added; draw it across the tint"
     if p.dropped():
-        return (f"link kept {p.kept_length:.0f} of {p.length:.0f} px: the rest lies outside where "
-                f"{a} and {b} overlap")
-    return f"link {a} and {b}: {p.kept_length:.0f} px"
+        if not p.done:
+            return f"link keeps {p.kept_length:.0f} of {p.length:.0f} px: the dashed part lies outside {where}"
+        return f"link kept {p.kept_length:.0f} of {p.length:.0f} px: the rest lies outside {where}"
+    return f"link {a} and {b}: {p.kept_length:.0f} px" + ("" if p.done else f", all {where}")
 
 
 def link_tool(app, press):
@@ -116,14 +120,15 @@ def link_tool(app, press):
     ev = press
     try:
         while True:
-            sc.link_preview = preview(app, a, b, press.xy, ev.xy)
+            sc.link_preview = p = preview(app, a, b, press.xy, ev.xy)
             if ev.type == "release":
                 break
+            if p.length * app.view.scale >= 2.0:
+                app.say(message(p))
             ev = yield
     except GeneratorExit:  # Esc / Ctrl+Z during the drag: nothing drawn stays
         sc.link_preview = None
         raise
-    p = sc.link_preview
     p.done = True
     if p.length * app.view.scale < 2.0:
         sc.link_preview = None

@@ -59,11 +59,14 @@ def test_a_segment_leaving_the_overlap_stores_the_part_the_build_keeps(link_app)
     d.drag(*d.screen_of((140.0, 50.0)))  # still inside: all of it kept, nothing dropped
     p = sc.link_preview
     assert p.kept is not None and not p.dropped() and np.allclose(p.kept, [p.p0, p.p1])
+    assert d.app.status.text == f"link body and arm: {p.length:.0f} px, all where body and arm overlap"
     d.drag(*d.screen_of(LEAVING[1]))
     p = sc.link_preview  # live: what the build would keep of the segment as it is now
     want = engine_clip(d, [p.p0, p.p1])
     np.testing.assert_array_equal(p.kept, want)
     assert 159 < p.kept[1][0] < 160 and abs(p.kept[0][0] - 100) < 1 and len(p.dropped()) == 1
+    assert d.app.status.text == (f"link keeps {p.kept_length:.0f} of {p.length:.0f} px: the dashed part "
+                                 "lies outside where body and arm overlap")  # live, in the status line
     green = np.array([round(c * 255) for c in LINK[:3]])
     assert np.abs(colour_at(d, (130.0, 50.0)) - green).max() <= 2  # the kept part, drawn as a link
     drop = p.dropped()[0]
@@ -110,6 +113,7 @@ def test_a_segment_outside_the_overlap_is_refused_and_changes_nothing(link_app):
     d.drag(*d.screen_of(OUTSIDE[1]))
     p = d.app.script.link_preview
     assert p.kept is None and len(p.dropped()) == 1  # all of it shown as dropped while it drags
+    assert d.app.status.text.endswith("it would not be added")
     d.release(*d.screen_of(OUTSIDE[1]))
     d.settle()
     assert d.scene().to_dict() == doc and undo_steps(d) == before
@@ -132,6 +136,7 @@ def test_escape_during_the_drag_draws_and_adds_nothing(link_app):
     d.release(*d.screen_of(LEAVING[1]))
     d.settle()
     assert d.app.script.link_preview is None and not d.scene().data.links and undo_steps(d) == before
+    assert d.app.status.text == "drag cancelled"
 
 
 def test_dropped_parts_by_hand():
@@ -140,10 +145,15 @@ def test_dropped_parts_by_hand():
     d = p.dropped()
     assert len(d) == 2 and np.allclose(d[0], [[0, 0], [2, 0]]) and np.allclose(d[1], [[7, 0], [10, 0]])
     assert p.kept_length == 5.0 and p.length == 10.0
+    assert linkpencil.message(p) == "link keeps 5 of 10 px: the dashed part lies outside where a and b overlap"
+    p.done = True
     assert linkpencil.message(p) == "link kept 5 of 10 px: the rest lies outside where a and b overlap"
     # the half pixel the build pulls an inside end in by is not a dropped part
     p = P(np.array([0.0, 0.0]), np.array([10.0, 0.0]), np.array([[9.5, 0.0], [0.5, 0.0]]), ("a", "b"))
+    p.done = True
     assert p.dropped() == [] and linkpencil.message(p) == "link a and b: 9 px"
     p = P(np.array([0.0, 0.0]), np.array([0.0, 4.0]), None, ("a", "b"))
     assert len(p.dropped()) == 1 and np.allclose(p.dropped()[0], [[0, 0], [0, 4]])
+    assert linkpencil.message(p).endswith("it would not be added")
+    p.done = True
     assert linkpencil.message(p).startswith("no part of the segment lies where a and b overlap")
