@@ -83,27 +83,24 @@ class XApp:
         x(self.display, "xdotool", "mousemove", *map(str, self.screen(xy)), "sleep", "0.1", "click", "1")
         return self.settle()
 
-    def drag(self, points, steps=4):
+    def press_and_move(self, points, steps=4) -> list[str]:
+        """xdotool arguments: press at the first point, move through the others."""
         pts = [self.screen(p) for p in points]
         cmd = ["xdotool", "mousemove", *map(str, pts[0]), "sleep", "0.15", "mousedown", "1"]
         for a, b in zip(pts, pts[1:]):
             for t in np.linspace(0, 1, steps + 1)[1:]:
                 q = np.round(np.array(a) + t * (np.array(b) - a)).astype(int)
                 cmd += ["sleep", "0.03", "mousemove", *map(str, q)]
-        cmd += ["sleep", "0.2", "mouseup", "1"]
-        x(self.display, *cmd)
+        return cmd
+
+    def drag(self, points, steps=4):
+        x(self.display, *self.press_and_move(points, steps), "sleep", "0.2", "mouseup", "1")
         return self.settle()
 
     def hold(self, points, name, steps=4) -> str:
         """Press at the first point, move through the others and take a screenshot while
         the button is still down (the live preview), then release; the shot's path."""
-        pts = [self.screen(p) for p in points]
-        cmd = ["xdotool", "mousemove", *map(str, pts[0]), "sleep", "0.15", "mousedown", "1"]
-        for a, b in zip(pts, pts[1:]):
-            for t in np.linspace(0, 1, steps + 1)[1:]:
-                q = np.round(np.array(a) + t * (np.array(b) - a)).astype(int)
-                cmd += ["sleep", "0.03", "mousemove", *map(str, q)]
-        x(self.display, *cmd)
+        x(self.display, *self.press_and_move(points, steps))
         time.sleep(0.5)
         path = os.path.join(self.folder, f"{name}.png")
         x(self.display, "import", "-window", "root", path)
