@@ -67,7 +67,7 @@ def link_masks(app, a: str, b: str) -> list | None:
     """``(grown mask, offset, mask)`` of layers ``a`` and ``b`` as the build clips link
     segments with them (:func:`puppet.scene.links.link_parts`), from the shown snapshot;
     cached while the snapshot's version and the pair stay the same."""
-    from puppet.scene.links import _grown
+    from puppet.scene.links import clip_masks
 
     sc = app.script
     key = (app.snap.version, a, b)
@@ -77,7 +77,7 @@ def link_masks(app, a: str, b: str) -> list | None:
     ka, kb = app.layer_index(a), app.layer_index(b)
     if ka is None or kb is None:
         return None
-    masks = [(_grown(im), im.offset, im.mask) for im in (app.snap.images[ka], app.snap.images[kb])]
+    masks = clip_masks([app.snap.images[ka], app.snap.images[kb]])
     sc.link_masks = (key, masks)
     return masks
 
@@ -181,9 +181,8 @@ def draw(dl, app) -> None:
     if refused and p.done:  # a red cross on the refused segment (dashes alone say "dropped")
         m = np.asarray(view.to_screen((p.p0 + p.p1) / 2), float)
         for w, c in ((6.0, dark), (3.0, col(imgui.ImVec4(1.0, 0.2, 0.15, 1.0)))):
-            for d in ((1, 1), (1, -1)):
-                dl.add_line(imgui.ImVec2(m[0] - 8 * d[0], m[1] - 8 * d[1]), imgui.ImVec2(m[0] + 8 * d[0], m[1] + 8 * d[1]),
-                            c, w)
+            for d in (np.array([8.0, 8.0]), np.array([8.0, -8.0])):
+                dl.add_line(imgui.ImVec2(*map(float, m - d)), imgui.ImVec2(*map(float, m + d)), c, w)
     if not refused and not p.done:  # once done, the stored link draws the kept part
         k0, k1 = (imgui.ImVec2(*map(float, view.to_screen(q))) for q in p.kept)
         dl.add_line(k0, k1, col(imgui.ImVec4(0.0, 0.0, 0.0, 0.8)), 5.0)

@@ -10,7 +10,7 @@ from pyglet.window import key
 
 from puppet.app import linkpencil
 from puppet.app.overlay import LINK
-from puppet.scene.links import _grown, clip_segment, link_parts
+from puppet.scene.links import clip_masks, clip_segment, link_parts
 from tests.app.harness import Driver, widget
 from tests.conftest import bar_image as img
 
@@ -40,7 +40,7 @@ def link_app(make_scene):
 def engine_clip(d, seg):
     """``seg`` clipped as the build clips it, from the scene's own images."""
     ims = d.scene().built.images
-    return clip_segment(np.asarray(seg, float), [(_grown(im), im.offset, im.mask) for im in ims])
+    return clip_segment(np.asarray(seg, float), clip_masks(ims))
 
 
 def undo_steps(d) -> int:

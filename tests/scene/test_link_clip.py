@@ -6,19 +6,19 @@ from __future__ import annotations
 
 import numpy as np
 import puppet
-from puppet.scene.links import _grown, clip_segment
+from puppet.scene.links import clip_masks, clip_segment
 from tests.scene.test_fit_modes import arm_images, arm_scene
 
 
 class Im:
-    """What ``_grown`` and ``clip_segment`` read of a built image."""
+    """What :func:`clip_masks` reads of a built image."""
 
     def __init__(self, mask, offset):
         self.mask, self.offset = mask, offset
 
 
 def masks_of(*ims):
-    return [(_grown(im), im.offset, im.mask) for im in ims]
+    return clip_masks(ims)
 
 
 def test_a_clipped_segment_is_kept_as_it_is_by_hand():
