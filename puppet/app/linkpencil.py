@@ -28,6 +28,8 @@ class Preview:
     kept : (2, 2) canvas xy of the kept part, or None (nothing inside the overlap).
     pair : the two layers.
     done : the release happened (the kept part was sent to the scene, or refused).
+    job : the scene-thread job that adds the kept part (snapshots with ``done >= job``
+        show its result), 0 before the release.
     """
 
     p0: np.ndarray
@@ -35,6 +37,7 @@ class Preview:
     kept: np.ndarray | None
     pair: tuple[str, str]
     done: bool = False
+    job: int = 0
 
     @property
     def length(self) -> float:
@@ -143,7 +146,7 @@ def link_tool(app, press):
     def job(s):
         s.add_link(a, b, seg)
         return text
-    app.edit(job)
+    p.job = app.edit(job)
 
 
 def stored(app, p: Preview) -> bool:
@@ -158,8 +161,9 @@ def stored(app, p: Preview) -> bool:
 
 def draw(dl, app) -> None:
     """The segment being drawn: the kept part solid (as a link), the dropped parts dashed;
-    after the release the dropped parts stay (faint) while the link holds the kept part,
-    and a refused segment stays dashed with a red cross until the next gesture."""
+    after the release the kept part stays until the scene shows the link, the dropped
+    parts stay (faint) while the link holds the kept part, and a refused segment stays
+    dashed with a red cross until the next gesture."""
     from imgui_bundle import imgui
 
     from puppet.app.overlay import LINK
@@ -170,8 +174,9 @@ def draw(dl, app) -> None:
     col = imgui.get_color_u32
     view = app.view
     refused = p.kept is None
-    if p.done and not refused and not stored(app, p):
-        return  # not shown yet (the edit is on its way), or undone
+    pending = p.done and not refused and app.snap.done < p.job  # the edit is on its way
+    if p.done and not refused and not pending and not stored(app, p):
+        return  # undone, or the edit failed
     drop = col(imgui.ImVec4(1.0, 1.0, 1.0, 0.5 if p.done and not refused else 0.8))
     dark = col(imgui.ImVec4(0.0, 0.0, 0.0, 0.6))
     for seg in p.dropped():
@@ -183,7 +188,7 @@ def draw(dl, app) -> None:
         for w, c in ((6.0, dark), (3.0, col(imgui.ImVec4(1.0, 0.2, 0.15, 1.0)))):
             for d in (np.array([8.0, 8.0]), np.array([8.0, -8.0])):
                 dl.add_line(imgui.ImVec2(*map(float, m - d)), imgui.ImVec2(*map(float, m + d)), c, w)
-    if not refused and not p.done:  # once done, the stored link draws the kept part
+    if not refused and (not p.done or pending):  # once shown, the stored link draws the kept part
         k0, k1 = (imgui.ImVec2(*map(float, view.to_screen(q))) for q in p.kept)
         dl.add_line(k0, k1, col(imgui.ImVec4(0.0, 0.0, 0.0, 0.8)), 5.0)
         dl.add_line(k0, k1, col(imgui.ImVec4(*LINK)), 3.0)

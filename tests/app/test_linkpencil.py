@@ -4,6 +4,8 @@ the dropped parts dashed), and the release stores exactly that kept part (one un
 step); a segment with nothing in the overlap is refused and the scene is unchanged."""
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from pyglet.window import key
@@ -93,6 +95,21 @@ def test_a_segment_leaving_the_overlap_stores_the_part_the_build_keeps(link_app)
     d.settle()
     assert not d.scene().data.links and undo_steps(d) == before
     assert not linkpencil.stored(d.app, sc.link_preview)
+
+
+def test_the_kept_part_stays_drawn_until_the_scene_shows_the_link(link_app):
+    d = link_app
+    d.press(*d.screen_of(LEAVING[0]))
+    d.drag(*d.screen_of(LEAVING[1]))
+    d.app.edit(lambda s: time.sleep(1.0))  # the scene thread busy: the link's edit waits
+    d.release(*d.screen_of(LEAVING[1]))
+    d.frame(2)
+    assert not d.app.snap.data.links and d.app.snap.done < d.app.script.link_preview.job
+    green = np.array([round(c * 255) for c in LINK[:3]])
+    assert np.abs(colour_at(d, (130.0, 50.0)) - green).max() <= 2  # still drawn, not blinking away
+    d.settle()
+    assert len(d.app.snap.data.links) == 1
+    assert np.abs(colour_at(d, (130.0, 50.0)) - green).max() <= 2  # now the link itself
 
 
 def test_a_segment_inside_the_overlap_is_stored_as_drawn(link_app):
