@@ -30,6 +30,7 @@ class Preview:
     done : the release happened (the kept part was sent to the scene, or refused).
     job : the scene-thread job that adds the kept part (snapshots with ``done >= job``
         show its result), 0 before the release.
+    data : the scene data shown at the release (a refused segment is shown until it changes).
     """
 
     p0: np.ndarray
@@ -38,6 +39,7 @@ class Preview:
     pair: tuple[str, str]
     done: bool = False
     job: int = 0
+    data: object = None
 
     @property
     def length(self) -> float:
@@ -132,7 +134,7 @@ def link_tool(app, press):
     except GeneratorExit:  # Esc / Ctrl+Z during the drag: nothing drawn stays
         sc.link_preview = None
         raise
-    p.done = True
+    p.done, p.data = True, app.snap.data
     if p.length * app.view.scale < 2.0:
         sc.link_preview = None
         app.say("drag to draw a link segment", "error")
@@ -163,7 +165,7 @@ def draw(dl, app) -> None:
     """The segment being drawn: the kept part solid (as a link), the dropped parts dashed;
     after the release the kept part stays until the scene shows the link, the dropped
     parts stay (faint) while the link holds the kept part, and a refused segment stays
-    dashed with a red cross until the next gesture."""
+    dashed with a red cross until the next gesture or a change of the scene."""
     from imgui_bundle import imgui
 
     from puppet.app.overlay import LINK
@@ -177,6 +179,8 @@ def draw(dl, app) -> None:
     pending = p.done and not refused and app.snap.done < p.job  # the edit is on its way
     if p.done and not refused and not pending and not stored(app, p):
         return  # undone, or the edit failed
+    if p.done and refused and app.snap.data is not p.data:
+        return  # the scene changed since (an undo, another edit): the refusal is old news
     drop = col(imgui.ImVec4(1.0, 1.0, 1.0, 0.5 if p.done and not refused else 0.8))
     dark = col(imgui.ImVec4(0.0, 0.0, 0.0, 0.6))
     for seg in p.dropped():

@@ -141,6 +141,15 @@ def test_a_segment_outside_the_overlap_is_refused_and_changes_nothing(link_app):
     r, g, b = colour_at(d, (p.p0 + p.p1) / 2 + np.array([3.0, 3.0]) / d.app.view.scale)
     assert r > 230 and g < 100 and b < 100  # with a red cross at its middle (on a red body: brighter)
     assert engine_clip(d, OUTSIDE) is None  # the build would refuse it too
+    d.drag_path([d.screen_of(INSIDE[0]), d.screen_of(INSIDE[1])])  # a link, then a refusal, then undo
+    d.settle()
+    d.drag_path([d.screen_of(OUTSIDE[0]), d.screen_of(OUTSIDE[1])])
+    d.settle()
+    assert colour_at(d, p.p0 + 3.0 * u).min() > 170
+    d.key(key.Z, key.MOD_CTRL)
+    d.settle()
+    assert not d.scene().data.links
+    assert colour_at(d, p.p0 + 3.0 * u).max() < 220  # the refusal is old news: not drawn any more
 
 
 def test_escape_during_the_drag_draws_and_adds_nothing(link_app):
