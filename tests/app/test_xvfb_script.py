@@ -97,17 +97,19 @@ class XApp:
         x(self.display, *self.press_and_move(points, steps), "sleep", "0.2", "mouseup", "1")
         return self.settle()
 
-    def hold(self, points, name, steps=4) -> str:
+    def hold(self, points, name, steps=4) -> tuple[str, dict]:
         """Press at the first point, move through the others and take a screenshot while
-        the button is still down (the live preview), then release; the shot's path."""
+        the button is still down (the live preview), then release; the shot's path and
+        what the app reported while the button was down."""
         x(self.display, *self.press_and_move(points, steps))
         time.sleep(0.5)
         path = os.path.join(self.folder, f"{name}.png")
         x(self.display, "import", "-window", "root", path)
         Image.open(path).convert("RGB").crop((0, 0) + SIZE).save(path)
+        held = self.info()
         x(self.display, "xdotool", "mouseup", "1")
         self.settle()
-        return path
+        return path, held
 
     def key(self, *keys):
         x(self.display, "xdotool", "mousemove", "600", "400", "key", *keys)
@@ -151,7 +153,8 @@ def test_task_script_under_x(display, tmp_path):
         a.click_widget("step:link")
         a.drag(OUTSIDE)  # refused: nothing of it where the layers overlap
         assert "no part of the segment" in a.info()["status"]
-        shots["link"] = a.hold(ACROSS, "3-link")  # the kept part solid, the dropped part dashed
+        shots["link"], held = a.hold(ACROSS, "3-link")  # the kept part solid, the dropped part dashed
+        assert held["status"].startswith("link keeps"), held["status"]  # live, while the button is down
         assert a.info()["status"].startswith("link kept"), a.info()["status"]
         shots["link-kept"] = a.shot("3-link-kept")
         a.click_widget("step:pins")
