@@ -1,5 +1,5 @@
-"""Mask and pixel tools of the task script (Image, Layers, Link steps): the canvas tools
-that collect a stroke, a lasso, a rectangle or a link segment, and the scene-thread jobs
+"""Mask and pixel tools of the task script (Image, Layers steps): the canvas tools
+that collect a stroke, a lasso or a rectangle, and the scene-thread jobs
 that turn them into edits (one undo step each).
 
 Strokes are rasterised on the canvas grid (the source picture's grid) and moved into the
@@ -13,10 +13,6 @@ import numpy as np
 
 from puppet.errors import SceneError
 from puppet.imaging.masks import canvas_to_image
-
-#: link segments are checked against the mask intersection every this many canvas pixels
-SAMPLE = 0.25
-
 
 # -- rasterising (any thread) -----------------------------------------------------------------
 def stroke_mask(shape, points, radius: float) -> np.ndarray:
@@ -65,21 +61,6 @@ def on_canvas(mask_img: np.ndarray, offset, canvas) -> np.ndarray:
     if y1 > y0 and x1 > x0:
         out[y0:y1, x0:x1] = mask_img[y0 - oy:y1 - oy, x0 - ox:x1 - ox]
     return out
-
-
-def leaves(mask: np.ndarray, p0, p1):
-    """First point of segment ``p0``-``p1`` (canvas xy) off ``mask`` (canvas grid, sampled
-    every :data:`SAMPLE` px), or None when the whole segment is on it."""
-    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
-    n = max(int(np.ceil(np.hypot(*(p1 - p0)) / SAMPLE)), 1)
-    t = np.linspace(0.0, 1.0, n + 1)[:, None]
-    pts = p0 + t * (p1 - p0)
-    j, i = np.floor(pts[:, 0]).astype(int), np.floor(pts[:, 1]).astype(int)
-    H, W = mask.shape
-    ok = (i >= 0) & (i < H) & (j >= 0) & (j < W)
-    ok[ok] = mask[i[ok], j[ok]]
-    bad = np.flatnonzero(~ok)
-    return None if bad.size == 0 else (float(pts[bad[0], 0]), float(pts[bad[0], 1]))
 
 
 # -- scene-thread jobs ----------------------------------------------------------------------
@@ -255,29 +236,3 @@ def rect_tool(app, press):
         app.edit(lambda s: s.set_mask(layer, {"grabcut": box}))
         return
     select_region(app, lambda sh: rect_mask(sh, a, b), "clone rectangle")
-
-
-def link_tool(app, press):
-    """Link pencil: a straight segment from the press to the release, accepted only inside
-    the intersection of the two link layers' masks."""
-    sc = app.script
-    sc.draft_kind = "line"
-    sc.bad_link = None
-    pts = yield from _collect(app, press)
-    a, b = sc.link_pair(app)
-    if a is None:
-        app.say("choose two layers to link (Link panel)", "error")
-        return
-    p0, p1 = pts[0], pts[-1]
-    if np.hypot(p1[0] - p0[0], p1[1] - p0[1]) < 1.0:
-        app.say("drag to draw a link segment", "error")
-        return
-    inter = sc.intersection(app)
-    out = leaves(inter, p0, p1) if inter is not None else p0
-    if out is not None:
-        sc.bad_link = (p0, p1, out)
-        app.say(f"the segment leaves the intersection of {a} and {b} at ({out[0]:.0f}, {out[1]:.0f}): "
-                "not added", "error")
-        return
-    seg = [[float(p0[0]), float(p0[1])], [float(p1[0]), float(p1[1])]]
-    app.edit(lambda s: s.add_link(a, b, seg))

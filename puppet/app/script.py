@@ -8,7 +8,8 @@ an edit touched, so later steps keep working).
 - Layers: + / - layers; the lasso, rectangle and clone brush make a Layer via Cut or Copy of
   the selected layer, or clone from the picture into it; erase,
   repaint with a colour, inpainting method with a before / after preview.
-- Link: two layers, their mask intersection tinted, a pencil for link segments.
+- Link: two layers, their mask intersection tinted, a pencil for link segments (the part
+  of a segment inside the intersection is kept, shown while it drags).
 - Pins: the Pin tool, plus automatic exterior points (beta slider, live).
 - Deform: meshes built and shown, Pose mode.
 """
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from imgui_bundle import imgui
 
-from puppet.app import masktools
+from puppet.app import linkpencil, masktools
 from puppet.app.widgets import RECTS, button, live, note
 
 STEPS = ("image", "layers", "link", "pins", "deform", "pose")
@@ -40,7 +41,7 @@ TOOLS = {
                ("clone-brush", "Clone brush", "brush a region: Layer via Cut / Copy from the layer, or clone into it"),
                ("erase", "Erase", "brush pixels out of the layer"),
                ("paint", "Paint", "repaint the layer's pixels with the colour")],
-    "link": [("link", "Pencil", "drag a link segment inside the tinted intersection")],
+    "link": [("link", "Pencil", "drag a link segment across the tinted overlap: the part inside it is kept")],
 }
 #: what a selection (lasso, rectangle, clone brush) does to an existing layer: (id, label, tooltip)
 SELECT_OPS = [("cut", "Layer via Cut", "the part becomes a new layer in front; the layer behind loses it "
@@ -68,7 +69,8 @@ class Script:
         self.link_b: str | None = None
         self.draft = None  # points of the gesture in progress
         self.draft_kind = "brush"
-        self.bad_link = None  # (p0, p1, where it leaves) of the last refused segment
+        self.link_preview: linkpencil.Preview | None = None  # the link segment drawn, what it keeps
+        self.link_masks = None  # ((snapshot version, a, b), masks as the build clips links with)
         self._tint_key = None
         self._tint = None
         self._source = (None, None)
@@ -114,7 +116,7 @@ class Script:
         if t in ("clone-rect", "grabcut"):
             return masktools.rect_tool
         if t == "link":
-            return masktools.link_tool
+            return linkpencil.link_tool
         return None
 
     def link_pair(self, app):
@@ -163,7 +165,7 @@ def set_step(app, step: str) -> None:
         return
     sc.step = step
     sc.tool = TOOLS[step][0][0] if step in TOOLS else None
-    sc.bad_link = None
+    sc.link_preview = None
     if step == "layers" and app.snap.loaded and app.selected_layer is None:
         app.selected_layer = app.snap.data.layers[-1].name
     if step in ("image", "layers", "link", "pins"):
@@ -337,7 +339,7 @@ def _link(app, thumbs) -> None:
         imgui.set_item_tooltip("the two layers to link")
         if changed:
             setattr(sc, attr, names[i])
-            sc.bad_link = None
+            sc.link_preview = None
     imgui.text("links:")
     for L in snap.data.links:
         la, lb = L.layers
@@ -385,7 +387,7 @@ def _deform(app, thumbs) -> None:
 
 # -- canvas overlay ----------------------------------------------------------------------------
 def draw_overlay(dl, app) -> None:
-    """Drafts of the gesture in progress and the last refused link segment."""
+    """Drafts of the gesture in progress and the link segment drawn (what it keeps)."""
     sc = app.script
     col = imgui.get_color_u32
     if sc.draft and len(sc.draft) >= 1:
@@ -393,8 +395,6 @@ def draw_overlay(dl, app) -> None:
         c = col(imgui.ImVec4(1.0, 0.9, 0.2, 1.0))
         if sc.draft_kind == "rect":
             dl.add_rect(imgui.ImVec2(*pts[0]), imgui.ImVec2(*pts[-1]), c, 0.0, 2.0)
-        elif sc.draft_kind == "line":
-            dl.add_line(imgui.ImVec2(*pts[0]), imgui.ImVec2(*pts[-1]), c, 2.0)
         else:
             w = sc.brush * app.view.scale if sc.draft_kind == "brush" else 2.0
             for p, q in zip(pts, pts[1:]):
@@ -406,8 +406,5 @@ def draw_overlay(dl, app) -> None:
         m = imgui.get_io().mouse_pos
         dl.add_circle(imgui.ImVec2(m.x, m.y), max(sc.brush / 2 * app.view.scale, 2.0),
                       col(imgui.ImVec4(1.0, 1.0, 1.0, 0.8)), 0, 1.5)
-    if sc.bad_link is not None and sc.step == "link":
-        p0, p1, out = (tuple(map(float, app.view.to_screen(p))) for p in sc.bad_link)
-        red = col(imgui.ImVec4(1.0, 0.15, 0.15, 1.0))
-        dl.add_line(imgui.ImVec2(*p0), imgui.ImVec2(*p1), red, 3.0)
-        dl.add_circle(imgui.ImVec2(*out), 7.0, red, 0, 2.5)
+    if sc.step == "link":
+        linkpencil.draw(dl, app)

@@ -38,6 +38,12 @@ def _grown(im):
     return cv2.dilate(im.mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
 
 
+def clip_masks(images) -> list:
+    """``(mask grown by 1 px, offset, mask)`` of each built image, as :func:`clip_segment`
+    and :func:`link_parts` test link segments against them (the app's link pencil too)."""
+    return [(_grown(im), im.offset, im.mask) for im in images]
+
+
 def _inside(grown, offset, P) -> np.ndarray:
     """Which points P (s, 2) lie on a pixel of ``grown`` (the mask grown by 1 px)."""
     Q = np.asarray(P, np.float64) - np.asarray(offset, np.float64)

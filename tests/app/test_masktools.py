@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from puppet.app import masktools as mt
 from puppet.imaging.masks import canvas_to_image
@@ -38,18 +37,3 @@ def test_canvas_and_image_grids_round_trip_with_an_offset():
     np.testing.assert_array_equal(canvas_to_image(canvas, (3, 2), img.shape), img)
     # partly off the canvas: what is outside is dropped
     assert mt.on_canvas(img, (-3, 0), (10, 8)).sum() == 1
-
-
-@pytest.mark.parametrize("p0, p1, where", [
-    ((2.5, 2.5), (7.5, 2.5), None),  # inside the block all the way
-    ((2.5, 2.5), (12.5, 2.5), (8.0, 2.5)),  # leaves at the block's right edge (column 8 is outside)
-    ((-1.0, 3.0), (5.0, 3.0), (-1.0, 3.0)),  # starts off the canvas
-])
-def test_leaves_finds_where_a_segment_leaves_the_mask(p0, p1, where):
-    m = np.zeros((10, 20), bool)
-    m[1:6, 1:8] = True
-    got = mt.leaves(m, p0, p1)
-    if where is None:
-        assert got is None
-    else:
-        assert got == pytest.approx(where, abs=mt.SAMPLE)

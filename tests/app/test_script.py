@@ -1,7 +1,7 @@
 """The task script walked with synthetic events on a flat picture (the bundled noto-emoji
 runner flattened onto white, 256x256): Image (threshold slider, brush - and +), Layers
 (+, a lasso clone of the front arm, the body's refill, a paint stroke), Link (a segment
-that leaves the intersection is refused, one inside is kept), Pins, Deform, a drag,
+with nothing in the intersection is refused, one that leaves it keeps its part inside), Pins, Deform, a drag,
 Ctrl+S; the saved scene renders through the CLI to the canvas's pixels."""
 from __future__ import annotations
 
@@ -26,7 +26,8 @@ RUNNER = os.path.join(ROOT, "assets", "noto-emoji", "emoji_u1f3c3.png")
 ARM = [(56, 70), (94, 66), (106, 88), (118, 94), (116, 108), (92, 108), (56, 100)]
 FIST = (75.0, 85.0)
 SHOULDER = [(96.0, 99.0), (112.0, 97.0)]  # inside the arm, so inside both masks
-OUTSIDE = [(104.0, 92.0), (104.0, 40.0)]  # runs up into the white background
+OUTSIDE = [(104.0, 62.0), (104.0, 40.0)]  # above the arm: nothing of it where the two layers overlap
+ACROSS = [(90.0, 98.0), (135.0, 96.0)]  # from the shoulder out across the shirt: the part on the arm is kept
 
 
 def flat_runner(folder) -> str:
@@ -108,19 +109,27 @@ def walk(d, shots=None):
     color = np.array([round(c * 255) for c in app.script.color[:3]])
     assert np.abs(body[112, 145, :3].astype(int) - color).max() <= 1
     assert np.abs(body[85, 75, :3].astype(int) - src[85, 75, :3]).max() > 20  # refill kept
-    # 3. Link: a segment that leaves the intersection is refused, one inside is kept
+    # 3. Link: a segment outside the intersection is refused, one that leaves it keeps its part inside
     click_widget(d, "step:link")
     assert app.script.link_pair(app) == ("layer1", "layer2") and app.script.tool == "link"
+    steps = len(d.scene().history.undo_stack)
     stroke(d, OUTSIDE)
-    assert app.status.level == "error" and "leaves the intersection" in app.status.text
-    assert app.script.bad_link is not None and not d.scene().data.links
-    leave = app.script.bad_link[2]
-    assert 60 < leave[1] < 92 and abs(leave[0] - 104) < 1  # where it leaves, on the segment
+    assert app.status.level == "error" and "no part of the segment" in app.status.text, app.status.text
+    assert app.script.link_preview.kept is None and not d.scene().data.links
+    assert len(d.scene().history.undo_stack) == steps
+    d.press(*d.screen_of(ACROSS[0]))
+    d.drag(*d.screen_of(ACROSS[1]))
+    p = app.script.link_preview  # the live preview: kept where the arm lies on the body
+    assert p.kept is not None and not p.done and len(p.dropped()) == 1
+    assert 110 < max(p.kept[:, 0]) < 120 and min(p.kept[:, 0]) == pytest.approx(90, abs=1)
     shot("script-link")
-    stroke(d, SHOULDER)
+    d.release(*d.screen_of(ACROSS[1]))
+    d.settle()
     links = d.scene().data.links
     assert len(links) == 1 and set(links[0].layers) == {"layer1", "layer2"}
-    np.testing.assert_allclose(links[0].segments[0], SHOULDER, atol=1.0)
+    np.testing.assert_array_equal(links[0].segments[0], p.kept)  # what the preview showed kept
+    assert len(d.scene().history.undo_stack) == steps + 1
+    assert app.status.level == "info" and app.status.text.startswith("link kept"), app.status.text
     # 4. Pins: the fist on the arm, three on the body; automatic exterior points on the arm
     click_widget(d, "step:pins")
     assert app.mode == "pin" and app.script.tool is None

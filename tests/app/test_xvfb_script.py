@@ -1,6 +1,7 @@
 """The task script in a real X window (Xvfb, xdotool): ``puppet app runner.png`` on the
 flattened noto-emoji runner, threshold, a lasso clone of the front arm, the body's
-refill, a refused and a kept link segment, pins, Deform, a drag of the fist, Ctrl+S; a
+refill, a refused link segment and one whose part outside the overlap is dropped
+(shot while it drags), pins, Deform, a drag of the fist, Ctrl+S; a
 screenshot of each step is kept (``PUPPET_ARTEFACTS`` folder, else the test's temporary
 folder) and the saved scene renders through the CLI like the canvas.
 
@@ -20,7 +21,7 @@ import pytest
 from PIL import Image
 
 import puppet
-from tests.app.test_script import ARM, FIST, OUTSIDE, SHOULDER, flat_runner
+from tests.app.test_script import ACROSS, ARM, FIST, OUTSIDE, flat_runner
 from tests.app.test_xvfb import MISSING, display, render, wait_ready, x  # noqa: F401 - display is a fixture
 from tests.conftest import ROOT
 
@@ -82,16 +83,33 @@ class XApp:
         x(self.display, "xdotool", "mousemove", *map(str, self.screen(xy)), "sleep", "0.1", "click", "1")
         return self.settle()
 
-    def drag(self, points, steps=4):
+    def press_and_move(self, points, steps=4) -> list[str]:
+        """xdotool arguments: press at the first point, move through the others."""
         pts = [self.screen(p) for p in points]
         cmd = ["xdotool", "mousemove", *map(str, pts[0]), "sleep", "0.15", "mousedown", "1"]
         for a, b in zip(pts, pts[1:]):
             for t in np.linspace(0, 1, steps + 1)[1:]:
                 q = np.round(np.array(a) + t * (np.array(b) - a)).astype(int)
                 cmd += ["sleep", "0.03", "mousemove", *map(str, q)]
-        cmd += ["sleep", "0.2", "mouseup", "1"]
-        x(self.display, *cmd)
+        return cmd
+
+    def drag(self, points, steps=4):
+        x(self.display, *self.press_and_move(points, steps), "sleep", "0.2", "mouseup", "1")
         return self.settle()
+
+    def hold(self, points, name, steps=4) -> tuple[str, dict]:
+        """Press at the first point, move through the others and take a screenshot while
+        the button is still down (the live preview), then release; the shot's path and
+        what the app reported while the button was down."""
+        x(self.display, *self.press_and_move(points, steps))
+        time.sleep(0.5)
+        path = os.path.join(self.folder, f"{name}.png")
+        x(self.display, "import", "-window", "root", path)
+        Image.open(path).convert("RGB").crop((0, 0) + SIZE).save(path)
+        held = self.info()
+        x(self.display, "xdotool", "mouseup", "1")
+        self.settle()
+        return path, held
 
     def key(self, *keys):
         x(self.display, "xdotool", "mousemove", "600", "400", "key", *keys)
@@ -133,11 +151,12 @@ def test_task_script_under_x(display, tmp_path):
         a.click_widget("layer:layer2")  # the arm tinted
         shots["layers"] = a.shot("2-layers")
         a.click_widget("step:link")
-        a.drag(SHOULDER)
-        a.drag(OUTSIDE)  # refused: drawn red with where it leaves
-        i = a.info()
-        assert "leaves the intersection" in i["status"]
-        shots["link"] = a.shot("3-link")
+        a.drag(OUTSIDE)  # refused: nothing of it where the layers overlap
+        assert "no part of the segment" in a.info()["status"]
+        shots["link"], held = a.hold(ACROSS, "3-link")  # the kept part solid, the dropped part dashed
+        assert held["status"].startswith("link keeps"), held["status"]  # live, while the button is down
+        assert a.info()["status"].startswith("link kept"), a.info()["status"]
+        shots["link-kept"] = a.shot("3-link-kept")
         a.click_widget("step:pins")
         for p in (FIST, (135.0, 100.0), (78.0, 226.0), (200.0, 168.0)):
             a.click_canvas(p)
