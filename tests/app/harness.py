@@ -43,7 +43,8 @@ class Driver:
         self.frame()
         while time.monotonic() < end:
             session = self.app.session
-            if session.idle() and session.latest is self.app.snap:
+            # (a dialog's follow-up, e.g. the open after "Don't save", runs in a later frame)
+            if session.idle() and session.latest is self.app.snap and self.w._then is None:
                 break
             time.sleep(0.005)
             self.frame()
