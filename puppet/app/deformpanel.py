@@ -23,14 +23,15 @@ TOOL_LABELS = (("none", None, "the mode's own tool (pins)"),
 def panel(app) -> None:
     """Draw the Deform panel's contents (under its collapsing header)."""
     snap, st = app.snap, deformtools.state(app)
+    deformtools.sync(app)
     modes(app)
     imgui.separator()
     imgui.text("tool:")
     for label, tool, tip in TOOL_LABELS:
         imgui.same_line()
         if imgui.radio_button(f"{label}##deform-tool", st.tool == tool):
-            st.tool = tool
-            deformtools.cancel_patch(app)
+            deformtools.choose(app, tool)
+            app.say(f"{label}: {tip}")
         imgui.set_item_tooltip(tip)
         note(f"deform-tool:{label}")
     if st.tool == "stiffness":

@@ -1,0 +1,96 @@
+"""The gopher-like build of issue 23 through the app's own controls (headless window): a
+flat picture of a body with an arm holding a drink, the arm lassoed off (Layer via Cut),
+a hinge at the shoulder from the Deform panel while the Link step is shown, pins, the
+hand dragged up, saved. Each check is something a first user tripped over under Xvfb
+(benchmarks/user_gopher.py times that walk in a real window)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.app.harness import Driver, widget
+from tests.app.test_deform_shots import gopher_images
+
+pytestmark = pytest.mark.gl
+
+#: a lasso round the arm and the drink (canvas px), rounded round the arm's root
+AROUND_ARM = [(178, 136), (280, 136), (280, 108), (320, 108), (320, 166), (178, 166), (172, 158), (170, 150),
+              (172, 142), (178, 136)]
+SHOULDER = (196.0, 150.0)
+HAND = (299.0, 137.0)
+BODY_PINS = [(150.0, 250.0), (150.0, 90.0)]
+
+
+def gopher_picture(path) -> str:
+    """The body and the arm of :func:`gopher_images` flattened onto white: one RGB PNG."""
+    from PIL import Image
+
+    body, arm = gopher_images()
+    out = np.full(body.shape[:2] + (3,), 255.0)
+    for layer in (body, arm):
+        a = layer[..., 3:] / 255.0
+        out = out * (1 - a) + layer[..., :3] * a
+    Image.fromarray(np.round(out).astype(np.uint8)).save(path)
+    return str(path)
+
+
+@pytest.fixture
+def gopher(tmp_path):
+    d = Driver(gopher_picture(tmp_path / "gopher.png"), size=(1280, 1024))
+    yield d
+    d.close()
+
+
+def click_widget(d, label):
+    d.click(*widget(label))
+    d.settle()
+
+
+def cut_arm(d):
+    click_widget(d, "step:layers")
+    d.drag_path([d.screen_of(p) for p in AROUND_ARM])
+    d.settle()
+    assert [L.name for L in d.scene().data.layers] == ["layer1", "layer2"], d.app.status.text
+
+
+def test_hinge_chosen_in_the_link_step_adds_a_hinge(gopher):
+    """In the Link step the Deform panel's hinge replaces the pencil (the click made a
+    refused segment: "drag to draw a link segment"); the Pins step gives the pin tool back."""
+    d = gopher
+    cut_arm(d)
+    click_widget(d, "step:link")
+    click_widget(d, "header:Deform")
+    click_widget(d, "deform-tool:hinge")
+    assert "overlap" in d.app.status.text  # the tool's hint on the status line
+    d.click(*d.screen_of(SHOULDER))
+    d.settle()
+    links = d.scene().data.links
+    assert len(links) == 1 and len(links[0].points) == 1, d.app.status.text
+    np.testing.assert_allclose(links[0].points[0], SHOULDER, atol=1.0)
+    assert sorted(links[0].layers) == ["layer1", "layer2"]
+    click_widget(d, "step:pins")  # a new step: its own tool again
+    d.frame(2)
+    assert widget("deform-tool:none") and d.app.deform.tool is None
+    for p in BODY_PINS + [HAND]:
+        d.click(*d.screen_of(p))
+        d.settle()
+    pins = d.scene().data.pins
+    assert [p.layer for p in pins] == ["layer1", "layer1", "layer2"], d.app.status.text
+    assert len(d.scene().data.links[0].points) == 1  # no hinge added by those clicks
+
+
+def test_a_step_tool_chosen_after_the_hinge_wins(gopher):
+    d = gopher
+    cut_arm(d)
+    click_widget(d, "step:link")
+    click_widget(d, "header:Deform")
+    click_widget(d, "deform-tool:hinge")
+    assert d.app.script.tool is None
+    click_widget(d, "tool:link")  # the Pencil again
+    d.frame(2)
+    assert d.app.deform.tool is None and d.app.script.tool == "link"
+    a, b = d.screen_of((190, 146)), d.screen_of((200, 154))
+    d.drag_path([a, ((a[0] + b[0]) / 2, (a[1] + b[1]) / 2), b])
+    d.settle()
+    links = d.scene().data.links
+    assert len(links) == 1 and len(links[0].segments) == 1 and not links[0].points
