@@ -94,3 +94,22 @@ def test_a_step_tool_chosen_after_the_hinge_wins(gopher):
     d.settle()
     links = d.scene().data.links
     assert len(links) == 1 and len(links[0].segments) == 1 and not links[0].points
+
+
+def test_the_link_step_offers_the_hinge_beside_the_pencil(tmp_path):
+    """At 1280x800 the Deform panel is below the fold in the Link step; the hinge is also
+    under the step's pencil, in view, and the two radios show the same choice."""
+    d = Driver(gopher_picture(tmp_path / "gopher.png"), size=(1280, 800))
+    try:
+        cut_arm(d)
+        click_widget(d, "step:link")
+        assert widget("link-step:hinge")[1] < 800 - 40  # above the status line, no scrolling
+        click_widget(d, "link-step:hinge")
+        assert d.app.deform.tool == "hinge" and d.app.script.tool is None
+        d.click(*d.screen_of(SHOULDER))
+        d.settle()
+        assert len(d.scene().data.links) == 1 and len(d.scene().data.links[0].points) == 1, d.app.status.text
+        click_widget(d, "tool:link")  # the Pencil: the hinge radio goes off
+        assert d.app.deform.tool is None
+    finally:
+        d.close()
