@@ -181,10 +181,7 @@ def build(u: User) -> None:
     u.step("lasso cut")
     u.click_widget("step:link", find=1.5)
     u.step("link step")
-    u.scroll((1100, 500), 10, find=2.0)  # the hinge is in the Deform panel, below the fold at 1280x800
-    u.click_widget("header:Deform", find=1.0)
-    u.scroll((1100, 500), 10)
-    u.click_widget("deform-tool:hinge", find=1.5)
+    u.click_widget("link-step:hinge", find=1.5)  # under the step's pencil (also in the Deform panel)
     u.step("hinge tool")
     u.click_canvas(SHOULDER, aim=1.0)
     u.step("hinge click")
@@ -195,6 +192,7 @@ def build(u: User) -> None:
     u.click_widget("step:deform", find=1.5)
     u.step("deform step")
     u.stroke(arc(SHOULDER, HAND, SWING), aim=1.0)
+    u.click_widget("mesh", find=1.0)  # the wireframe off, to see the art
     u.step("pose drag")
     u.key("ctrl+s", find=1.0)
     u.step("save")
@@ -202,12 +200,12 @@ def build(u: User) -> None:
 
 def check_render(u: User, folder: str) -> str:
     """The saved scene rendered by ``puppet render --pose`` against the window's canvas
-    (pins, mesh and links hidden): mean and 99th percentile grey-level difference over opaque pixels."""
+    (pins and links hidden): mean and 99th percentile grey-level difference over opaque pixels."""
     from PIL import Image
 
     from tests.app.test_xvfb import canvas_from_screen
 
-    u.x.run("xdotool", "mousemove", "470", "300", "key", "h", "m", "l", "mousemove", "1200", "790")  # pins, mesh, links off
+    u.x.run("xdotool", "mousemove", "470", "300", "key", "h", "l", "mousemove", "1200", "790")  # pins, links off
     time.sleep(0.6)
     final = u.shot("final-pins-hidden")
     path = os.path.join(folder, "gopher.json")
@@ -228,6 +226,8 @@ def check_render(u: User, folder: str) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", help="folder for the step screenshots (default: a new temporary folder)")
+    ap.add_argument("--docs", action="store_true", help="also write four of the screenshots, 960x600, to docs/app/ "
+                    "(gopher-*.png, shown by docs/app.md)")
     ap.add_argument("--pace", type=float, default=1.0, help="scale the human pauses and stroke times")
     args = ap.parse_args()
     from tests.app.test_gopher import gopher_picture
@@ -261,6 +261,21 @@ def main() -> None:
           f"{c['scrolls']} scrolls, {c['keys']} keys")
     print(verdict)
     print(f"screenshots: {out}")
+    if args.docs:
+        write_docs(out)
+
+
+#: step screenshot -> the picture docs/app.md shows
+DOCS = {"02-lasso cut": "gopher-cut", "05-hinge click": "gopher-hinge", "06-pins": "gopher-pins",
+        "09-save": "gopher-posed"}
+
+
+def write_docs(out: str) -> None:
+    from PIL import Image
+
+    for shot, name in DOCS.items():
+        im = Image.open(os.path.join(out, shot + ".png")).convert("RGB")
+        im.resize((960, 600), Image.LANCZOS).save(os.path.join(ROOT, "docs", "app", name + ".png"), optimize=True)
 
 
 if __name__ == "__main__":
