@@ -113,3 +113,57 @@ def test_the_link_step_offers_the_hinge_beside_the_pencil(tmp_path):
         assert d.app.deform.tool is None
     finally:
         d.close()
+
+
+def test_the_whole_build_through_the_ui(gopher, tmp_path):
+    """Cut, hinge (from the Link step), pins, Deform, the drink dragged 60 degrees up round
+    the shoulder, Ctrl+S: the saved scene has it all, the body stays (within 1 px away from
+    the hinge), the arm turned as a whole, and the render leaves no ghost of the arm."""
+    import math
+
+    import puppet
+    from pyglet.window import key
+
+    d = gopher
+    cut_arm(d)
+    click_widget(d, "step:link")
+    click_widget(d, "link-step:hinge")
+    d.click(*d.screen_of(SHOULDER))
+    d.settle()
+    click_widget(d, "step:pins")
+    for p in BODY_PINS + [(290.0, 150.0)]:
+        d.click(*d.screen_of(p))
+        d.settle()
+    click_widget(d, "step:deform")
+    r = math.hypot(290.0 - SHOULDER[0], 0.0)
+    arc = [(SHOULDER[0] + r * math.cos(math.radians(-a)), SHOULDER[1] + r * math.sin(math.radians(-a)))
+           for a in range(0, 61, 5)]
+    d.drag_path([d.screen_of(p) for p in arc])
+    d.settle()
+    d.key(key.S, key.MOD_CTRL)
+    d.settle()
+    saved = puppet.load_scene(str(tmp_path / "gopher.json"))
+    try:
+        assert [L.name for L in saved.data.layers] == ["layer1", "layer2"]
+        assert len(saved.data.links) == 1 and len(saved.data.links[0].points) == 1
+        assert [p.layer for p in saved.data.pins] == ["layer1", "layer1", "layer2"]
+        (pose,) = saved.data.poses
+        saved.set_active_pose(pose)
+        body, arm = saved.layers()
+        away = np.hypot(*(body.rest - SHOULDER).T) > 12
+        assert np.hypot(*(body.deformed - body.rest).T)[away].max() <= 1.0
+        turn = [np.degrees(np.arctan2(-(q - SHOULDER)[:, 1], (q - SHOULDER)[:, 0])) for q in (arm.rest, arm.deformed)]
+        far = np.hypot(*(arm.rest - SHOULDER).T) > 40
+        assert np.abs((turn[1] - turn[0])[far] - 60.0).max() < 6.0  # the arm turned as one piece
+        img = saved.render(pose=pose)
+        _, arm_img = gopher_images()
+        was_arm = (arm_img[..., 3] > 0)
+        yy, xx = np.mgrid[:300, :360]
+        e = ((xx - 150) / 70.0) ** 2 + ((yy - 185) / 100.0) ** 2
+        free = (xx > 208) & (yy >= 158)  # the arm's old lower edge in the body, clear of the turned arm
+        assert (img[..., 3] > 0)[was_arm & (e >= 1.1) & (yy > 120)].mean() <= 0.02  # nothing where it stuck out
+        refilled = img[was_arm & (e <= 0.95) & free][:, :3].astype(float)
+        assert len(refilled) > 30
+        assert np.abs(refilled - (150, 100, 60)).max(axis=1).max() < 16  # the body's brown, not the arm's
+    finally:
+        saved.close()
