@@ -184,6 +184,7 @@ def bar(app) -> None:
         if active:
             imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.75, 0.45, 0.1, 1.0))
         if button(f"{k + 1}. {LABELS[step]}" if step != "pose" else LABELS[step], TIPS[step], enabled=app.snap.loaded):
+            app.say(f"{LABELS[step]}: {TIPS[step]}")  # not the last step's message (the Image step's, in Layers)
             set_step(app, step)
         note(f"step:{step}")
         if active:

@@ -48,6 +48,7 @@ def click_widget(d, label):
 
 def cut_arm(d):
     click_widget(d, "step:layers")
+    assert d.app.status.text.startswith("Layers: make layers: cut")  # was the Image step's "set the first layer's mask"
     d.drag_path([d.screen_of(p) for p in AROUND_ARM])
     d.settle()
     assert [L.name for L in d.scene().data.layers] == ["layer1", "layer2"], d.app.status.text
