@@ -17,7 +17,8 @@ after each action the time until the app shows its result (busy flag of the
 A screenshot after each step goes to ``--out`` (not counted in the times); at the end the
 saved scene is rendered with ``puppet render --pose`` and compared with the last screenshot
 (pins hidden), and the table of steps, seconds and cumulative seconds is printed with the
-total and the count of clicks, strokes, scrolls and keys.
+total and the count of clicks, strokes, scrolls and keys; "app waits" is the part of a
+step spent waiting for the app to show the result (with ~0.3 s of polling per action).
 """
 from __future__ import annotations
 
@@ -55,7 +56,8 @@ class User:
         self.x, self.out, self.pace, self.folder = x, out, pace, folder
         self.rects = os.path.join(folder, "rects.json")
         self.counts = {"clicks": 0, "strokes": 0, "scrolls": 0, "keys": 0}
-        self.steps: list[tuple[str, float]] = []
+        self.steps: list[tuple[str, float, float]] = []  # (name, seconds, of which waiting for the app)
+        self.waited = 0.0
         env = dict(os.environ, DISPLAY=x.name, PYTHONPATH=ROOT, PUPPET_APP_RECTS=self.rects)
         env.pop("PYGLET_HEADLESS", None)
         t0 = time.monotonic()
@@ -69,7 +71,7 @@ class User:
                 line = self.proc.stdout.readline()
         self.wait()
         self.startup = time.monotonic() - t0
-        self.t = time.monotonic()
+        self.t, self.waited = time.monotonic(), 0.0
 
     # -- what the app reports --------------------------------------------------------
     def info(self) -> dict:
@@ -82,13 +84,16 @@ class User:
         raise RuntimeError("the app wrote no widget positions")
 
     def wait(self, timeout: float = 120.0) -> dict:
-        """Until the app shows the result: its scene thread idle in two dumps in a row."""
-        time.sleep(0.25)
-        end, calm = time.monotonic() + timeout, 0
+        """Until the app shows the result: its scene thread idle in two dumps in a row (the
+        time counts as waiting for the app; it includes ~0.3 s of polling)."""
+        t0 = time.monotonic()
+        time.sleep(0.1)
+        end, calm = t0 + timeout, 0
         while time.monotonic() < end:
             i = self.info()
             calm = calm + 1 if not i["busy"] else 0
             if calm >= 2:
+                self.waited += time.monotonic() - t0
                 return i
             time.sleep(0.1)
         raise TimeoutError("the app stayed busy")
@@ -147,7 +152,8 @@ class User:
     def step(self, name: str) -> None:
         """End step ``name``: its time, then a screenshot (not counted)."""
         now = time.monotonic()
-        self.steps.append((name, now - self.t))
+        self.steps.append((name, now - self.t, self.waited))
+        self.waited = 0.0
         self.shot(f"{len(self.steps):02d}-{name}")
         self.t = time.monotonic()
 
@@ -251,11 +257,11 @@ def main() -> None:
     finally:
         x.close()
     print(f"puppet app start-up (not counted): {u.startup:.1f} s; load before {load[0]:.2f}")
-    print(f"{'step':<14} {'seconds':>8} {'cumulative':>11}")
+    print(f"{'step':<14} {'seconds':>8} {'cumulative':>11} {'app waits':>10}")
     total = 0.0
-    for name, s in u.steps:
+    for name, s, w in u.steps:
         total += s
-        print(f"{name:<14} {s:8.1f} {total:11.1f}")
+        print(f"{name:<14} {s:8.1f} {total:11.1f} {w:10.1f}")
     c = u.counts
     print(f"total {total:.1f} s ({total / 60:.1f} min); {c['clicks']} clicks, {c['strokes']} strokes, "
           f"{c['scrolls']} scrolls, {c['keys']} keys")
