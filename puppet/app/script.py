@@ -143,6 +143,8 @@ class Script:
         if not app.snap.loaded or self.step not in ("image", "layers", "link") or not self.show_tint:
             return None
         layer = self.target_layer(app) if self.step != "link" else None
+        if layer is not None and layer in app.hidden:  # hidden to see what is behind it: no tint over that
+            return None
         key = (app.snap.version, self.step, layer, self.link_pair(app) if self.step == "link" else None)
         if key != self._tint_key:
             self._tint_key = key

@@ -168,3 +168,20 @@ def test_the_whole_build_through_the_ui(gopher, tmp_path):
         assert np.abs(refilled - (150, 100, 60)).max(axis=1).max() < 16  # the body's brown, not the arm's
     finally:
         saved.close()
+
+
+def test_a_hidden_layer_is_not_tinted(gopher):
+    """After the cut, hiding the new layer (to look at the body refilled behind it) hides
+    its pink mask tint too; it kept covering the refill."""
+    d = gopher
+    cut_arm(d)
+    assert d.app.selected_layer == "layer2"
+
+    def rgb(xy):
+        x, y = (int(round(v)) for v in d.screen_of(xy))
+        return d.pixels()[y, x, :3].astype(int)
+
+    click_widget(d, "visible:layer2")
+    d.frame(2)
+    bare = rgb((250.0, 150.0))  # where the arm stuck out of the body
+    assert np.ptp(bare) <= 4, bare  # the checkerboard, grey (was pink: (216, 165, 194))
