@@ -13,9 +13,11 @@ are runs). Outline pieces wholly inside the part go (an enclosed hole of the lay
 lies inside the part is filled: the body is refilled under it).
 
 The tangent at a run's end is that of the least-squares circle through the last
-16 outline pixels before it (of their line when they are straight, or when the line is
-much closer to them than the circle, as on some pixel staircases): exact on a circle
-and on a straight line, and not tilted by the pixel staircase as a two-point difference is.
+16 outline pixels before it, smoothed along the outline first (a Gaussian of 2 points,
+which takes out the pixel staircase), or of their line when they are straight or the
+line fits them much better: exact on a circle and on a straight line. Fitted to the raw
+pixels, the tangent beside the gopher's cut arm was tilted by 12-24 degrees and the
+completed edge bit 3 px into the body; smoothed, it stays within about a pixel.
 """
 from __future__ import annotations
 
