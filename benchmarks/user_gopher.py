@@ -38,14 +38,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from benchmarks.bench_app import Xvfb  # noqa: E402
+from tests.app.test_gopher import AROUND_ARM, BODY_PINS, HAND, SHOULDER, gopher_picture  # noqa: E402 - the same walk
 
 SIZE = (1280, 800)
 #: screen px per second of a hand-drawn stroke
 STROKE_SPEED = 450.0
-LASSO = [(178, 136), (280, 136), (280, 108), (320, 108), (320, 166), (178, 166), (172, 158), (170, 150),
-         (172, 142), (178, 136)]
-SHOULDER, HAND = (196.0, 150.0), (290.0, 150.0)
-BODY_PINS = [(150.0, 250.0), (150.0, 90.0)]
 SWING = 60.0  # degrees the hand is dragged round the shoulder (up)
 
 
@@ -183,7 +180,7 @@ def build(u: User) -> None:
     """The walk of the module doc, step by step."""
     u.click_widget("step:layers", find=1.5)
     u.step("layers step")
-    u.stroke(LASSO, aim=1.5)  # Lasso and Layer via Cut are the step's defaults
+    u.stroke(AROUND_ARM, aim=1.5)  # Lasso and Layer via Cut are the step's defaults
     u.step("lasso cut")
     u.click_widget("step:link", find=1.5)
     u.step("link step")
@@ -236,8 +233,6 @@ def main() -> None:
                     "(gopher-*.png, shown by docs/app.md)")
     ap.add_argument("--pace", type=float, default=1.0, help="scale the human pauses and stroke times")
     args = ap.parse_args()
-    from tests.app.test_gopher import gopher_picture
-
     folder = tempfile.mkdtemp(prefix="user_gopher-")
     out = args.out or os.path.join(folder, "shots")
     os.makedirs(out, exist_ok=True)
