@@ -20,17 +20,35 @@ TOOL_LABELS = (("none", None, "the mode's own tool (pins)"),
                ("patch", "patch", "click the corners of a shared patch; click the first point to close it"))
 
 
+def link_step_tools(app) -> None:
+    """The hinge and patch tools again under the Link step's pencil (the Deform panel is
+    below the fold at 1280x800 in that step: a first user scrolled, opened it and scrolled
+    again to find the hinge)."""
+    st = deformtools.state(app)
+    deformtools.sync(app)
+    imgui.text("or:")
+    for label, tool, tip in TOOL_LABELS[2:]:
+        imgui.same_line()
+        if imgui.radio_button(f"{label.capitalize()}##link-step", st.tool == tool):
+            deformtools.choose(app, tool)
+            app.say(f"{label}: {tip}")
+        imgui.set_item_tooltip(tip + " (also in the Deform panel)")
+        note(f"link-step:{label}")
+    imgui.separator()
+
+
 def panel(app) -> None:
     """Draw the Deform panel's contents (under its collapsing header)."""
     snap, st = app.snap, deformtools.state(app)
+    deformtools.sync(app)
     modes(app)
     imgui.separator()
     imgui.text("tool:")
     for label, tool, tip in TOOL_LABELS:
         imgui.same_line()
         if imgui.radio_button(f"{label}##deform-tool", st.tool == tool):
-            st.tool = tool
-            deformtools.cancel_patch(app)
+            deformtools.choose(app, tool)
+            app.say(f"{label}: {tip}")
         imgui.set_item_tooltip(tip)
         note(f"deform-tool:{label}")
     if st.tool == "stiffness":

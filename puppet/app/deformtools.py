@@ -27,6 +27,7 @@ class DeformState:
     """The Deform panel's choices and drafts."""
 
     tool: str | None = None  # None (the mode's tool) or one of TOOLS
+    step: str | None = None  # the task-script step it was chosen in
     brush: float = 30.0  # stiffness brush diameter, canvas px
     value: int = 255  # grey the brush paints (0 normal .. 255 stiffest)
     draft: list = field(default_factory=list)  # patch points so far (rest canvas xy)
@@ -45,9 +46,30 @@ def state(app) -> DeformState:
     return st
 
 
+def choose(app, tool: str | None) -> None:
+    """The Deform panel's ``tool`` (None: the mode's own) is chosen: it replaces the task
+    script step's tool (the Link step's pencil, the Layers step's lasso) until a step or
+    a step's tool is chosen again (:func:`sync`)."""
+    st = state(app)
+    st.tool, st.step = tool, app.script.step
+    cancel_patch(app)
+    if tool is not None:
+        app.script.tool = None
+
+
+def sync(app) -> str | None:
+    """The Deform panel's tool, given back (None) once a task-script step or a step's tool
+    was chosen after it: the last tool chosen is the canvas's."""
+    st = state(app)
+    if st.tool is not None and (app.script.tool is not None or (st.step is not None and app.script.step != st.step)):
+        st.tool = None
+        cancel_patch(app)
+    return st.tool
+
+
 def canvas_tool(app):
     """The tool generator function for a left press (None: the mode's own tool)."""
-    t = state(app).tool
+    t = sync(app)
     return {"stiffness": stiffness_tool, "hinge": hinge_tool, "patch": patch_tool}.get(t)
 
 

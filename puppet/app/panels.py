@@ -33,6 +33,10 @@ class Panels:
         from puppet.app import script
 
         script.panel(app, self.thumbs)
+        if app.script.step == "link":
+            from puppet.app import deformpanel
+
+            deformpanel.link_step_tools(app)
         if imgui.collapsing_header("Layers", _H):
             self.layers()
         if imgui.collapsing_header("Poses", _H):

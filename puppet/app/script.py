@@ -145,6 +145,8 @@ class Script:
         if not app.snap.loaded or self.step not in ("image", "layers", "link") or not self.show_tint:
             return None
         layer = self.target_layer(app) if self.step != "link" else None
+        if layer is not None and layer in app.hidden:  # hidden to see what is behind it: no tint over that
+            return None
         key = (app.snap.version, self.step, layer, self.link_pair(app) if self.step == "link" else None)
         if key != self._tint_key:
             self._tint_key = key
@@ -186,6 +188,7 @@ def bar(app) -> None:
         if active:
             imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.75, 0.45, 0.1, 1.0))
         if button(f"{k + 1}. {LABELS[step]}" if step != "pose" else LABELS[step], TIPS[step], enabled=app.snap.loaded):
+            app.say(f"{LABELS[step]}: {TIPS[step]}")  # not the last step's message (the Image step's, in Layers)
             set_step(app, step)
         note(f"step:{step}")
         if active:

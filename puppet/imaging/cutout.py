@@ -13,8 +13,11 @@ are runs). Outline pieces wholly inside the part go (an enclosed hole of the lay
 lies inside the part is filled: the body is refilled under it).
 
 The tangent at a run's end is that of the least-squares circle through the last
-16 outline pixels before it (of their line when they are straight): exact on a circle
-and on a straight line, and not tilted by the pixel staircase as a two-point difference is.
+16 outline pixels before it, smoothed along the outline first (a Gaussian of 2 points,
+which takes out the pixel staircase), or of their line when they are straight or the
+line fits them much better: exact on a circle and on a straight line. Fitted to the raw
+pixels, the tangent beside the gopher's cut arm was tilted by 12-24 degrees and the
+completed edge bit 3 px into the body; smoothed, it stays within about a pixel.
 """
 from __future__ import annotations
 
@@ -22,6 +25,9 @@ import numpy as np
 
 #: a run's end tangent is fitted to at most this many outline points before it
 FIT = 16
+#: the outline points a tangent is fitted to are first smoothed along the outline by a
+#: Gaussian of this many points (the pixel staircase otherwise tilts a 16-point circle fit)
+SMOOTH = 2.0
 
 
 def fit_tangent(Q: np.ndarray) -> np.ndarray | None:
@@ -41,11 +47,23 @@ def fit_tangent(Q: np.ndarray) -> np.ndarray | None:
         sol, *_ = np.linalg.lstsq(A, (X ** 2).sum(axis=1), rcond=None)
         centre = sol[:2] / 2.0
         r2 = sol[2] + centre @ centre
-        if 0 < r2 < (1e3 * max(scale, 1.0)) ** 2:
+        if 0 < r2 < (1e3 * max(scale, 1.0)) ** 2 and _fits_better(X, centre, np.sqrt(r2), sv[-1]):
             rad = Q[-1] - (centre + m)
             t = np.array([-rad[1], rad[0]])
     t = t / np.linalg.norm(t)
     return t if t @ travel >= 0 else -t
+
+
+def _fits_better(X: np.ndarray, centre: np.ndarray, radius: float, line_sv: float) -> bool:
+    """Does the circle (``centre``, ``radius``) fit the centred points ``X`` (k, 2) about as
+    well as their principal line (smallest singular value ``line_sv``) or better (RMS
+    distance within half a pixel of the line's, and at most twice it)? The algebraic fit
+    of a pixel staircase on a nearly straight edge can give a tiny circle centred among
+    the points, whose tangent points across the edge: seen on the gopher's body, 2.3 px
+    off against 0.25 px for the line."""
+    circle = np.sqrt(np.mean((np.hypot(*(X - centre).T) - radius) ** 2))
+    line = line_sv / np.sqrt(len(X))
+    return bool(circle <= max(2.0 * line, line + 0.5))
 
 
 def arc_bezier(a, ta, b, tb, samples: int | None = None) -> np.ndarray:
@@ -79,6 +97,16 @@ def _kept_run(cut: np.ndarray, i: int, step: int) -> np.ndarray:
     return idx[:stop[0]] if stop.size else idx
 
 
+def _smooth(Q: np.ndarray) -> np.ndarray:
+    """Outline points (k, 2) smoothed along the outline (Gaussian of :data:`SMOOTH` points,
+    ends held): the staircase of a pixel outline taken out before a tangent is fitted."""
+    if SMOOTH <= 0 or len(Q) < 3:
+        return Q
+    from scipy.ndimage import gaussian_filter1d
+
+    return gaussian_filter1d(np.asarray(Q, float), SMOOTH, axis=0, mode="nearest")
+
+
 def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
     """One closed pixel outline with its runs of ``cut`` points bridged by arcs.
 
@@ -110,8 +138,8 @@ def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
         a, b = i - 1, j % n  # the outline points either side of the run
         chord = P[b] - P[a]
         dflt = chord / (np.linalg.norm(chord) or 1.0)
-        ta = fit_tangent(P[_kept_run(cut, a, -1)[::-1]])
-        tb = fit_tangent(P[_kept_run(cut, b, +1)[::-1]])  # travelling backwards from b
+        ta = fit_tangent(_smooth(P[_kept_run(cut, a, -1)[::-1]]))
+        tb = fit_tangent(_smooth(P[_kept_run(cut, b, +1)[::-1]]))  # travelling backwards from b
         out.append(arc_bezier(P[a], dflt if ta is None else ta, P[b], dflt if tb is None else -tb)[1:-1])
         kept_from = j
     out.append(P[kept_from:])
