@@ -209,8 +209,8 @@ def handle_keys(app, win) -> Action | None:
     """Run the action of this frame's key press (the first enabled one with that key);
     returns it."""
     io = imgui.get_io()
-    if app.dialog is not None:  # the dialog has the keys (Esc closes it there)
-        return None
+    if app.dialog is not None or win.files.pending is not None:
+        return None  # the dialog has the keys (Esc closes ours; a native one is a window of its own)
     typing = io.want_text_input  # a text field has the keyboard: only file and quit keys
     if win.gesture_held():  # a mouse button is down: Esc or Ctrl+Z cancels the drag, view keys only
         for a in ACTIONS:

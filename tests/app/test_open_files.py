@@ -286,3 +286,29 @@ def test_reload_of_a_broken_art_file_says_so_and_changes_nothing(art_app):
     d.settle()
     assert d.app.status.level == "error" and "gbot.psd" in d.app.status.text, d.app.status.text
     assert d.scene().to_dict() == before and d.app.snap.undo_label is None
+
+
+class _OpenDialog:
+    """A native file dialog the user has not answered yet (its window is elsewhere)."""
+
+    def ready(self, timeout=0):
+        return False
+
+
+def test_keys_wait_while_a_native_dialog_is_open(bar):
+    """Typing into a native dialog that did not take the focus (no window manager) must
+    not reach the app: "1" would switch to Pin mode, Space would play."""
+    from pyglet.window import key
+
+    d = Driver(bar)
+    try:
+        assert d.app.mode == "pose"
+        d.w.files.pending = (_OpenDialog(), lambda path: None)
+        d.key(key._1)
+        d.key(key.SPACE)
+        assert d.app.mode == "pose" and not d.app.timeline.playing
+        d.w.files.pending = None
+        d.key(key._1)
+        assert d.app.mode == "pin"  # the same key acts once the dialog is answered
+    finally:
+        d.close()
