@@ -201,7 +201,8 @@ class DragSession:
             with doc.block(f"key {', '.join(self.names)} at {self.time:g} s"):
                 doc.key_pins(self.time, _file_form(self._last))
             return
-        with doc.block(f"drag {', '.join(self.names)}"):
+        pose = doc.active_pose  # "rest": set_target makes a new pose
+        with doc.block(f"move {', '.join(self.names)} in " + ("a new pose" if pose == "rest" else pose)):
             for n, xy in self._last.items():
                 doc.set_target(n, xy)
 
