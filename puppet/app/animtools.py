@@ -13,7 +13,7 @@
 """
 from __future__ import annotations
 
-from puppet.app.gestures import delta, drag_pins, grab, offset
+from puppet.app.gestures import delta, drag_selection, grab, moved, offset
 from puppet.app.record import Recording
 
 
@@ -35,12 +35,9 @@ def choose(app, press):
 
 
 def key_drag_tool(app, press):
-    start = grab(app, press)
-    if start is None:
-        return
     t = app.timeline.time
     app.timeline.playing = False
-    pos = yield from drag_pins(app, press, start, time=t)
+    pos = yield from drag_selection(app, press, time=t)
     if pos is not None:
         app.timeline.selected = [t]
 
@@ -59,10 +56,11 @@ def record_tool(app, press):
     names = list(start)
     app.begin_drag(names, time=t0, record=True)
     app.say(f"recording {', '.join(names)} from {t0:.2f} s at {timeline.speed:g}x: release to stop")
-    ev = press
+    ev, went = press, False
     try:
         while ev.type != "release":
             ev = yield
+            went = went or moved(ev, press)
             pos = offset(start, delta(app, ev, press))
             timeline._rec_pos = pos
             now = clock()
@@ -77,10 +75,17 @@ def record_tool(app, press):
         timeline.recording = None
         timeline.last_recording = rec
     keys = rec.keys(timeline.tolerance)
-    if len(keys) < 2:
+    if not went or len(keys) < 2:
         app.overrides = {}
         app.end_drag(None)
-        app.say("nothing recorded (hold the pin and move it while the playhead runs)", "error")
+        if went:
+            app.say("nothing recorded (hold the pin and move it while the playhead runs)", "error")
+        else:  # a click records nothing (the playhead goes back); a plain one selects only that pin
+            timeline.scrub(t0)
+            m = app.marker_at(press.pos)
+            if not press.shift and m is not None:
+                app.selection = [m.name]
+            app.say("Record is on: drag the selected pins to record their motion")
         return
     t1, tol = max(keys), timeline.tolerance
     app.end_drag(keys=keys, message=f"recorded {', '.join(names)}: {len(keys)} keys from {t0:.2f} to {t1:.2f} s "

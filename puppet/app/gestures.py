@@ -109,6 +109,21 @@ def drag_pins(app, press: CanvasEvent, start: dict, *, time: float | None = None
     return pos if started else None
 
 
+def drag_selection(app, press: CanvasEvent, *, time: float | None = None):
+    """Press on a pin: it joins the selection (Shift toggles it) and a drag moves the
+    selected pins (:func:`drag_pins`, ``time``: keys them there); a plain click selects
+    only that pin, as in Photoshop. Returns the final positions, or None (a click, or a
+    press beside the pins)."""
+    m = app.marker_at(press.pos)
+    start = grab(app, press)
+    if start is None:
+        return None
+    pos = yield from drag_pins(app, press, start, time=time)
+    if pos is None and not press.shift and m is not None:
+        app.selection = [m.name]  # a plain click selects only that pin
+    return pos
+
+
 def remove_on_click(app, press, marker):
     ev, went = yield from click_or_drag(press)
     if not went:
@@ -132,10 +147,7 @@ def pose_tool(app, press: CanvasEvent):
         explain_starch(app, press)
         yield from click_or_drag(press)
         return
-    start = grab(app, press)
-    if start is not None:
-        if (yield from drag_pins(app, press, start)) is None and not press.shift:
-            app.selection = [m.name]  # a plain click selects only that pin
+    yield from drag_selection(app, press)
 
 
 def _rotate(app, press, m, *, click_removes: bool):

@@ -86,6 +86,29 @@ def test_click_selects_only_that_pin_shift_click_adds_and_removes(bar_app):
     assert app.selection == ["left"] and len(d.scene().data.pins) == 2
 
 
+@pytest.mark.parametrize("record", [False, True])
+def test_on_the_timeline_a_click_selects_only_that_pin(bar_app, record):
+    """The key drag and record tools (the canvas while the timeline shows the animation)
+    select as the pose tool does: after a multi-pin drag, a plain click leaves only that
+    pin, so the next Shift+press adds a pin instead of taking one out (which left nothing
+    to drag)."""
+    d = bar_app
+    app = d.app
+    app.timeline.scrub(0.5)
+    app.timeline.record = record
+    d.settle()
+    d.click(*d.pin_screen("left"))
+    d.click(*d.pin_screen("right"), mods=key.MOD_SHIFT)
+    assert app.selection == ["left", "right"]
+    d.click(*d.pin_screen("left"))
+    assert app.selection == ["left"]
+    app.timeline.record = False
+    x, y = d.pin_screen("right")
+    d.drag_path([(x, y), (x, y + 5), (x, y + 8)], mods=key.MOD_SHIFT)
+    d.settle()
+    assert app.selection == ["left", "right"] and "key left, right at 0.5 s" in app.status.text
+
+
 def test_drag_of_a_selected_pin_moves_the_selection(bar_app):
     d, app = in_bend(bar_app)
     d.click(*d.pin_screen("left"))
