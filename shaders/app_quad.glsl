@@ -6,7 +6,9 @@
 //   GHOST        an onion-skin ghost: premultiplied in, tinted towards u_tint by u_mix,
 //                times u_opacity, premultiplied out
 //   PASTEBOARD   the composited layers (premultiplied), times u_dim outside the canvas
-//                rect u_canvas (x0, y0, x1, y1 in framebuffer pixels, y up)
+//                rect u_canvas (x0, y0, x1, y1 in framebuffer pixels, y up), over
+//                u_inside / u_outside (premultiplied; zero: the output blends over the
+//                framebuffer, opaque colours: an opaque output in one pass)
 #if defined VERTEX_SHADER
 uniform vec2 u_screen;
 in vec2 in_pos;
@@ -43,11 +45,13 @@ void main() {
 uniform sampler2D u_texture;
 uniform vec4 u_canvas;
 uniform float u_dim;
+uniform vec4 u_inside;
+uniform vec4 u_outside;
 in vec2 v_uv;
 void main() {
     vec4 c = texture(u_texture, v_uv);
     bool inside = all(greaterThanEqual(gl_FragCoord.xy, u_canvas.xy)) && all(lessThan(gl_FragCoord.xy, u_canvas.zw));
-    f_color = inside ? c : c * u_dim;
+    f_color = inside ? c + u_inside * (1.0 - c.a) : c * u_dim + u_outside * (1.0 - c.a * u_dim);
 }
 #else
 uniform sampler2D u_texture;

@@ -23,6 +23,8 @@ from puppet.render.programs import load_program
 PREVIEW_PIXELS = 250_000
 #: opacity of the layers' parts past the canvas edge, drawn on the pasteboard (as Spine)
 PASTEBOARD_DIM = 0.4
+#: the pasteboard round the canvas (RGB 0..1)
+PASTEBOARD = (0.16, 0.16, 0.17)
 
 
 def depth_range(layers) -> tuple[float, float]:
@@ -117,7 +119,7 @@ class CanvasRenderer:
         ax, ay, aw, ah = area
         ctx.viewport = (0, 0, int(screen[0]), int(screen[1]))
         ctx.scissor = (int(ax), int(fb_h - ay - ah), int(aw), int(ah))
-        ctx.clear(0.16, 0.16, 0.17, 1.0)
+        ctx.clear(*PASTEBOARD, 1.0)
         self.composite_ms = 0.0
         if not snap.loaded:
             ctx.scissor = None
@@ -131,12 +133,16 @@ class CanvasRenderer:
             return
         bg = snap.background
         u = snap.underlay if snap.underlay_image is not None else None
-        if full == rect and not isinstance(bg, np.ndarray) and bg[3] == 255 and u is None and not depth_view \
-                and under is None:
+        opaque = not isinstance(bg, np.ndarray) and bg[3] == 255 and u is None and not depth_view and under is None
+        if opaque and full == rect:
             # the common case: one opaque composite over the scene's colour, as `puppet render`
             tex = self._composite(shown, view, rect, snap, background=tuple(bg))
             ctx.enable_only(moderngl.NOTHING)
             self._frame_quad(tex, screen, rect)
+        elif opaque:  # and parts past the edge: one pass puts the colour and the pasteboard under them
+            tex = self._composite(shown, view, full, snap)
+            ctx.enable_only(moderngl.NOTHING)
+            self._pasteboard_quad(tex, screen, full, rect, fb_h, (*(c / 255.0 for c in bg[:3]), 1.0))
         else:
             ctx.enable_only(moderngl.BLEND)
             ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
@@ -171,15 +177,20 @@ class CanvasRenderer:
         self.tex_prog["u_alpha"].value = 1.0
         self._quad(self.tex_prog, screen, rect)
 
-    def _pasteboard_quad(self, tex, screen, rect, canvas, fb_h: int) -> None:
+    def _pasteboard_quad(self, tex, screen, rect, canvas, fb_h: int, under=None) -> None:
         """The composited ``rect``, its part outside window rect ``canvas`` (or all of it,
-        when the canvas is out of view) at :data:`PASTEBOARD_DIM`."""
+        when the canvas is out of view) at :data:`PASTEBOARD_DIM`. ``under``: the canvas's
+        opaque colour (RGBA 0..1), put under the layers inside the canvas and the
+        pasteboard's outside, in the same pass (opaque output, no blending); None: the
+        output is premultiplied, to blend over what is drawn."""
         prog = self.paste_prog
         tex.use(0)
         prog["u_texture"].value = 0
         prog["u_dim"].value = PASTEBOARD_DIM
         cx0, cy0, cx1, cy1 = canvas if canvas is not None else (0, 0, 0, 0)
         prog["u_canvas"].value = (float(cx0), float(fb_h - cy1), float(cx1), float(fb_h - cy0))  # GL's y is up
+        prog["u_inside"].value = tuple(under) if under is not None else (0.0, 0.0, 0.0, 0.0)
+        prog["u_outside"].value = (*PASTEBOARD, 1.0) if under is not None else (0.0, 0.0, 0.0, 0.0)
         self._quad(prog, screen, rect)
 
     def _canvas_under(self, snap, view, screen, rect, under) -> None:
