@@ -23,6 +23,8 @@ from puppet.render.programs import load_program
 PREVIEW_PIXELS = 250_000
 #: opacity of the layers' parts past the canvas edge, drawn on the pasteboard (as Spine)
 PASTEBOARD_DIM = 0.4
+#: the composited rect is grown to multiples of this (window px) when parts show past the edge
+RECT_STEP = 64
 #: the pasteboard round the canvas (RGB 0..1)
 PASTEBOARD = (0.16, 0.16, 0.17)
 
@@ -232,6 +234,12 @@ class CanvasRenderer:
                  min(int(np.ceil(x1)), int(np.ceil(ax + aw))), min(int(np.ceil(y1)), int(np.ceil(ay + ah))))
             if b[2] > b[0] and b[3] > b[1]:
                 out = b if out is None else (min(out[0], b[0]), min(out[1], b[1]), max(out[2], b[2]), max(out[3], b[3]))
+        if out is not None and out != rect:
+            # grown to whole steps of RECT_STEP px, so that the composite's texture and
+            # targets keep their size while a drag moves parts past the edge (allocating
+            # them again every frame cost more than the pixels)
+            x0, y0, x1, y1 = out
+            out = (x0, y0, x0 + -(-(x1 - x0) // RECT_STEP) * RECT_STEP, y0 + -(-(y1 - y0) // RECT_STEP) * RECT_STEP)
         return out
 
     def _composite(self, shown, view, rect, snap, background=(0, 0, 0, 0)) -> moderngl.Texture:
