@@ -25,7 +25,7 @@ STEPS = ("image", "layers", "link", "pins", "deform", "pose")
 LABELS = {"image": "Image", "layers": "Layers", "link": "Link", "pins": "Pins", "deform": "Deform", "pose": "Pose"}
 TIPS = {"image": "the first layer's mask: threshold, alpha, GrabCut, brush",
         "layers": "make layers: cut (or copy) parts into new layers, clone, erase, paint, inpaint",
-        "link": "draw link segments where two layers overlap (they then move together there)",
+        "link": "tie two overlapping layers: link segments across the overlap, or a hinge or patch",
         "pins": "pins and exterior control points on the rest pose",
         "deform": "build the meshes and start posing",
         "pose": "drag pins to pose the puppet"}
