@@ -100,15 +100,27 @@ class App:
         """The session published a snapshot that :meth:`sync` has not taken yet."""
         return self.session.latest is not self.snap
 
-    def shutdown(self, timeout: float = 30.0) -> None:
-        """Let the posted intents run (a save), remove the autosave, stop the session."""
+    def shutdown(self, timeout: float = 30.0, *, keep_autosave: bool = False) -> str | None:
+        """Let the posted intents run (a save), remove the autosave, stop the session.
+
+        ``keep_autosave`` (the window's loop ended by an exception: Ctrl+C in the terminal,
+        a bug): unsaved changes are autosaved once more and the autosave is kept, so the
+        next open offers to recover them; returns its path then."""
         from puppet.app import autosave
 
         session = self.session
         session.wait_idle(timeout)
+        kept = None
         if session.scene is not None:
-            autosave.remove(session.scene.file)
+            if not keep_autosave:
+                autosave.remove(session.scene.file)
+            elif session.latest.dirty:
+                session.autosave()
+                session.wait_idle(timeout)
+                path = autosave.path_for(session.scene.file)
+                kept = path if autosave.is_autosave(path) else None
         session.stop()
+        return kept
 
     def say(self, text: str, level: str = "info") -> None:
         self.status = Message(text, level)

@@ -409,20 +409,26 @@ class AppWindow:
     def run(self) -> None:
         """Run :meth:`step` until the app quits (a turn every few ms: a new snapshot is shown
         as soon as it is published; frames themselves are paced by :meth:`step`)."""
+        ended = False
         try:
             while not self.app.quit_now:
                 if not self.step():
                     time.sleep(0.004)
+            ended = True
         finally:
-            self.close()
+            self.close(keep_autosave=not ended)
 
-    def close(self) -> None:
-        """Finish pending jobs (a save), remove the autosave, release GL and the window."""
+    def close(self, *, keep_autosave: bool = False) -> None:
+        """Finish pending jobs (a save), remove the autosave, release GL and the window.
+        ``keep_autosave``: the loop did not end normally (an exception, Ctrl+C): unsaved
+        changes stay in the autosave, said on stderr."""
         if self.closed:
             return
         self.closed = True
         self.files.cancel()
-        self.app.shutdown()
+        kept = self.app.shutdown(keep_autosave=keep_autosave)
+        if kept:
+            print(f"puppet app: unsaved changes kept in {kept} (opening the scene offers them)", file=sys.stderr)
         self.win.switch_to()
         imgui.set_current_context(self.imgui_ctx)
         self.thumbs.release()

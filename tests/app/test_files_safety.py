@@ -141,3 +141,47 @@ def test_autosave_leaves_files_that_are_not_its_own(make_scene, tmp_path):
     (keep / "notes.txt").write_text("mine")
     autosave.remove(path)
     assert (keep / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("autosaved", [True, False])
+def test_a_loop_ended_by_an_exception_keeps_the_unsaved_changes(make_scene, capsys, autosaved):
+    """Ctrl+C in the terminal (or a bug) ends the window's loop with an exception: the
+    window closes, and the unsaved changes stay in the autosave (written once more when
+    the periodic one had not run yet), which the next open offers to recover. Before, the
+    close removed the autosave."""
+    path = make_scene(bar_scene(), {"bar.png": bar_image()})
+    auto = autosave.path_for(path)
+    d = Driver(path, autosave_interval=0.0 if autosaved else 1e9)
+    move_left_pin(d)
+    d.frame(2)
+    d.settle()
+    moved = d.scene().to_dict()["pins"][0]["at"]
+    assert os.path.exists(auto) == autosaved
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    d.w.step = interrupted
+    with pytest.raises(KeyboardInterrupt):
+        d.w.run()
+    assert d.w.closed and autosave.is_autosave(auto)
+    assert json.load(open(auto))["pins"][0]["at"] == moved
+    assert f"unsaved changes kept in {auto}" in capsys.readouterr().err
+    os.utime(auto, (os.path.getmtime(path) + 5,) * 2)
+    d = Driver(path)
+    try:
+        assert d.app.dialog == "recover"
+    finally:
+        d.close()
+
+
+def test_a_normal_quit_still_removes_the_autosave(make_scene):
+    path = make_scene(bar_scene(), {"bar.png": bar_image()})
+    d = Driver(path, autosave_interval=0.0)
+    move_left_pin(d)
+    d.frame(2)
+    d.settle()
+    assert os.path.exists(autosave.path_for(path))
+    d.app.quit_now = True  # as "Don't save" in the unsaved-changes dialog leaves it
+    d.w.run()
+    assert d.w.closed and not os.path.exists(autosave.path_for(path))
