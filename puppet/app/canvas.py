@@ -6,8 +6,9 @@ and ``shaders/app_mesh.glsl``.
 The layers are composited by puppet's :class:`~puppet.render.compositor.Compositor`
 (the same per-pixel depth compositing as ``puppet render``, through its window path
 ``draw``: into a texture, no read-back) at window resolution over the visible part of
-the canvas only, and composited again only when the shown layers or the view change;
-every other frame redraws the cached texture.
+the canvas (and of the layers posed past its edge, drawn dimmed on the pasteboard), and
+composited again only when the shown layers or the view change; every other frame
+redraws the cached texture.
 """
 from __future__ import annotations
 
