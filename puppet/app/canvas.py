@@ -47,6 +47,9 @@ class CanvasRenderer:
         Time of the last composite (0 when the cached texture was reused).
     composites : int
         How many composites have been made (tests check the cache with it).
+    stale_errors : list of str
+        GL errors found pending just before a composite: left by the canvas's own calls
+        (the compositor would otherwise report them as its own).
     """
 
     def __init__(self, ctx: moderngl.Context, compositor=None):
@@ -78,6 +81,7 @@ class CanvasRenderer:
         self.last_scale = 1.0
         self._depth_fbo = self._depth_rb = self._depth_tex = None
         self._edges: dict[int, tuple] = {}
+        self.stale_errors: list[str] = []  # GL errors found pending before a composite (kept for tests)
 
     # -- helpers ------------------------------------------------------------------
     def _quad(self, prog, screen, rect, uv=(0, 0, 1, 1)) -> None:
@@ -274,6 +278,9 @@ class CanvasRenderer:
         if names != self._names:  # a layer renamed or removed: its texture and buffers go
             self.compositor.retain(names)
             self._names = names
+        stale = self.ctx.error  # an error flag of the canvas's own calls: not the compositor's
+        if stale != "GL_NO_ERROR":
+            self.stale_errors.append(stale)
         # the compositor's window path: into the texture, no read-back, premultiplied RGBA
         self.compositor.draw(draw, size, target=self.frame_tex, background=background)
         self.ctx.error  # noqa: B018 - clear a flag the compositor left

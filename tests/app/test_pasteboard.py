@@ -49,6 +49,7 @@ def test_content_past_the_edge_shows_dimmed(bar_out):
     np.testing.assert_allclose(outside, want, atol=4)
     # the canvas inside the edge keeps the scene's background: white, or the checkerboard
     assert colour_at(d, (110, 36)).min() >= (253 if d.scene().data.background[3] == 255 else 200)
+    assert d.w.canvas.stale_errors == []  # no GL error left by the canvas's passes
 
 
 def test_a_pin_past_the_edge_can_be_dragged_back(bar_out):
