@@ -65,7 +65,9 @@ def test_record_a_drag_save_and_render(display, tmp_path):
         tx = (x0 + 120) + 0.5 * ((x1 - 10) - (x0 + 120)) / 2.0
         x(display, "xdotool", "mousemove", str(int(round(tx))), str(int(y0 + 6)), "click", "1")
         x(display, "xdotool", "mousemove", *centre(info, "Record"), "click", "1")
-        wait_info(rects, lambda i: "Record on" in i["status"])
+        # the view from a dump written after the click: one read at start could predate the
+        # fit (the dump is written 5 times a second), and the drag then missed the pin
+        info = wait_info(rects, lambda i: "Record on" in i["status"])
         # drag the right pin (where the frame at 0.5 s shows it) up and left for about 1.5 s
         import puppet
 
