@@ -143,18 +143,25 @@ def test_autosave_leaves_files_that_are_not_its_own(make_scene, tmp_path):
     assert (keep / "notes.txt").read_text() == "mine"
 
 
+def pin_moved(make_scene, interval: float):
+    """The app on the bar scene with its left pin moved (unsaved), autosaving every
+    ``interval`` seconds: (driver, path)."""
+    path = make_scene(bar_scene(), {"bar.png": bar_image()})
+    d = Driver(path, autosave_interval=interval)
+    move_left_pin(d)
+    d.frame(2)
+    d.settle()
+    return d, path
+
+
 @pytest.mark.parametrize("autosaved", [True, False])
 def test_a_loop_ended_by_an_exception_keeps_the_unsaved_changes(make_scene, capsys, autosaved):
     """Ctrl+C in the terminal (or a bug) ends the window's loop with an exception: the
     window closes, and the unsaved changes stay in the autosave (written once more when
     the periodic one had not run yet), which the next open offers to recover. Before, the
     close removed the autosave."""
-    path = make_scene(bar_scene(), {"bar.png": bar_image()})
+    d, path = pin_moved(make_scene, 0.0 if autosaved else 1e9)
     auto = autosave.path_for(path)
-    d = Driver(path, autosave_interval=0.0 if autosaved else 1e9)
-    move_left_pin(d)
-    d.frame(2)
-    d.settle()
     moved = d.scene().to_dict()["pins"][0]["at"]
     assert os.path.exists(auto) == autosaved
 
@@ -176,11 +183,7 @@ def test_a_loop_ended_by_an_exception_keeps_the_unsaved_changes(make_scene, caps
 
 
 def test_a_normal_quit_still_removes_the_autosave(make_scene):
-    path = make_scene(bar_scene(), {"bar.png": bar_image()})
-    d = Driver(path, autosave_interval=0.0)
-    move_left_pin(d)
-    d.frame(2)
-    d.settle()
+    d, path = pin_moved(make_scene, 0.0)
     assert os.path.exists(autosave.path_for(path))
     d.app.quit_now = True  # as "Don't save" in the unsaved-changes dialog leaves it
     d.w.run()
