@@ -18,13 +18,11 @@ modified; anything new outside OUT_DIR counts as a write outside -o.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import resource
 import shutil
 import signal
-import stat
 import subprocess
 import sys
 import tempfile
@@ -36,6 +34,7 @@ sys.path.insert(0, ROOT)
 
 from tests.batch.conftest import write_bar  # noqa: E402
 from tests.batch.test_safety import FakeServer as Server  # noqa: E402
+from tests.fstree import snapshot  # noqa: E402
 
 MEMORY_CAP = 8 * 2 ** 30  # address space per process (inherited by the workers)
 FAST_TIMEOUT, CLUSTER_TIMEOUT = 60, 300
@@ -62,28 +61,6 @@ class Result:
 
 
 # -- helpers for setting up cases ------------------------------------------------------
-def snapshot(folder: str) -> dict[str, tuple]:
-    found = {}
-    for d, dirs, files in os.walk(folder):
-        for n in dirs + files:
-            p = os.path.join(d, n)
-            st = os.lstat(p)
-            rel = os.path.relpath(p, folder)
-            if stat.S_ISLNK(st.st_mode):
-                found[rel] = ("link", os.readlink(p))
-            elif stat.S_ISREG(st.st_mode):
-                h = hashlib.blake2b(digest_size=16)
-                with open(p, "rb") as f:
-                    while block := f.read(1 << 20):
-                        h.update(block)
-                found[rel] = ("file", h.hexdigest(), st.st_size)
-            elif stat.S_ISDIR(st.st_mode):
-                found[rel] = ("dir",)
-            else:
-                found[rel] = ("other", stat.S_IFMT(st.st_mode))
-    return found
-
-
 def jobs(folder: str, entries, name: str = "jobs.json") -> str:
     path = os.path.join(folder, "in", name)
     with open(path, "w") as f:

@@ -22,12 +22,10 @@ Prints one line per bad case and the counts.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import resource
 import shutil
-import stat
 import subprocess
 import sys
 import tempfile
@@ -36,6 +34,7 @@ from dataclasses import dataclass, field
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, ROOT)
+from tests import fstree  # noqa: E402
 MEMORY_CAP = 6 << 30  # bytes of address space per case
 PY = sys.executable
 
@@ -386,22 +385,9 @@ def save_cases() -> list[Case]:
 
 
 # -- running and judging ------------------------------------------------------------------------------
-def snapshot(top: str) -> dict[str, str]:
-    out = {}
-    for dirpath, dirnames, filenames in os.walk(top):
-        for n in dirnames + filenames:
-            p = os.path.join(dirpath, n)
-            st = os.lstat(p)
-            if stat.S_ISLNK(st.st_mode):
-                out[p] = "link:" + os.readlink(p)
-            elif stat.S_ISDIR(st.st_mode):
-                out[p] = "dir"
-            elif stat.S_ISREG(st.st_mode):
-                with open(p, "rb") as f:
-                    out[p] = hashlib.sha1(f.read()).hexdigest()
-            else:
-                out[p] = "special"
-    return out
+def snapshot(top: str) -> dict[str, tuple]:
+    """:func:`tests.fstree.snapshot` by absolute path."""
+    return {os.path.join(top, rel): v for rel, v in fstree.snapshot(top).items()}
 
 
 def _cap():
