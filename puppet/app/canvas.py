@@ -280,7 +280,7 @@ class CanvasRenderer:
             self._names = names
         stale = self.ctx.error  # an error flag of the canvas's own calls: not the compositor's
         if stale != "GL_NO_ERROR":
-            self.stale_errors.append(stale)
+            self.stale_errors = (self.stale_errors + [stale])[-20:]  # the latest few, not one a frame forever
         # the compositor's window path: into the texture, no read-back, premultiplied RGBA
         self.compositor.draw(draw, size, target=self.frame_tex, background=background)
         self.ctx.error  # noqa: B018 - clear a flag the compositor left
