@@ -361,7 +361,7 @@ def main() -> None:
         else None
     from benchmarks.bench_drag import load_floor
 
-    from puppet.app.session import SOLVER
+    from puppet.app.model.session import SOLVER
 
     print(f"load average {os.getloadavg()[0]:.1f}, {os.cpu_count()} cores, numpy floor {load_floor():.1f} ms "
           f"(quiet machine: ~3.5 ms); previews solved in a {os.environ.get('PUPPET_APP_SOLVER', SOLVER)}")

@@ -49,7 +49,7 @@ ANIMATED = ["trex-layers.json", "dress-garment.json", "tshirt-garment.json"]
 def job_list(n: int, size: int) -> list[dict]:
     """``n`` jobs: every pose of the still scenes, then distinct times over the animations."""
     import puppet
-    from puppet.scene import timeline
+    from puppet.scene.time import timeline
 
     jobs = []
     for name in STILL:

@@ -30,7 +30,7 @@ def garment_4k(folder: str) -> str:
     """A 4000x4000 garment photo scene: the t-shirt emoji upscaled, ``puppet init --pins auto``."""
     from PIL import Image
 
-    from puppet.scene.init import init_scene
+    from puppet.scene.make.picture import init_scene
 
     image = os.path.join(folder, "shirt4k.png")
     Image.open(os.path.join(ROOT, "assets", "noto-emoji", "emoji_u1f455.png")).convert("RGBA").resize(

@@ -3,7 +3,7 @@
 Run:  python benchmarks/bench_modes.py [--runs 2]
 Meshes: quality discs of about 5k and 20k vertices, five pins (benchmarks.common). Per
 mode: the precomputation (factorisation + operators) and a pose solve = initial guess +
-20 local/global iterations, as `puppet.scene.solve` runs it: `similar` starts from the
+20 local/global iterations, as `puppet.scene.rig.solve` runs it: `similar` starts from the
 pins' least-squares similarity then MLS (garment fitting), its cells' scale bounded
 around that similarity's; `rigid+paint` has
 cell weights 1..100 over a third of the disc. The ratio columns are solve / rigid solve, by wall time (best of 9) and by process CPU
@@ -31,7 +31,7 @@ SIZES = {"5k": (500, 6.0), "20k": (1000, 1.5)}
 
 
 def solve(data, bc, prefit):
-    """A pose as puppet.scene.solve runs it: in `similar`, the similarity guess and the
+    """A pose as puppet.scene.rig.solve runs it: in `similar`, the similarity guess and the
     cells' scale bounded around the pins' similarity scale."""
     if not prefit:
         return arap_solve(data, bc)  # its own MLS guess

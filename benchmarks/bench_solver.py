@@ -11,7 +11,7 @@
      thread waiting for the GIL asks for it after 1 ms instead of 5);
    - ``thread/cholespy``: the same with the group's factor swapped for CHOLMOD;
    - ``process``: the session's previews solved in a
-     :class:`~puppet.scene.dragproc.DragProcess` (a child ``python``, a socket pair), the
+     :class:`~puppet.scene.drag.process.DragProcess` (a child ``python``, a socket pair), the
      moved layers sent back per move, the main process's second thread only waiting.
    Reported: how late the window's frames are (median, p90, p99, longest: a stall) and
    the previews per second the solver gave meanwhile.
@@ -32,7 +32,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from puppet.deform import factor  # noqa: E402
-from puppet.scene.document import Document  # noqa: E402
+from puppet.scene.document.core import Document  # noqa: E402
 
 SCENES = os.path.join(ROOT, "assets", "scenes")
 
@@ -117,8 +117,8 @@ def in_thread(doc: Document, pin: str, stop: threading.Event, count: list) -> No
 
 def in_process(path: str, pin: str, stop: threading.Event, count: list, ready: threading.Event) -> None:
     """The drag session of a second copy of the scene, its previews solved in a
-    :class:`~puppet.scene.dragproc.DragProcess` (this thread only waits on its socket)."""
-    from puppet.scene.dragproc import DragProcess
+    :class:`~puppet.scene.drag.process.DragProcess` (this thread only waits on its socket)."""
+    from puppet.scene.drag.process import DragProcess
 
     doc = Document.load(path)
     proc = DragProcess()

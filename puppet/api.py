@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.scene.document import Document, PoseLike
-from puppet.scene.drag import DragSession
+from puppet.scene.document.core import Document, PoseLike
+from puppet.scene.drag.session import DragSession
 
 #: Largest preview frame of a drag, pixels (a 4000x4000 picture previews at 640x640, about
 #: what a 1280x800 window shows of it; compositing time grows with the pixels drawn).
@@ -78,8 +78,8 @@ class Scene(Document):
         about the offset so that every vertex keeps its texture coordinate."""
         import dataclasses
 
-        from puppet.scene.build import reduced_rgba
-        from puppet.scene.cache import fingerprint
+        from puppet.scene.rig.build import reduced_rgba
+        from puppet.scene.rig.cache import fingerprint
 
         image = self.rig.memo.get("pixels", fingerprint("reduced", image_key, reduce),
                                   lambda: reduced_rgba(L.image, reduce))
@@ -95,7 +95,7 @@ class Scene(Document):
              size: tuple[int, int] | None = None, solver=None) -> "Drag":
         """Start dragging pins ``names`` (one name or a list) in the active pose, keyed at
         ``time``, or recording from ``time``; previews solved in ``solver`` (a
-        :class:`~puppet.scene.dragproc.DragProcess`) when given (see :class:`Drag`)."""
+        :class:`~puppet.scene.drag.process.DragProcess`) when given (see :class:`Drag`)."""
         return Drag(self, names, time, record=record, iterations=iterations, size=size, solver=solver)
 
     def close(self) -> None:
@@ -106,7 +106,7 @@ class Scene(Document):
 
 
 class Drag(DragSession):
-    """A :class:`~puppet.scene.drag.DragSession` that also draws: :meth:`move` gives a
+    """A :class:`~puppet.scene.drag.session.DragSession` that also draws: :meth:`move` gives a
     preview frame, :meth:`release` the exact one.
 
     Preview frames are ``size`` (default: the canvas) scaled down to at most

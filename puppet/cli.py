@@ -258,7 +258,7 @@ def _notes(art: str, res) -> None:
 
 
 def _init_layered(args, out: str) -> int:
-    from puppet.scene.artimport import import_art
+    from puppet.scene.make.art import import_art
 
     res = import_art(args.image, out, pins=args.pins, links=args.links, update=args.update)
     _notes(args.image, res)
@@ -271,11 +271,11 @@ def run(argv: list[str] | None = None) -> int:
     if args.command == "app":  # imported here only: render and mesh never load pyglet
         import puppet.app
 
-        return puppet.app.run(args.scene, size=args.size)  # art: puppet.app.opening.from_art
+        return puppet.app.run(args.scene, size=args.size)  # art: puppet.app.model.opening.from_art
     if args.command in _PLUGGED:
         return _PLUGGED[args.command].run(args)
     if args.command == "init":
-        from puppet.scene.init import init_scene
+        from puppet.scene.make.picture import init_scene
 
         out = _output_file(args.output, (".json",))
         if _layered(args):
@@ -303,7 +303,7 @@ def run(argv: list[str] | None = None) -> int:
 
     import puppet
     from puppet.output import save_png
-    from puppet.scene.inputs import input_files
+    from puppet.scene.format.inputs import input_files
 
     scene = puppet.load_scene(args.scene)
     if args.command == "render":

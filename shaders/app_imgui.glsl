@@ -1,5 +1,5 @@
 #version 330
-// Dear ImGui's draw lists (puppet/app/imgui_gl.py): window pixels (top-down) to NDC by
+// Dear ImGui's draw lists (puppet/app/gl/imgui_renderer.py): window pixels (top-down) to NDC by
 // u_scale = (2 / width, 2 / height); vertex colour times the texture (font atlas, images).
 #if defined VERTEX_SHADER
 uniform vec2 u_scale;

@@ -1,5 +1,5 @@
 #version 330
-// The app's mesh views (puppet/app/canvas.py): canvas points drawn with the view's
+// The app's mesh views (puppet/app/gl/canvas.py): canvas points drawn with the view's
 // scale and origin into a target of u_screen pixels.
 //   DEPTH    triangles coloured by interpolated depth (blue back -> cyan -> yellow ->
 //            red front), nearer in front through the depth buffer; u_range: the depths

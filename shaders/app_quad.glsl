@@ -1,5 +1,5 @@
 #version 330
-// The app's quads given in window pixels (puppet/app/canvas.py, onion.py), one variant each:
+// The app's quads given in window pixels (puppet/app/gl/canvas.py, onion.py), one variant each:
 //   (none)       a texture at an opacity: the composited canvas, the background picture,
 //                the reference underlay, a tint, the depth view (u_alpha)
 //   CHECKER      the checkerboard behind transparency (u_cell: cell size in pixels)

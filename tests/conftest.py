@@ -12,7 +12,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ASSETS = os.path.join(ROOT, "assets")
 SCENES = os.path.join(ASSETS, "scenes")
 #: the app's native file dialogs cannot be clicked by a test: the path field instead
-#: (inherited by the apps the tests start under Xvfb; see puppet/app/files.py)
+#: (inherited by the apps the tests start under Xvfb; see puppet/app/ui/files.py)
 os.environ["PUPPET_FILE_DIALOG"] = os.environ.get("PUPPET_TEST_FILE_DIALOG", "field")
 
 

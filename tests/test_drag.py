@@ -108,7 +108,7 @@ def test_big_picture_path_releases_the_rendered_frame(monkeypatch):
     """The cheap path of big pictures (a proxy mesh, frames from shrunk images), forced
     on the horse: previews drawn from it, the release exactly ``render``."""
     import puppet.api
-    from puppet.scene import proxy
+    from puppet.scene.rig import proxy
 
     monkeypatch.setattr(proxy, "PROXY_MIN", 500)
     monkeypatch.setattr(puppet.api, "PREVIEW_PIXELS", 160 * 120)

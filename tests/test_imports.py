@@ -8,8 +8,8 @@ CODE = f"""
 import sys
 import puppet.geom.contour, puppet.geom.triangulate, puppet.geom.merge, puppet.geom.laplacian, puppet.geom.geodesic
 import puppet.deform, puppet.imaging.io, puppet.imaging.masks, puppet.imaging.inpaint
-import puppet.scene.document
-doc = puppet.scene.document.Document.load({SCENES + '/trex-layers.json'!r})
+import puppet.scene.document.core
+doc = puppet.scene.document.core.Document.load({SCENES + '/trex-layers.json'!r})
 doc.layers('wave'); doc.mesh('tuck')
 bad = sorted(m for m in sys.modules if m.split('.')[0] in ('moderngl', 'pyglet', 'glcontext')
              or m.startswith(('puppet.render', 'puppet.app', 'puppet.anim')))

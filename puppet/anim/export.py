@@ -20,8 +20,8 @@ import numpy as np
 from puppet.anim import formats, pipeline, sinks
 from puppet.errors import SceneError
 from puppet.output import atomic_write, check_file, check_folder, write_folder
-from puppet.scene import timeline
-from puppet.scene.inputs import input_files
+from puppet.scene.time import timeline
+from puppet.scene.format.inputs import input_files
 
 #: Most frames one ``animate`` may write (duration x fps); longer exports are refused up front.
 MAX_FRAMES = 100_000

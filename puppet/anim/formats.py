@@ -10,7 +10,7 @@ Two families:
 * **pixel** formats (``pixels=True``) take each composited frame, straight-alpha RGBA
   (h, w, 4) uint8, through the export's solve / composite / encode pipeline;
 * **mesh** formats (``pixels=False``: the web player, Spine, glTF) take each frame's solved
-  layers (:class:`puppet.scene.rig.LayerResult` list) and draw nothing: the deformed
+  layers (:class:`puppet.scene.rig.core.LayerResult` list) and draw nothing: the deformed
   meshes, depths and the layer textures are what they write.
 """
 from __future__ import annotations

@@ -2,7 +2,7 @@
 animation in a browser with a small WebGL2 player (:file:`player.js`, in this package).
 
 Nothing is referenced outside the file: every layer's texture is a PNG data URI (the
-cropped image the compositor uploads, see :attr:`puppet.scene.build.LayerImage.drawn`)
+cropped image the compositor uploads, see :attr:`puppet.scene.rig.build.LayerImage.drawn`)
 and the frames are baked: the deformed vertices and depths of every frame, as puppet's
 solver gives them (in-betweens included), so the page needs no solver.
 

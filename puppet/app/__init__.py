@@ -14,7 +14,7 @@ def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headles
     ``path`` (a scene, a picture or layered art) is loaded before the window opens: one
     that cannot be opened raises SceneError (the CLI's one line, exit 2) with no window."""
     if path is not None:
-        from puppet.app import opening
+        from puppet.app.model import opening
 
         path = opening.preload(path)
     import pyglet
@@ -29,7 +29,7 @@ def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headles
                          "'-screen 0 1280x1024x24' puppet app ...)")
     else:
         _connect_display()
-    from puppet.app.window import AppWindow, print_ready
+    from puppet.app.gl.window import AppWindow, print_ready
 
     AppWindow(path, size=size, ready=print_ready).run()
     return 0

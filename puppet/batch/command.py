@@ -109,7 +109,7 @@ def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
 
 
 def _check_pose(template: str, pose: str) -> None:
-    from puppet.scene.document import Document
+    from puppet.scene.document.core import Document
 
     doc = Document.load(template)
     if pose not in doc.pose_names():

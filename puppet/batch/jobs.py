@@ -194,10 +194,10 @@ def _check_fps(anim: dict, file, path) -> None:
 def read_job_list(file: str, out_dir: str, defaults: dict) -> list[dict]:
     """Jobs of a JSON (a list, or ``{"jobs": [...]}``) or JSONL (one object a line) file.
 
-    The file is read as a scene file is (:mod:`puppet.scene.reader`): a regular file of at
+    The file is read as a scene file is (:mod:`puppet.scene.format.reader`): a regular file of at
     most :data:`MAX_LIST_BYTES`, strict JSON (no NaN, integers up to 2^53, nesting up to
     32 levels, no repeated key); anything else is one SceneError naming the file."""
-    from puppet.scene.reader import parse_text, read_file
+    from puppet.scene.format.reader import parse_text, read_file
 
     text = read_file(file, what="job list", max_bytes=MAX_LIST_BYTES)
     base = os.path.dirname(os.path.abspath(file))
@@ -254,7 +254,7 @@ def folder_jobs(folder: str, out_dir: str, defaults: dict) -> list[dict]:
     A file that is not a valid scene still gives one job (its ``rest`` pose), which then
     fails with the scene's error: it is reported, never skipped silently.
     """
-    from puppet.scene.document import Document
+    from puppet.scene.document.core import Document
 
     names = sorted(n for n in os.listdir(folder) if n.lower().endswith(".json")
                    and os.path.isfile(os.path.join(folder, n)))

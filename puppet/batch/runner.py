@@ -27,8 +27,8 @@ MANIFEST_EVERY = 1.0
 def client_digest(job: dict, cache: dict) -> str | None:
     """The hash the worker would record for ``job`` (None when its scene cannot be read)."""
     from puppet.errors import SceneError
-    from puppet.scene.document import Document
-    from puppet.scene.inputs import input_files
+    from puppet.scene.document.core import Document
+    from puppet.scene.format.inputs import input_files
 
     path = job["scene"]
     if path not in cache:

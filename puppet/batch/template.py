@@ -51,9 +51,9 @@ from puppet.geom.mvc import mean_value_coordinates
 from puppet.geom.outline_corr import Correspondence, LandmarkRing, match_outlines
 from puppet.geom.outline_match import Similarity
 from puppet.imaging.io import load_rgba
-from puppet.scene import build
-from puppet.scene.load import load_scene_data, parse_scene
-from puppet.scene.model import Layer, SceneData
+from puppet.scene.rig import build
+from puppet.scene.format.load import load_scene_data, parse_scene
+from puppet.scene.format.model import Layer, SceneData
 
 __all__ = ["NoMatch", "Template", "Transfer", "transfer", "transfer_points", "NUDGE", "BOUNDARY", "TOLERANCE"]
 
@@ -180,7 +180,7 @@ class Template:
         self.pins = [p for p in data.pins if p.layer == self.layer.name]
         self.auto_ext = None
         if self.layer.exterior is not None:
-            from puppet.scene.exterior import auto_points
+            from puppet.scene.rig.exterior import auto_points
 
             self.auto_ext = auto_points(self.image.mask, self.image.offset, self.layer.exterior.beta)
 
@@ -253,7 +253,7 @@ class Template:
             return {}
         from scipy.optimize import linear_sum_assignment
 
-        from puppet.scene.exterior import auto_points
+        from puppet.scene.rig.exterior import auto_points
 
         new = auto_points(mask, (0.0, 0.0), self.layer.exterior.beta)
         if not len(new):

@@ -106,7 +106,7 @@ def _scene(path: str):
     """(files hash, inputs, scene) of a scene file, from the cache when its files are unchanged."""
     from puppet.api import Scene
     from puppet.batch.state import inputs_digest as digest_of
-    from puppet.scene.inputs import input_files
+    from puppet.scene.format.inputs import input_files
 
     hit = _scenes.get(path)
     if hit is not None:
@@ -135,7 +135,7 @@ def _template_scene(job: dict):
     _, tinputs, _ = _scene(job["scene"])  # the template, parsed (and checked unchanged) once per worker
     doc = template.transfer(job["scene"], job["image"], tolerance=job["tolerance"])
     scene = Scene(doc, job["image"])
-    from puppet.scene.inputs import input_files
+    from puppet.scene.format.inputs import input_files
 
     # hashed for --resume: what the client can know without transferring (template files + image)
     hashed = list(tinputs) + [(job["image"], "image")]
@@ -251,7 +251,7 @@ def warm() -> int:
     start-up outside the timing, like an in-process loop that has loaded puppet); its pid."""
     import importlib
 
-    for m in ("puppet.api", "puppet.scene.document", "puppet.scene.solve", "puppet.scene.build",
+    for m in ("puppet.api", "puppet.scene.document.core", "puppet.scene.rig.solve", "puppet.scene.rig.build",
               "puppet.deform", "puppet.imaging.io", "puppet.output", "puppet.anim.export"):
         importlib.import_module(m)
     compositor()

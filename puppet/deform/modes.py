@@ -41,7 +41,7 @@ MIX = {"rigid": (1.0, 0.0, 0.0), "similar": (0.0, 1.0, 0.0), "distort": (0.5, 0.
 MODES = tuple(MIX)
 
 #: In a scene, the scale of a ``similar`` cell stays within this factor of the scale of
-#: the pins' least-squares similarity (``puppet.scene.solve.scale_bounds``).
+#: the pins' least-squares similarity (``puppet.scene.rig.solve.scale_bounds``).
 SCALE_SPAN = 1.25
 
 #: Cell weight of the stiffest paint (grey 255); grey 0 weighs 1.

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         check_file(args.tracks, probe=True)
 
     import puppet
-    from puppet.scene.inputs import input_files
+    from puppet.scene.format.inputs import input_files
     from puppet.video.pipeline import plan_video, read_anchors, run_video
 
     scene = puppet.load_scene(args.scene)

@@ -127,8 +127,8 @@ def plan_video(doc, pose: str, *, first: int | None = None, last: int | None = N
 def read_anchors(path: str) -> dict[int, dict[str, tuple[float, float]]]:
     """``{"frame": {"pin": [x, y]}}`` from a JSON file (canvas coordinates); SceneError naming
     the file and the JSON path when it is not that."""
-    from puppet.scene.reader import MAX_SCENE_BYTES, parse_text, read_file
-    from puppet.scene.schema import Ctx, expect_object, expect_point, join
+    from puppet.scene.format.reader import MAX_SCENE_BYTES, parse_text, read_file
+    from puppet.scene.format.schema import Ctx, expect_object, expect_point, join
 
     raw = parse_text(read_file(path, what="--anchors file", max_bytes=MAX_SCENE_BYTES), path)
     c = Ctx(path)

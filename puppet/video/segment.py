@@ -72,7 +72,7 @@ class Segmenter:
 
     Parameters
     ----------
-    layer : the scene's :class:`~puppet.scene.model.Layer` (its ``mask``, ``offset`` and ``name``).
+    layer : the scene's :class:`~puppet.scene.format.model.Layer` (its ``mask``, ``offset`` and ``name``).
     first : (H, W, 4) uint8 start frame (decides the default rule).
     scene_file : for error messages.
     """

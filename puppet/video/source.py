@@ -21,7 +21,7 @@ _END = object()
 
 
 def clip_source(data) -> FrameSource:
-    """The frames of a video scene (``data``: its :class:`~puppet.scene.model.SceneData`)."""
+    """The frames of a video scene (``data``: its :class:`~puppet.scene.format.model.SceneData`)."""
     return FrameSource(data.source, scene_file=data.file, json_path="source", fps=data.video["fps"])
 
 

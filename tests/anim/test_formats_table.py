@@ -65,6 +65,6 @@ def test_consumers_read_the_table():
 
 
 def test_export_dialog_lists_every_format():
-    dialog = pytest.importorskip("puppet.app.export_dialog")
+    dialog = pytest.importorskip("puppet.app.ui.export_dialog")
     for f in formats.FORMATS:
         assert (f.suffix if not f.folder else "folder/") in dialog.FORMATS

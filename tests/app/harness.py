@@ -13,7 +13,7 @@ pyglet.options["debug_gl"] = False
 
 from pyglet.window import key, mouse  # noqa: E402
 
-from puppet.app.window import AppWindow  # noqa: E402
+from puppet.app.gl.window import AppWindow  # noqa: E402
 
 DOCS_SHOTS = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs", "app")
 
@@ -165,8 +165,8 @@ def pin_keys(keys, pin: str) -> dict[float, list[float]]:
 
 
 def widget(label: str):
-    """Centre of the widget drawn last under ``label`` (see puppet.app.widgets.RECTS)."""
-    from puppet.app.widgets import RECTS
+    """Centre of the widget drawn last under ``label`` (see puppet.app.ui.widgets.RECTS)."""
+    from puppet.app.ui.widgets import RECTS
 
     x0, y0, x1, y1 = RECTS[label]
     return (x0 + x1) / 2, (y0 + y1) / 2

@@ -113,7 +113,7 @@ def test_dress_squeezed_in_each_mode():
 def test_dress_skirt_band_painted_stiff():
     """The bundled 'sway' pose in rigid mode, a band of the skirt painted stiff with the
     brush (heat map shown while the brush is the tool): the band keeps its shape."""
-    from puppet.app.pick import shown_point
+    from puppet.app.model.pick import shown_point
 
     d = dress_app()
     try:

@@ -59,7 +59,7 @@ def choose(d, key_, item):
 def drag_slider(d, label, a, b):
     """Drag slider ``label`` from fraction ``a`` to ``b`` of its noted rectangle (which
     holds the label right of the frame), settling at each step."""
-    from puppet.app.widgets import RECTS
+    from puppet.app.ui.widgets import RECTS
 
     x0, y0, x1, y1 = RECTS[label]
     y = (y0 + y1) / 2
@@ -126,7 +126,7 @@ def test_stiffness_brush_paints_one_step_and_stiffens_the_band(arm_app):
     d.app.deform.brush = 60.0
     n = steps(d)
     shown = layer(d, "arm")
-    from puppet.app.pick import shown_point as shown_at
+    from puppet.app.model.pick import shown_point as shown_at
 
     # paint the band x 150..180 across the arm, where the posed arm shows it
     path = [d.screen_of(shown_at(shown, (x, 55.0))) for x in (150.0, 160.0, 170.0, 180.0)]

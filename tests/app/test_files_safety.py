@@ -13,7 +13,8 @@ import pytest
 from pyglet.window import key
 
 import puppet
-from puppet.app import autosave, masktools
+from puppet.app.model import autosave
+from puppet.app.tools import mask as masktools
 from puppet.output import OutputError
 from tests.app.harness import Driver, widget
 from tests.cli.outputs_helpers import bounded  # noqa: F401  (the fixture)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from puppet.app import history_panel
+from puppet.app.ui import history_panel
 from tests.app.harness import Driver, widget
 from tests.conftest import bar_image, bar_scene
 

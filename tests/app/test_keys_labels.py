@@ -8,7 +8,7 @@ import os
 import pytest
 from pyglet.window import key
 
-from puppet.app import menus
+from puppet.app.ui import menus
 from tests.app.harness import Driver, widget
 from tests.app.test_timeline import Clock, row_y, scrub, tx
 from tests.conftest import bar_image, bar_scene

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from puppet.app.window import MIN_SIZE
+from puppet.app.gl.window import MIN_SIZE
 from tests.app.harness import Driver, widget
 from tests.conftest import bar_image, bar_scene
 
@@ -31,7 +31,7 @@ def test_minimum_size_is_set_and_smaller_sizes_are_raised_to_it(make_scene):
 
 
 def test_every_toolbar_control_works_at_the_minimum_size(small):
-    from puppet.app.widgets import RECTS
+    from puppet.app.ui.widgets import RECTS
 
     d = small
     app = d.app
@@ -72,7 +72,7 @@ def test_every_toolbar_control_works_at_the_minimum_size(small):
 
 
 def test_a_wide_window_keeps_one_row(make_scene):
-    from puppet.app.widgets import RECTS
+    from puppet.app.ui.widgets import RECTS
 
     d = Driver(make_scene(bar_scene(), {"bar.png": bar_image()}), size=(1400, 800))
     try:
@@ -111,7 +111,7 @@ def test_pins_are_ringed_dark_and_light(small):
 
 
 def test_timeline_top_edge_drags_its_height(small):
-    from puppet.app.timeline_panel import MIN_HEIGHT
+    from puppet.app.ui.timeline_panel import MIN_HEIGHT
 
     d = small
     app, panel = d.app, d.w.timeline_panel

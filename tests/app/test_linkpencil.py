@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from pyglet.window import key
 
-from puppet.app import linkpencil
-from puppet.app.overlay import LINK
-from puppet.scene.links import clip_masks, clip_segment, link_parts
+from puppet.app.tools import link as linkpencil
+from puppet.app.ui.overlay import LINK
+from puppet.scene.rig.links import clip_masks, clip_segment, link_parts
 from tests.app.harness import Driver, widget
 from tests.conftest import bar_image as img
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.app import masktools as mt
+from puppet.app.tools import mask as mt
 from puppet.imaging.masks import canvas_to_image
 
 

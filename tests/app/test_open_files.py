@@ -13,8 +13,9 @@ import os
 import numpy as np
 import pytest
 
-from puppet.app import actions, recent, startpage
-from puppet.app.widgets import RECTS
+from puppet.app.model import recent
+from puppet.app.ui import actions, start_page as startpage
+from puppet.app.ui.widgets import RECTS
 from tests import artfiles
 from tests.app.harness import Driver, widget
 from tests.conftest import SCENES
@@ -161,7 +162,7 @@ def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
     d.settle()
     d.app.save()
     d.settle()
-    from puppet.app.opening import from_art
+    from puppet.app.model.opening import from_art
 
     res = from_art(str(art))  # `puppet app gbot.psd` again: the saved scene still counts as made from it
     assert res.scene == str(scene_file) and res.replaced == artfiles.NAMES
@@ -170,7 +171,7 @@ def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
 def test_art_newer_than_its_scene_is_offered_at_once(tmp_path, config):
     art = tmp_path / "gbot.psd"
     artfiles.write_psd(str(art))
-    from puppet.app.opening import from_art
+    from puppet.app.model.opening import from_art
 
     scene = from_art(str(art)).scene
     st = os.stat(scene)
@@ -245,7 +246,7 @@ def test_dropping_several_files_on_unsaved_changes_asks_first(bar_app, tmp_path)
 def test_app_art_is_checked_kept_through_save_as_and_may_be_gone(tmp_path):
     import puppet
     from puppet.errors import SceneError
-    from puppet.scene.artreload import art_of
+    from puppet.scene.make.art import art_of
     from tests.conftest import bar_image, bar_scene, write_rgba
 
     write_rgba(tmp_path / "bar.png", bar_image())

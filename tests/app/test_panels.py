@@ -52,7 +52,7 @@ def test_mesh_slider_remeshes_only_that_layer_live_in_one_step(two_bars):
     blue_mesh = scene.built.meshes[1]
     red_tris = len(scene.built.meshes[0].F)
     steps = len(scene.history.undo_stack)
-    from puppet.app.widgets import RECTS
+    from puppet.app.ui.widgets import RECTS
 
     x0, y0, x1, y1 = RECTS["slider:triangle size"]  # the label is right of the slider's frame
     y = (y0 + y1) / 2

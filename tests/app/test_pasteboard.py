@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from puppet.app.canvas import PASTEBOARD as BOARD, PASTEBOARD_DIM
+from puppet.app.gl.canvas import PASTEBOARD as BOARD, PASTEBOARD_DIM
 from tests.app.harness import Driver
 from tests.conftest import bar_image, bar_scene
 

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from puppet.app.record import Recording, dedupe_times, replay, simplify_path, synchronised_errors
+from puppet.app.model.record import Recording, dedupe_times, replay, simplify_path, synchronised_errors
 
 
 def test_synchronised_error_hand_checked():

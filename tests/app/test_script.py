@@ -15,7 +15,7 @@ from PIL import Image
 from pyglet.window import key
 
 import puppet
-from puppet.app.widgets import RECTS
+from puppet.app.ui.widgets import RECTS
 from tests.app.harness import Driver, widget
 
 pytestmark = pytest.mark.gl

@@ -8,8 +8,8 @@ import time
 import numpy as np
 import pytest
 
-from puppet.app.session import SceneSession
-from puppet.scene.drag import base_pose, pose_with
+from puppet.app.model.session import SceneSession
+from puppet.scene.drag.session import base_pose, pose_with
 from tests.conftest import bar_image, bar_scene
 
 

@@ -7,8 +7,9 @@ import os
 
 import pytest
 
-from puppet.app import files, recent
-from puppet.app.widgets import RECTS
+from puppet.app.model import recent
+from puppet.app.ui import files
+from puppet.app.ui.widgets import RECTS
 from tests.app.harness import Driver, widget
 from tests.conftest import SCENES, bar_image, bar_scene
 

@@ -50,7 +50,7 @@ def copy_scene(name: str, folder) -> str:
     """A bundled scene copied with its files' folders resolved (paths made absolute)."""
     with open(os.path.join(SCENES, name)) as f:
         raw = json.load(f)
-    from puppet.scene.document import map_paths
+    from puppet.scene.format.write import map_paths
 
     raw = map_paths(raw, lambda p: os.path.normpath(os.path.join(SCENES, p)))
     path = os.path.join(folder, name)

@@ -10,7 +10,7 @@ import pytest
 from puppet.api import Scene
 from puppet.batch.template import NUDGE, NoMatch, Template, _on_mask, transfer
 from puppet.errors import ImageError, SceneError
-from puppet.scene.load import load_scene_data
+from puppet.scene.format.load import load_scene_data
 from tests.batch import garments as G
 
 TEMPLATE = G.TSHIRT_TEMPLATE
@@ -169,7 +169,7 @@ def test_threshold_template_exterior_pins_and_layer_choice(tmp_path, pictures):
     and automatic exterior points moved by a pose."""
     from PIL import Image
 
-    from puppet.scene.exterior import auto_points
+    from puppet.scene.rig.exterior import auto_points
 
     flat = Image.new("RGBA", (512, 512), (255, 255, 255, 255))
     flat.alpha_composite(Image.open(G.TSHIRT).convert("RGBA"))

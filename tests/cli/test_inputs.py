@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import os
 
-from puppet.scene.inputs import input_files
-from puppet.scene.load import load_scene_data
+from puppet.scene.format.inputs import input_files
+from puppet.scene.format.load import load_scene_data
 from tests.cli.outputs_helpers import make_bar
 
 

@@ -211,7 +211,7 @@ def test_update_and_links_are_refused_for_a_flat_picture(tmp_path, capsys):
 
 
 def test_app_on_art_makes_then_updates_the_scene_beside_it(tmp_path, capsys):
-    from puppet.app.opening import preload as _scene_from_art  # what `puppet app ART` runs first
+    from puppet.app.model.opening import preload as _scene_from_art  # what `puppet app ART` runs first
     from puppet.errors import SceneError
 
     art = tmp_path / "gbot.psd"

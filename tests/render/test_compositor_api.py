@@ -256,7 +256,7 @@ def test_split_stages_inserts_defines_after_version():
 def test_a_layer_drawn_from_its_box_looks_as_drawn_from_its_whole_image(comp):
     """LayerImage.drawn (the box of nonzero alpha with a transparent border) gives the
     same frame as the whole image: clamped sampling reads the same zeros beyond the box."""
-    from puppet.scene.build import LayerImage
+    from puppet.scene.rig.build import LayerImage
     from tests.render.scenes import disc_image
 
     whole = np.zeros((48, 64, 4), np.uint8)

@@ -2,7 +2,7 @@
 import numpy as np
 
 from puppet.imaging.layered import ArtLayer
-from puppet.scene.autolinks import link_segment, propose_links
+from puppet.scene.make.auto_links import link_segment, propose_links
 
 
 def rect(name, x0, y0, x1, y1):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from puppet.errors import SceneError
-from puppet.scene.document import Document
+from puppet.scene.document.core import Document
 from tests.scene.test_editing import bars, reloaded, same_layers, three_bars  # noqa: F401
 
 

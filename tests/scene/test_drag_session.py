@@ -8,8 +8,8 @@ import pytest
 
 from puppet.deform import factor
 from puppet.errors import SceneError
-from puppet.scene.document import Document
-from puppet.scene.drag import base_pose, pose_with
+from puppet.scene.document.core import Document
+from puppet.scene.drag.session import base_pose, pose_with
 from tests.conftest import SCENES
 
 
@@ -210,7 +210,7 @@ def test_released_drag_refuses_more(trex):
 
 
 def test_reduced_rgba_averages_premultiplied():
-    from puppet.scene.build import reduced_rgba
+    from puppet.scene.rig.build import reduced_rgba
 
     a = np.zeros((4, 6, 4), np.uint8)
     a[0, 0] = (255, 0, 0, 255)  # one opaque red texel among three transparent (black) ones
@@ -286,7 +286,7 @@ def test_a_drag_on_the_scene_thread_gives_the_same_numbers():
 
 
 def test_a_big_group_is_previewed_on_its_proxy(monkeypatch):
-    from puppet.scene import proxy
+    from puppet.scene.rig import proxy
 
     monkeypatch.setattr(proxy, "PROXY_MIN", 500)  # the horse's one group counts as big
     monkeypatch.setattr(proxy, "PROXY_VERTICES", 300)
@@ -317,7 +317,7 @@ def test_a_big_group_is_previewed_on_its_proxy(monkeypatch):
 
 @pytest.mark.parametrize("mode", ["similar", "distort"])
 def test_a_big_group_in_another_mode_is_previewed_on_its_own_mesh(monkeypatch, mode):
-    from puppet.scene import proxy
+    from puppet.scene.rig import proxy
 
     monkeypatch.setattr(proxy, "PROXY_MIN", 500)  # the horse's one group would count as big
     monkeypatch.setattr(proxy, "PROXY_VERTICES", 300)
@@ -333,7 +333,7 @@ def test_a_big_group_in_another_mode_is_previewed_on_its_own_mesh(monkeypatch, m
 
 @pytest.fixture(scope="module")
 def solver_process():
-    from puppet.scene.dragproc import DragProcess
+    from puppet.scene.drag.process import DragProcess
 
     proc = DragProcess()
     yield proc
@@ -378,7 +378,7 @@ def test_the_solver_process_gives_the_same_numbers(solver_process, names, kw):
 
 
 def test_without_its_process_a_drag_solves_itself(trex):
-    from puppet.scene.dragproc import DragProcess
+    from puppet.scene.drag.process import DragProcess
 
     proc = DragProcess()
     proc.close()
@@ -400,7 +400,7 @@ def test_key_pins(trex):
 
 
 def test_a_solver_process_that_dies_mid_drag(trex):
-    from puppet.scene.dragproc import DragProcess
+    from puppet.scene.drag.process import DragProcess
 
     proc = DragProcess()
     try:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import puppet
-from puppet.scene.document import Document
+from puppet.scene.document.core import Document
 from tests.conftest import bar_image
 
 

@@ -330,8 +330,8 @@ def test_stiffness_image_must_match_the_layer(make_scene):
 
 
 def test_saved_elsewhere_keeps_the_stiffness_image(make_scene, tmp_path):
-    from puppet.scene.document import Document
-    from puppet.scene.inputs import input_files
+    from puppet.scene.document.core import Document
+    from puppet.scene.format.inputs import input_files
 
     path = make_scene(strip_scene("paint"), strip_images())
     doc = Document.load(path)

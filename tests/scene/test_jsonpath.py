@@ -7,8 +7,8 @@ import re
 import numpy as np
 import pytest
 
-from puppet.scene.jsonpath import Structure
-from puppet.scene.schema import join
+from puppet.scene.format.jsonpath import Structure
+from puppet.scene.format.schema import join
 
 _TOKEN = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"|[{}\[\],:]|[^\s{}\[\],:"]+', re.DOTALL)
 

@@ -84,7 +84,7 @@ def test_older_scenes_load_and_pose_exactly_as_before():
     """Every bundled animated scene (pose keys only): the per-pin tracks are the v1 ones
     (every interior pin set by every key, from its pose's table), and an empty overrides
     map on every key changes nothing."""
-    from puppet.scene import evaluate as ev
+    from puppet.scene.time import evaluate as ev
 
     for f in sorted(os.listdir(SCENES)):
         path = os.path.join(SCENES, f)

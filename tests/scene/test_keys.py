@@ -9,7 +9,7 @@ from PIL import Image
 
 import puppet
 from puppet.errors import SceneError
-from puppet.scene.timeline import bezier_ease, ease
+from puppet.scene.time.timeline import bezier_ease, ease
 from tests.conftest import bar_image, bar_scene
 
 LEFT, RIGHT = np.array([15.0, 20.0]), np.array([105.0, 20.0])
@@ -306,7 +306,7 @@ def test_rigid_frames_depend_only_on_keys_and_time(tmp_path):
 def test_linear_interpolate_is_the_v1_blend(make_scene):
     """With "inbetween": "linear", "depth": "interpolate" a v1 animation's frames are the
     v1 ones: the eased blend of the two poses around t, solved."""
-    from puppet.scene import evaluate as ev
+    from puppet.scene.time import evaluate as ev
 
     s = bar_scene()
     s["poses"]["deep"] = {"right": {"to": [95, 30], "angle": 20, "depth": 4}, "left": [18, 22]}

@@ -1,12 +1,12 @@
 """Clipping a link segment twice changes nothing: the app's link pencil stores the part
-that :func:`puppet.scene.links.clip_segment` keeps, and a scene holding that part builds
+that :func:`puppet.scene.rig.links.clip_segment` keeps, and a scene holding that part builds
 and renders exactly as one holding the segment as drawn (what the engine does with old
 scenes is unchanged)."""
 from __future__ import annotations
 
 import numpy as np
 import puppet
-from puppet.scene.links import clip_masks, clip_segment
+from puppet.scene.rig.links import clip_masks, clip_segment
 from tests.scene.test_fit_modes import arm_images, arm_scene
 
 

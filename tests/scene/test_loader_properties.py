@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 from hypothesis import given
 
 from puppet.errors import SceneError
-from puppet.scene.load import load_scene_data
+from puppet.scene.format.load import load_scene_data
 from tests.conftest import ROOT, SCENES
 
 settings.register_profile("puppet-ci", max_examples=60, derandomize=True, deadline=None, database=None,

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from puppet.scene.model import Animation, Key
-from puppet.scene.timeline import ease, frame_times, segment_at
+from puppet.scene.format.model import Animation, Key
+from puppet.scene.time.timeline import ease, frame_times, segment_at
 
 
 def test_ease_shapes():

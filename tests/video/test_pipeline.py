@@ -134,7 +134,7 @@ def test_clean_mask_fills_holes_and_drops_specks():
 def test_threshold_segmenter_follows_the_character(dx):
     from types import SimpleNamespace
 
-    from puppet.scene.model import Mask
+    from puppet.scene.format.model import Mask
     from puppet.video.segment import Segmenter
 
     layer = SimpleNamespace(mask=Mask("threshold", threshold=150), offset=(0.0, 0.0), index=0, name="body")
@@ -146,7 +146,7 @@ def test_threshold_segmenter_follows_the_character(dx):
 def test_grabcut_segmenter_is_seeded_from_the_previous_frame():
     from types import SimpleNamespace
 
-    from puppet.scene.model import Mask
+    from puppet.scene.format.model import Mask
     from puppet.video.segment import Segmenter
 
     def rgba(dx):

@@ -1,0 +1,78 @@
+"""Canvas tools: plain generator functions over (app, event), like napari's mouse drag
+callbacks. A tool is called with the press event, and each later event (``drag``, then
+``release``) is sent into it with ``gen.send(event)``; it returns after the release.
+
+- :func:`pan_tool`: middle drag, or Space + drag.
+- :func:`pin_tool` (Pin mode, the rest pose): click adds a pin, drag moves pins,
+  Alt-click removes one, Shift-click extends the selection.
+- Pose mode's tool is :func:`puppet.app.tools.gestures.pose_tool`, beside the pin drag
+  gesture it runs (so a pose drag goes through one module from the press to the App).
+"""
+from __future__ import annotations
+
+from puppet.app.tools import anim as animtools, deform as deformtools
+from puppet.app.tools.gestures import CanvasEvent, delta, moved, offset, pose_tool, remove_on_click
+
+
+def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
+    """The tool for a press: pan for the middle button or Space, else the mode's tool."""
+    if ev.button == 2 or (ev.button == 0 and space_down):
+        return pan_tool
+    if ev.button != 0:
+        return None
+    step_tool = app.script.canvas_tool(app)  # the task script's mask, clone and link tools
+    if step_tool is not None:
+        return step_tool
+    deform_tool = deformtools.canvas_tool(app)  # stiffness brush, hinge, patch (Deform panel)
+    if deform_tool is not None:
+        return deform_tool
+    app.timeline.focus = False
+    if app.mode == "pose":
+        anim_tool = animtools.choose(app, ev)  # keying at the playhead, record mode
+        if anim_tool is not None:
+            return anim_tool
+    return pin_tool if app.mode == "pin" else pose_tool
+
+
+def pan_tool(app, ev: CanvasEvent):
+    last = ev.pos
+    while ev.type != "release":
+        ev = yield
+        app.view.pan(ev.pos[0] - last[0], ev.pos[1] - last[1])
+        last = ev.pos
+
+
+def pin_tool(app, press: CanvasEvent):
+    m = app.marker_at(press.pos)
+    if press.alt:
+        if m is not None:
+            if (yield from remove_on_click(app, press, m)):
+                app.say("pins turn in Pose mode (an angle belongs to a pose)")
+        return
+    if m is None:
+        name = app.add_pin_at(press.xy)
+        if name is None:
+            return
+        start = {name: tuple(press.xy)}
+    elif m.kind == "auto":
+        app.select(m.name, press.shift)
+        app.say(f"{m.name} is an automatic exterior point: move it in Pose mode")
+        return
+    else:
+        app.select(m.name, press.shift)
+        if m.name not in app.selection:
+            return
+        start = {n: app.marker_xy(mk) for n in app.selection
+                 if (mk := app.marker(n)) is not None and mk.kind != "auto"}
+    ev, went = press, False
+    while ev.type != "release":
+        ev = yield
+        went = went or moved(ev, press)
+        if went:
+            app.follow_pointer(offset(start, delta(app, ev, press)))
+    if went:
+        app.move_pins(dict(app.overrides))
+    elif m is None:
+        app.overrides = {}
+    elif not press.shift:
+        app.selection = [m.name]  # a plain click selects only that pin

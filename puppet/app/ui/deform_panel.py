@@ -1,0 +1,170 @@
+"""The Deform panel (issue 22): the scene's deformation mode and the selected layer's,
+the tools of :mod:`puppet.app.tools.deform` (stiffness brush, hinge, patch), the heat map,
+starch pins and their radius, and the selected link's strength."""
+from __future__ import annotations
+
+from imgui_bundle import imgui
+
+from puppet.app.tools import deform as deformtools
+from puppet.app.ui.widgets import button, live, note, toggle
+from puppet.scene.format.model import MODES
+
+MODE_TIPS = {
+    "rigid": "as-rigid-as-possible: parts bend but keep their size (the default)",
+    "similar": "as-similar-as-possible: parts may grow or shrink evenly (fitting a garment to a smaller body)",
+    "distort": "stretchy: parts may stretch and shear (an affine fit per cell)",
+}
+TOOL_LABELS = (("none", None, "the mode's own tool (pins)"),
+               ("brush", "stiffness", "paint stiffness into the layer (Alt: erase); one undo step a stroke"),
+               ("hinge", "hinge", "click where two layers overlap: they share a point and turn about it"),
+               ("patch", "patch", "click the corners of a shared patch; click the first point to close it"))
+
+
+def link_step_tools(app) -> None:
+    """The hinge and patch tools again under the Link step's pencil (the Deform panel is
+    below the fold at 1280x800 in that step: a first user scrolled, opened it and scrolled
+    again to find the hinge)."""
+    st = deformtools.state(app)
+    deformtools.sync(app)
+    imgui.text("or:")
+    for label, tool, tip in TOOL_LABELS[2:]:
+        imgui.same_line()
+        if imgui.radio_button(f"{label.capitalize()}##link-step", st.tool == tool):
+            deformtools.choose(app, tool)
+            app.say(f"{label}: {tip}")
+        imgui.set_item_tooltip(tip + " (also in the Deform panel)")
+        note(f"link-step:{label}")
+    imgui.separator()
+
+
+def panel(app) -> None:
+    """Draw the Deform panel's contents (under its collapsing header)."""
+    snap, st = app.snap, deformtools.state(app)
+    deformtools.sync(app)
+    modes(app)
+    imgui.separator()
+    imgui.text("tool:")
+    for label, tool, tip in TOOL_LABELS:
+        imgui.same_line()
+        if imgui.radio_button(f"{label}##deform-tool", st.tool == tool):
+            deformtools.choose(app, tool)
+            app.say(f"{label}: {tip}")
+        imgui.set_item_tooltip(tip)
+        note(f"deform-tool:{label}")
+    if st.tool == "stiffness":
+        _, st.brush = imgui.slider_float("brush size##stiffness", st.brush, 2.0, 300.0, "%.0f px",
+                                         imgui.SliderFlags_.logarithmic)
+        imgui.set_item_tooltip("the stiffness brush's diameter, canvas pixels")
+        note("slider:stiffness brush")
+        _, st.value = imgui.slider_int("stiffness##value", st.value, 0, 255)
+        imgui.set_item_tooltip("grey the brush paints: 0 normal .. 255 stiffest (Alt-drag erases to 0)")
+        note("slider:stiffness value")
+        k = app.layer_index(app.selected_layer)
+        if button("Clear stiffness", "remove the selected layer's painted stiffness",
+                  enabled=k is not None and snap.data.layers[k].stiffness is not None):
+            name = app.selected_layer
+            app.edit(lambda s: s.set_layer(name, stiffness=None))
+    if st.tool == "patch" and st.draft:
+        if button("Close patch", "the drafted polygon becomes a shared patch", enabled=len(st.draft) >= 3):
+            deformtools.close_patch(app)
+        imgui.same_line()
+        if button("Cancel patch", "forget the drafted points"):
+            deformtools.cancel_patch(app)
+    app.show_stiffness = toggle("stiffness heat map", getattr(app, "show_stiffness", False),
+                                "draw the stiffness the solver sees (paint, starch pins, patches) in red")
+    imgui.separator()
+    starch(app)
+    imgui.separator()
+    links(app)
+
+
+def modes(app) -> None:
+    """The scene's mode and the selected layer's (or "scene default")."""
+    snap = app.snap
+    cur = snap.data.deformer.mode
+    imgui.set_next_item_width(140)
+    i = combo("scene mode", "scene mode", list(MODES), MODES.index(cur),
+              "\n".join(f"{m}: {MODE_TIPS[m]}" for m in MODES))
+    if i is not None:
+        m = MODES[i]
+        app.edit(lambda s: s.set_deformer(mode=m))
+    k = app.layer_index(app.selected_layer)
+    if k is None:
+        imgui.text_disabled("select a layer for its own mode")
+        return
+    L = snap.data.layers[k]
+    items = ["scene default"] + list(MODES)
+    imgui.set_next_item_width(140)
+    i = combo(f"{L.name} mode", "layer mode", items, items.index(L.mode or "scene default"),
+              "this layer's deformation mode (overrides the scene's)")
+    if i is not None:
+        value = None if i == 0 else {"mode": items[i]}
+        name = L.name
+        app.edit(lambda s: s.set_layer(name, deformer=value))
+
+
+def combo(label: str, key: str, items, current: int, tip: str) -> int | None:
+    """A combo box whose items are noted as ``key:item`` (tests click them); the chosen
+    index when it changed, else None."""
+    out = None
+    opened = imgui.begin_combo(label, items[current])
+    imgui.set_item_tooltip(tip)
+    note(f"combo:{key}")
+    if opened:
+        for i, item in enumerate(items):
+            clicked, _ = imgui.selectable(f"{item}##{key}", i == current)
+            note(f"{key}:{item}")
+            if clicked and i != current:
+                out = i
+        imgui.end_combo()
+    return out
+
+
+def starch(app) -> None:
+    """Starch pins: the Pin tool's kind, and the selected starch pin's radius."""
+    on = app.pin_kind == "starch"
+    new = toggle("new pins are starch", on, "Pin mode: a click adds a starch pin, which stiffens the region "
+                                            "around it and holds no position (not draggable in poses)")
+    if new != on:
+        app.pin_kind = "starch" if new else "interior"
+        if new:
+            app.set_mode("pin")
+    pins = {p.name: p for p in app.snap.data.pins}
+    p = pins.get(app.selection[0]) if len(app.selection) == 1 else None
+    if p is not None and p.kind == "starch":
+        from puppet.scene.rig.stiffness import STARCH_RADIUS
+
+        changed, r = imgui.slider_float(f"{p.name} radius", p.radius or STARCH_RADIUS, 4.0, 400.0, "%.0f px",
+                                        imgui.SliderFlags_.logarithmic)
+        imgui.set_item_tooltip("how far the starch pin stiffens the layer around it")
+        note("slider:starch radius")
+        live(app, "starch", f"radius of {p.name}")
+        if changed:
+            name = p.name
+            app.edit(lambda s, r=float(r): s.set_pin_radius(name, r), key="starch-live")
+
+
+def links(app) -> None:
+    """The scene's links (select one) and the selected link's strength."""
+    st, data = deformtools.state(app), app.snap.data
+    if not data.links:
+        imgui.text_disabled("no links (hinge or patch two layers, or draw a segment)")
+        return
+    for link in data.links:
+        a, b = link.layers
+        text = f"{a} + {b}: {len(link.segments)} seg, {len(link.points)} hinge, {len(link.polygons)} patch"
+        clicked, _ = imgui.selectable(f"{text}##link-{a}-{b}", st.link is not None and set(st.link) == {a, b})
+        note(f"link:{a}+{b}")
+        if clicked:
+            st.link = (a, b)
+    link = next((x for x in data.links if st.link is not None and set(x.layers) == set(st.link)), None)
+    if link is None:
+        imgui.text_disabled("select a link for its strength")
+        return
+    a, b = link.layers
+    changed, v = imgui.slider_float("strength##link", link.strength, 0.0, 1.0, "%.2f")
+    imgui.set_item_tooltip("coupling across the link: 1 holds the layers together, 0 lets them part")
+    note("slider:link strength")
+    live(app, "strength", f"strength of {a}+{b}")
+    if changed:
+        app.edit(lambda s, v=float(v): s.set_link_strength(a, b, v), key="strength-live")

@@ -1,0 +1,107 @@
+"""What is drawn over the canvas with ImGui's draw list: pins (interior, exterior and
+automatic exterior points in their own colours, selected ones ringed, names on hover),
+link segments, and the depth legend."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from imgui_bundle import imgui
+
+from puppet.app.model import pick
+
+#: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points, starch pins
+COLOURS = {"interior": (1.0, 0.85, 0.1, 1.0), "exterior": (0.2, 0.75, 1.0, 1.0), "auto": (0.55, 0.85, 1.0, 0.9),
+           "starch": (0.92, 0.92, 0.92, 1.0)}
+SELECTED = (1.0, 0.25, 0.2, 1.0)
+LINK = (0.1, 0.9, 0.35, 1.0)
+
+
+def col(rgba) -> int:
+    return imgui.color_convert_float4_to_u32(imgui.ImVec4(*rgba))
+
+
+def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
+    """Pins as filled dots with a dark outline and a light ring round it (they show on any
+    colour); selected pins ringed in red; the hovered
+    pin's name next to it; the turning pin's angle as a tick."""
+    view = app.view
+    dark = col((0.0, 0.0, 0.0, 0.85))
+    light = col((1.0, 1.0, 1.0, 0.85))
+    for m in app.markers():
+        x, y = view.to_screen(app.marker_xy(m))
+        c = col(COLOURS[m.kind])
+        r = 4.0 if m.kind == "auto" else 5.5
+        if m.kind == "auto":
+            dl.add_circle(imgui.ImVec2(x, y), r + 1, dark, 0, 3.0)
+            dl.add_circle(imgui.ImVec2(x, y), r, c, 0, 2.0)
+        elif m.kind == "starch":  # a square: it stiffens, it holds no position
+            dl.add_rect_filled(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), c)
+            dl.add_rect(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), dark, 0.0, 1.5)
+        elif m.kind == "exterior":  # a diamond
+            pts = [imgui.ImVec2(x, y - r - 1), imgui.ImVec2(x + r + 1, y), imgui.ImVec2(x, y + r + 1),
+                   imgui.ImVec2(x - r - 1, y)]
+            dl.add_quad_filled(*pts, c)
+            dl.add_quad(*pts, dark, 1.5)
+        else:
+            dl.add_circle_filled(imgui.ImVec2(x, y), r, c)
+            dl.add_circle(imgui.ImVec2(x, y), r, dark, 0, 1.5)
+        if m.kind != "auto":  # a light ring round the dark outline: the pin shows on any colour
+            dl.add_circle(imgui.ImVec2(x, y), r + (3.0 if m.kind != "interior" else 2.0), light, 0, 1.5)
+        if app.mode == "pose" and m.kind in ("interior", "exterior"):
+            a = app.target_angle(m.name)
+            if a:
+                t = math.radians(a)
+                dl.add_line(imgui.ImVec2(x, y), imgui.ImVec2(x + 14 * math.cos(t), y - 14 * math.sin(t)), c, 2.0)
+        if m.name in app.selection:
+            dl.add_circle(imgui.ImVec2(x, y), r + 5.5, col(SELECTED), 0, 2.0)
+    if hovered is not None:
+        x, y = view.to_screen(app.marker_xy(hovered))
+        label = f"{hovered.name} ({hovered.kind})" if hovered.kind != "interior" else hovered.name
+        layer = app.snap.data.layers[hovered.layer].name if app.snap.loaded else ""
+        text = f"{label} on {layer}"
+        size = imgui.calc_text_size(text)
+        p0 = imgui.ImVec2(x + 10, y - size.y - 8)
+        dl.add_rect_filled(p0, imgui.ImVec2(p0.x + size.x + 8, p0.y + size.y + 4), col((0.1, 0.1, 0.1, 0.85)), 3.0)
+        dl.add_text(imgui.ImVec2(p0.x + 4, p0.y + 2), col((1, 1, 1, 1)), text)
+
+
+def link_segments(app) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Every link segment as drawn in the shown pose: its ends carried by the first
+    layer's mesh (rest -> shown through the triangle that holds them)."""
+    snap = app.snap
+    out = []
+    for link in snap.data.links:
+        k = app.layer_index(link.layers[0])
+        if k is None:
+            continue
+        r = snap.layers[k]
+        for seg in link.segments:
+            ends = [shown_point(r, p) for p in np.asarray(seg, float)]
+            if all(e is not None for e in ends):
+                out.append((ends[0], ends[1]))
+    return out
+
+
+shown_point = pick.shown_point  # where a layer result shows a rest point (None when off its mesh)
+
+
+def draw_links(dl, app) -> None:
+    c = col(LINK)
+    for a, b in link_segments(app):
+        pa, pb = app.view.to_screen(a), app.view.to_screen(b)
+        dl.add_line(imgui.ImVec2(*pa), imgui.ImVec2(*pb), col((0, 0, 0, 0.8)), 5.0)
+        dl.add_line(imgui.ImVec2(*pa), imgui.ImVec2(*pb), c, 3.0)
+
+
+def draw_depth_legend(dl, app, lo: float, hi: float) -> None:
+    x, y = app.area[0] + 10, app.area[1] + app.area[3] - 30
+    w = 160
+    stops = [(0.15, 0.25, 0.85), (0.1, 0.8, 0.85), (0.95, 0.85, 0.15), (0.9, 0.15, 0.1)]
+    for i in range(3):
+        a, b = col((*stops[i], 1)), col((*stops[i + 1], 1))
+        dl.add_rect_filled_multi_color(imgui.ImVec2(x + i * w / 3, y), imgui.ImVec2(x + (i + 1) * w / 3, y + 10),
+                                       a, b, b, a)
+    white = col((1, 1, 1, 1))
+    dl.add_text(imgui.ImVec2(x, y + 12), white, f"back {lo:g}")
+    dl.add_text(imgui.ImVec2(x + w - 60, y + 12), white, f"front {hi:g}")

@@ -1,0 +1,413 @@
+"""The task script (the layered-deformation paper's workflow, §4): Image -> Layers -> Link
+-> Pins -> Deform -> Pose, as a bar of step buttons. Each step chooses the canvas tool
+and the panel that make sense; any step can be revisited (the scene re-meshes only what
+an edit touched, so later steps keep working).
+
+- Image: the first layer's mask: alpha, a brightness threshold (slider), GrabCut from a
+  dragged rectangle, brush add / subtract.
+- Layers: + / - layers; the lasso, rectangle and clone brush make a Layer via Cut or Copy of
+  the selected layer, or clone from the picture into it; erase,
+  repaint with a colour, inpainting method with a before / after preview.
+- Link: two layers, their mask intersection tinted, a pencil for link segments (the part
+  of a segment inside the intersection is kept, shown while it drags).
+- Pins: the Pin tool, plus automatic exterior points (beta slider, live).
+- Deform: meshes built and shown, Pose mode.
+"""
+from __future__ import annotations
+
+import numpy as np
+from imgui_bundle import imgui
+
+from puppet.app.tools import link as linkpencil, mask as masktools
+from puppet.app.ui.widgets import RECTS, button, live, note
+
+STEPS = ("image", "layers", "link", "pins", "deform", "pose")
+LABELS = {"image": "Image", "layers": "Layers", "link": "Link", "pins": "Pins", "deform": "Deform", "pose": "Pose"}
+TIPS = {"image": "the first layer's mask: threshold, alpha, GrabCut, brush",
+        "layers": "make layers: cut (or copy) parts into new layers, clone, erase, paint, inpaint",
+        "link": "tie two overlapping layers: link segments across the overlap, or a hinge or patch",
+        "pins": "pins and exterior control points on the rest pose",
+        "deform": "build the meshes and start posing",
+        "pose": "drag pins to pose the puppet"}
+#: the inpainting preview, in thumbnail sizes
+PREVIEW = 3.0
+#: canvas tools of each step: (tool id, label, tooltip)
+TOOLS = {
+    "image": [("brush-add", "Brush +", "paint pixels into the mask"),
+              ("brush-sub", "Brush -", "paint pixels out of the mask"),
+              ("grabcut", "GrabCut box", "drag a rectangle around the object (photos)")],
+    "layers": [("lasso", "Lasso", "drag around a region: Layer via Cut / Copy from the layer, or clone into it"),
+               ("clone-rect", "Rect", "drag a rectangle: Layer via Cut / Copy from the layer, or clone into it"),
+               ("clone-brush", "Clone brush", "brush a region: Layer via Cut / Copy from the layer, or clone into it"),
+               ("erase", "Erase", "brush pixels out of the layer"),
+               ("paint", "Paint", "repaint the layer's pixels with the colour")],
+    "link": [("link", "Pencil", "drag a link segment across the tinted overlap: the part inside it is kept")],
+}
+#: what a selection (lasso, rectangle, clone brush) does to an existing layer: (id, label, tooltip)
+SELECT_OPS = [("cut", "Layer via Cut", "the part becomes a new layer in front; the layer behind loses it "
+                                       "(refilled where it covered the layer's body)"),
+              ("copy", "Layer via Copy", "the part is copied into a new layer in front; the layer behind keeps it"),
+              ("clone", "Clone into layer", "the picture's pixels there are added to the selected layer")]
+
+
+class Script:
+    """Task-script state of the app (which step, tool, brush; drafts drawn on the canvas)."""
+
+    def __init__(self):
+        self.step = "pose"
+        self.tool: str | None = None
+        self.brush = 12.0  # diameter, canvas px
+        self.color = (0.9, 0.3, 0.2, 1.0)
+        self.threshold = 250.0
+        self.beta = 1.0
+        self.pending: str | None = None  # a new layer not yet given pixels
+        self.select_op = "cut"  # what a selection does to an existing layer (SELECT_OPS)
+        self.select_after: str | None = None  # a layer made by a cut / copy, selected once it shows
+        self.layer_name = ""  # the rename field of the Layers step
+        self.show_tint = True
+        self.link_a: str | None = None
+        self.link_b: str | None = None
+        self.draft = None  # points of the gesture in progress
+        self.draft_kind = "brush"
+        self.link_preview: linkpencil.Preview | None = None  # the link segment drawn, what it keeps
+        self.link_masks = None  # ((snapshot version, a, b), masks as the build clips links with)
+        self._tint_key = None
+        self._tint = None
+        self._source = (None, None)
+
+    def source(self, app) -> np.ndarray | None:
+        """The scene's source picture (H, W, 4) uint8, read once per path (main thread)."""
+        path = app.snap.data.source if app.snap.loaded else None
+        if path is None:
+            return None
+        if self._source[0] != path:
+            from puppet.imaging.io import load_rgba
+
+            self._source = (path, load_rgba(path))
+        return self._source[1]
+
+    # -- which layer / tool --------------------------------------------------------------
+    def target_layer(self, app) -> str | None:
+        if self.step == "layers" and self.pending is not None and app.selected_layer in (None, self.pending):
+            return self.pending
+        if app.selected_layer is None and app.snap.loaded and self.step in ("image", "layers"):
+            return app.snap.data.layers[0 if self.step == "image" else -1].name
+        return app.selected_layer
+
+    def free_name(self, app) -> str:
+        """The first ``layerN`` (N >= 2) that no layer (nor the pending one) has."""
+        names = {L.name for L in app.snap.data.layers} | {self.pending}
+        k = 2
+        while f"layer{k}" in names:
+            k += 1
+        return f"layer{k}"
+
+    def brush_op(self) -> str:
+        return {"brush-add": "add", "brush-sub": "sub", "clone-brush": "add", "erase": "sub",
+                "paint": "paint"}.get(self.tool, "add")
+
+    def canvas_tool(self, app):
+        """The tool generator function for a left press in this step (None: the mode's)."""
+        t = self.tool if self.step in TOOLS else None
+        if t in ("brush-add", "brush-sub", "clone-brush", "erase", "paint"):
+            return masktools.brush_tool
+        if t == "lasso":
+            return masktools.lasso_tool
+        if t in ("clone-rect", "grabcut"):
+            return masktools.rect_tool
+        if t == "link":
+            return linkpencil.link_tool
+        return None
+
+    def link_pair(self, app):
+        names = [L.name for L in app.snap.data.layers] if app.snap.loaded else []
+        a = self.link_a if self.link_a in names else (names[0] if names else None)
+        b = self.link_b if self.link_b in names else next((n for n in names if n != a), None)
+        return (a, b) if a is not None and b is not None and a != b else (None, None)
+
+    def layer_mask(self, app, name) -> np.ndarray | None:
+        k = app.layer_index(name)
+        if k is None:
+            return None
+        im = app.snap.images[k]
+        return masktools.on_canvas(im.mask, im.offset, app.snap.canvas)
+
+    def intersection(self, app) -> np.ndarray | None:
+        a, b = self.link_pair(app)
+        if a is None:
+            return None
+        ma, mb = self.layer_mask(app, a), self.layer_mask(app, b)
+        return None if ma is None or mb is None else ma & mb
+
+    def tint(self, app):
+        """The tinted overlay of this step: (key, rgba (H, W, 4), offset) or None. The
+        selected layer's mask (Image, Layers) or the link layers' intersection (Link)."""
+        if not app.snap.loaded or self.step not in ("image", "layers", "link") or not self.show_tint:
+            return None
+        layer = self.target_layer(app) if self.step != "link" else None
+        if layer is not None and layer in app.hidden:  # hidden to see what is behind it: no tint over that
+            return None
+        key = (app.snap.version, self.step, layer, self.link_pair(app) if self.step == "link" else None)
+        if key != self._tint_key:
+            self._tint_key = key
+            m = self.intersection(app) if self.step == "link" else self.layer_mask(app, layer)
+            if m is None:
+                self._tint = None
+            else:
+                rgba = np.zeros(m.shape + (4,), np.uint8)
+                rgba[m] = (40, 220, 90, 110) if self.step == "link" else (255, 40, 160, 60)
+                self._tint = rgba
+        return None if self._tint is None else ("\0tint", self._tint, (0.0, 0.0))
+
+
+# -- steps -----------------------------------------------------------------------------------
+def set_step(app, step: str) -> None:
+    sc = app.script
+    if step not in STEPS:
+        return
+    sc.step = step
+    sc.tool = TOOLS[step][0][0] if step in TOOLS else None
+    sc.link_preview = None
+    if step == "layers" and app.snap.loaded and app.selected_layer is None:
+        app.selected_layer = app.snap.data.layers[-1].name
+    if step in ("image", "layers", "link", "pins"):
+        app.set_mode("pin")
+        app.show_links = step in ("link", "pins") or app.show_links
+        app.show_mesh = False
+    else:
+        app.set_mode("pose")
+        app.show_mesh = step == "deform"
+        if step == "deform":
+            app.build_meshes()  # meshes and solver set-up, on the scene thread
+
+
+def bar(app) -> None:
+    """The step buttons (in the toolbar)."""
+    for k, step in enumerate(STEPS):
+        active = app.script.step == step
+        if active:
+            imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(0.75, 0.45, 0.1, 1.0))
+        if button(f"{k + 1}. {LABELS[step]}" if step != "pose" else LABELS[step], TIPS[step], enabled=app.snap.loaded):
+            app.say(f"{LABELS[step]}: {TIPS[step]}")  # not the last step's message (the Image step's, in Layers)
+            set_step(app, step)
+        note(f"step:{step}")
+        if active:
+            imgui.pop_style_color()
+        imgui.same_line()
+
+
+def panel(app, thumbs) -> None:
+    """The current step's panel (above the others)."""
+    sc = app.script
+    if sc.step == "pose" or not app.snap.loaded:
+        return
+    imgui.text(f"Step: {LABELS[sc.step]}")
+    if sc.step in ("image", "layers", "link"):
+        imgui.same_line()
+        _, sc.show_tint = imgui.checkbox("tint", sc.show_tint)
+        imgui.set_item_tooltip("tint the selected layer's mask (Link: the two layers' intersection)")
+        note("check:tint")
+    imgui.text_wrapped(TIPS[sc.step])
+    for j, (tool, label, tip) in enumerate(TOOLS.get(sc.step, [])):
+        if j % 3:
+            imgui.same_line()
+        if imgui.radio_button(f"{label}##tool", sc.tool == tool):
+            sc.tool = tool
+        imgui.set_item_tooltip(tip)
+        note(f"tool:{tool}")
+    if sc.step in ("image", "layers"):
+        _, sc.brush = imgui.slider_float("brush size", sc.brush, 1.0, 120.0, "%.0f px")
+        imgui.set_item_tooltip("brush diameter in picture pixels")
+        note("slider:brush size")
+    {"image": _image, "layers": _layers, "link": _link, "pins": _pins, "deform": _deform}[sc.step](app, thumbs)
+    imgui.separator()
+
+
+def _image(app, thumbs) -> None:
+    sc, snap = app.script, app.snap
+    name = snap.data.layers[0].name
+    imgui.text(f"mask of {name}:")
+    imgui.same_line()
+    if button("Alpha", "the picture's transparency"):
+        app.edit(lambda s: s.set_mask(name, "alpha"))
+    changed, sc.threshold = imgui.slider_float("threshold", sc.threshold, 1.0, 255.0, "%.0f")
+    imgui.set_item_tooltip("pixels darker than this are the object (live)")
+    note("slider:threshold")
+    a = imgui.get_item_rect_min()
+    RECTS["frame:threshold"] = (a.x, a.y, a.x + imgui.calc_item_width(), imgui.get_item_rect_max().y)
+    live(app, "threshold", f"threshold mask of {name}")
+    if changed:
+        app.edit(lambda s, t=float(sc.threshold): s.set_mask(name, {"threshold": t}), key="threshold-live")
+
+
+def _layers(app, thumbs) -> None:
+    sc, snap = app.script, app.snap
+    if sc.select_after is not None and app.layer_index(sc.select_after) is not None:
+        app.selected_layer, sc.select_after = sc.select_after, None  # made by a cut / copy
+    if button("+", "a new empty layer in front: clone pixels into it"):
+        sc.pending = None  # a second + replaces the empty layer: its name is free again
+        sc.pending = sc.free_name(app)
+        app.selected_layer = sc.pending
+        sc.tool = "lasso"
+        app.say(f"new layer {sc.pending}: clone pixels into it (lasso, rectangle or brush)")
+    imgui.same_line()
+    target = sc.target_layer(app)
+    if button("-", "remove the selected layer", enabled=target is not None):
+        if target == sc.pending:
+            sc.pending = None
+            app.selected_layer = None
+        else:
+            app.edit(lambda s: s.remove_layer(target))
+    imgui.same_line()
+    imgui.text(f"layer: {target or '(none)'}" + ("  (empty)" if target is not None and target == sc.pending else ""))
+    if sc.pending is not None and app.layer_index(sc.pending) is not None:
+        sc.pending = None  # it has pixels now
+    imgui.set_next_item_width(150)
+    enter, sc.layer_name = imgui.input_text_with_hint("##layer-name", target or "", sc.layer_name,
+                                                     imgui.InputTextFlags_.enter_returns_true)
+    imgui.set_item_tooltip("type a new name for the layer and press Enter")
+    note("field:layer name")
+    new = sc.layer_name.strip()
+    if enter and new and target is not None and new != target:
+        if target == sc.pending:
+            sc.pending = app.selected_layer = new
+        else:
+            app.edit(lambda s: s.rename_layer(target, new))
+            app.selected_layer = new
+        sc.layer_name = ""
+    if sc.tool in ("lasso", "clone-rect", "clone-brush") and target != sc.pending:
+        for j, (op, label, tip) in enumerate(SELECT_OPS):
+            if j == 1:
+                imgui.same_line()
+            if imgui.radio_button(f"{label}##select", sc.select_op == op):
+                sc.select_op = op
+            imgui.set_item_tooltip(tip)
+            note(f"select:{op}")
+    if sc.tool == "paint":
+        _, sc.color = imgui.color_edit4("colour", list(sc.color), imgui.ColorEditFlags_.no_alpha)
+        imgui.set_item_tooltip("the Paint tool's colour")
+    k = app.layer_index(target)
+    if k is not None and snap.images[k].from_source:
+        from puppet.scene.format.model import INPAINT_METHODS
+
+        imgui.text("refill:")
+        cur = snap.data.layers[k].inpaint
+        for j, m in enumerate(INPAINT_METHODS):
+            if j != 3:
+                imgui.same_line()
+            if imgui.radio_button(f"{m}##inpaint", cur == m) and m != cur:
+                app.edit(lambda s, m=m: s.set_inpaint(target, m))
+            imgui.set_item_tooltip("how this layer refills what layers in front took from the picture")
+            note(f"inpaint:{m}")
+        _inpaint_preview(app, thumbs, k)
+
+
+def _inpaint_preview(app, thumbs, k) -> None:
+    """Before (the picture) / after (the layer, refilled) over the area that layers in
+    front took from the picture."""
+    snap = app.snap
+    im = snap.images[k]
+    front = np.zeros(im.mask.shape, bool)
+    for j, other in enumerate(snap.images):
+        if j != k and other.from_source and snap.rank[j] > snap.rank[k]:
+            front |= other.mask
+    area = front & im.mask
+    if not area.any():
+        return
+    ys, xs = np.nonzero(area)
+    y0, y1, x0, x1 = max(ys.min() - 4, 0), ys.max() + 5, max(xs.min() - 4, 0), xs.max() + 5
+    after = np.ascontiguousarray(im.rgba[y0:y1, x0:x1])
+    src = app.script.source(app)
+    before = None if src is None else np.ascontiguousarray(src[y0:y1, x0:x1])
+    imgui.text("refilled area (inpaint):")
+    if before is not None:
+        ref, size = thumbs.ref(f"before-{y0}-{y1}-{x0}-{x1}", before)
+        imgui.image(ref, imgui.ImVec2(size[0] * PREVIEW, size[1] * PREVIEW))
+        imgui.set_item_tooltip("before: the picture")
+        imgui.same_line()
+    ref, size = thumbs.ref(f"after-{snap.image_keys[k]}-{y0}-{y1}-{x0}-{x1}", after)
+    imgui.image(ref, imgui.ImVec2(size[0] * PREVIEW, size[1] * PREVIEW))
+    imgui.set_item_tooltip("after: this layer, refilled")
+    note("inpaint:after")
+
+
+def _link(app, thumbs) -> None:
+    sc, snap = app.script, app.snap
+    names = [L.name for L in snap.data.layers]
+    a, b = sc.link_pair(app)
+    for attr, cur, label in (("link_a", a, "layer A"), ("link_b", b, "layer B")):
+        i = names.index(cur) if cur in names else 0
+        imgui.set_next_item_width(150)
+        changed, i = imgui.combo(label, i, names)
+        imgui.set_item_tooltip("the two layers to link")
+        if changed:
+            setattr(sc, attr, names[i])
+            sc.link_preview = None
+    imgui.text("links:")
+    for L in snap.data.links:
+        la, lb = L.layers
+        for j, seg in enumerate(L.segments):
+            imgui.push_id(f"link-{la}-{lb}-{j}")
+            if button("x", "remove this segment", small=True):
+                app.edit(lambda s, la=la, lb=lb, j=j: s.remove_link(la, lb, j))
+            imgui.same_line()
+            (x0, y0), (x1, y1) = seg
+            imgui.text(f"{la}-{lb}: ({x0:.0f},{y0:.0f})-({x1:.0f},{y1:.0f})")
+            imgui.pop_id()
+
+
+def _pins(app, thumbs) -> None:
+    sc, snap = app.script, app.snap
+    name = app.selected_layer or snap.data.layers[-1].name
+    k = app.layer_index(name)
+    if k is None:
+        return
+    L = snap.data.layers[k]
+    auto = L.exterior is not None and bool(getattr(L.exterior, "auto", False))
+    changed, on = imgui.checkbox(f"exterior points of {name}", auto)
+    imgui.set_item_tooltip("automatic exterior control points where the outline bends (curvature scale space)")
+    note("check:exterior")
+    if changed:
+        app.edit(lambda s, b=float(sc.beta): s.set_layer(name, exterior={"auto": True, "beta": b} if on else None))
+    if auto:
+        sc.beta = float(L.exterior.beta) if not imgui.is_any_item_active() else sc.beta
+        changed, sc.beta = imgui.slider_float("beta", sc.beta, 0.2, 8.0, "%.2f", imgui.SliderFlags_.logarithmic)
+        imgui.set_item_tooltip("more points with a higher beta (finer curvature scale); the points show live")
+        note("slider:beta")
+        live(app, "beta", f"exterior beta of {name}")
+        if changed:
+            app.edit(lambda s, b=float(sc.beta): s.set_layer(name, exterior={"auto": True, "beta": b}),
+                     key="beta-live")
+    imgui.text_wrapped("click to add a pin on the layer you see there; new pins' kind below")
+
+
+def _deform(app, thumbs) -> None:
+    if app.busy:
+        imgui.text("building meshes" + "." * (int(imgui.get_time() * 3) % 4))
+    else:
+        imgui.text_wrapped("meshes built: drag a pin to pose (a new pose is made at the first drag)")
+
+
+# -- canvas overlay ----------------------------------------------------------------------------
+def draw_overlay(dl, app) -> None:
+    """Drafts of the gesture in progress and the link segment drawn (what it keeps)."""
+    sc = app.script
+    col = imgui.get_color_u32
+    if sc.draft and len(sc.draft) >= 1:
+        pts = [tuple(map(float, app.view.to_screen(p))) for p in sc.draft]
+        c = col(imgui.ImVec4(1.0, 0.9, 0.2, 1.0))
+        if sc.draft_kind == "rect":
+            dl.add_rect(imgui.ImVec2(*pts[0]), imgui.ImVec2(*pts[-1]), c, 0.0, 2.0)
+        else:
+            w = sc.brush * app.view.scale if sc.draft_kind == "brush" else 2.0
+            for p, q in zip(pts, pts[1:]):
+                dl.add_line(imgui.ImVec2(*p), imgui.ImVec2(*q), c, max(w, 1.0) if sc.draft_kind == "brush" else 2.0)
+            if sc.draft_kind == "lasso" and len(pts) > 2:
+                dl.add_line(imgui.ImVec2(*pts[-1]), imgui.ImVec2(*pts[0]), c, 1.0)
+    if sc.draft is None and sc.step in TOOLS and sc.canvas_tool(app) is masktools.brush_tool \
+            and imgui.is_window_hovered():  # the brush's size under the pointer
+        m = imgui.get_io().mouse_pos
+        dl.add_circle(imgui.ImVec2(m.x, m.y), max(sc.brush / 2 * app.view.scale, 2.0),
+                      col(imgui.ImVec4(1.0, 1.0, 1.0, 0.8)), 0, 1.5)
+    if sc.step == "link":
+        linkpencil.draw(dl, app)

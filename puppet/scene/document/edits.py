@@ -1,0 +1,390 @@
+"""Every edit of a scene as a method: pins, layers, links, poses, targets (animation keys
+are in :mod:`puppet.scene.document.key_edits`).
+
+Each method changes a copy of the scene JSON through ``Document._edit``, which validates
+it exactly as a loaded file is validated (so an edit can never make a scene that would
+not load), records one undo step and emits one :class:`~puppet.scene.document.history.Event`,
+only when something really changed. Paths given to an edit are relative to the current
+directory (or absolute).
+"""
+from __future__ import annotations
+
+import os
+
+from puppet.errors import SceneError
+from puppet.scene.document.history import Event
+from puppet.scene.format.load import EXTERIOR_NAME
+
+
+def _xy(p) -> list[float]:
+    return [float(p[0]), float(p[1])]
+
+
+class Edits:
+    """Edit methods of :class:`puppet.scene.document.core.Document` (a mixin)."""
+
+    # helpers ----------------------------------------------------------------------
+    def _fail(self, message: str):
+        return SceneError(message, file=self.file)
+
+    def _pin(self, doc: dict, name: str) -> dict:
+        for p in doc.get("pins", []):
+            if p["name"] == name:
+                return p
+        raise self._fail(f"no pin named {name!r}")
+
+    def _layer(self, doc: dict, name: str) -> dict:
+        for L in doc["layers"]:
+            if L["name"] == name:
+                return L
+        raise self._fail(f"no layer named {name!r}")
+
+    def _pose_of(self, doc: dict, pose: str | None) -> tuple[dict, str | None]:
+        """The pose table to write (the active pose when None); editing ``rest`` makes a new pose,
+        returned as the second item so that it becomes active."""
+        name = self._active if pose is None else pose
+        if name == "rest":
+            poses = doc.setdefault("poses", {})
+            k = len(poses) + 1
+            while f"pose{k}" in poses:
+                k += 1
+            name = f"pose{k}"
+            poses[name] = {}
+            return poses[name], name
+        if name not in doc.get("poses", {}):
+            raise self._fail(f"no pose named {name!r}")
+        return doc["poses"][name], None
+
+    # pins ---------------------------------------------------------------------------
+    def add_pin(self, name: str, layer: str, at, *, depth: float = 0.0, kind: str = "interior") -> bool:
+        """A new pin on ``layer`` at canvas point ``at`` (rest position)."""
+        def m(doc):
+            if any(p["name"] == name for p in doc.get("pins", [])):
+                raise self._fail(f"a pin named {name!r} exists already")
+            self._layer(doc, layer)
+            pin = {"name": name, "layer": layer, "at": _xy(at)}
+            if depth:
+                pin["depth"] = float(depth)
+            if kind != "interior":
+                pin["kind"] = kind
+            doc.setdefault("pins", []).append(pin)
+        return self._edit(Event("pin", name, "precompute", f"add pin {name}"), m)
+
+    def remove_pin(self, name: str) -> bool:
+        """Remove a pin, its targets in every pose and the bones that use it."""
+        def m(doc):
+            self._pin(doc, name)
+            doc["pins"] = [p for p in doc["pins"] if p["name"] != name]
+            for owner, k in _pin_tables(doc):
+                owner[k].pop(name, None)
+            if "bones" in doc:
+                doc["bones"] = [b for b in doc["bones"] if name not in b]
+        return self._edit(Event("pin", name, "precompute", f"remove pin {name}"), m)
+
+    def move_pin(self, name: str, at) -> bool:
+        """Move a pin's rest position (``at``)."""
+        def m(doc):
+            self._pin(doc, name)["at"] = _xy(at)
+        return self._edit(Event("pin", name, "precompute", f"move pin {name}"), m)
+
+    def rename_pin(self, old: str, new: str) -> bool:
+        """Rename a pin everywhere: pins, poses, bones."""
+        def m(doc):
+            if old != new and any(p["name"] == new for p in doc.get("pins", [])):
+                raise self._fail(f"a pin named {new!r} exists already")
+            self._pin(doc, old)["name"] = new
+            for owner, t in _pin_tables(doc):
+                owner[t] = {(new if k == old else k): v for k, v in owner[t].items()}
+            if "bones" in doc:
+                doc["bones"] = [[new if x == old else x for x in b] for b in doc["bones"]]
+        return self._edit(Event("pin", new, "none", f"rename pin {old}"), m)
+
+    def set_pin(self, name: str, *, depth: float | None = None, kind: str | None = None) -> bool:
+        """Set a pin's rest depth and/or kind (``interior``, ``exterior`` or ``starch``)."""
+        def m(doc):
+            p = self._pin(doc, name)
+            if depth is not None:
+                p["depth"] = float(depth)
+            if kind is not None:
+                p["kind"] = kind
+                if kind != "starch":
+                    p.pop("radius", None)  # only a starch pin has a radius
+        return self._edit(Event("pin", name, "precompute", f"change pin {name}"), m)
+
+    # layers -------------------------------------------------------------------------
+    def add_layer(self, name: str, *, image: str | None = None, index: int | None = None, **fields) -> bool:
+        """A new layer (``image`` file or the scene's source; ``fields``: offset, mask,
+        order, inpaint, mesh, exterior as in the scene format), in front unless ``index``."""
+        def m(doc):
+            if any(L["name"] == name for L in doc["layers"]):
+                raise self._fail(f"a layer named {name!r} exists already")
+            L = {"name": name}
+            if image is not None:
+                L["image"] = os.path.abspath(image)
+            L.update(_layer_fields(fields))
+            doc["layers"].insert(len(doc["layers"]) if index is None else index, L)
+        return self._edit(Event("layer", name, "mesh", f"add layer {name}"), m)
+
+    def remove_layer(self, name: str) -> bool:
+        """Remove a layer with its pins, its links and their targets in every pose."""
+        def m(doc):
+            self._layer(doc, name)
+            if len(doc["layers"]) == 1:
+                raise self._fail("a scene keeps at least one layer")
+            doc["layers"] = [L for L in doc["layers"] if L["name"] != name]
+            gone = {p["name"] for p in doc.get("pins", []) if p["layer"] == name}
+            if "pins" in doc:
+                doc["pins"] = [p for p in doc["pins"] if p["layer"] != name]
+            if "links" in doc:
+                doc["links"] = [k for k in doc["links"] if name not in k["layers"]]
+            if "bones" in doc:
+                doc["bones"] = [b for b in doc["bones"] if not gone & set(b)]
+            for owner, t in _pin_tables(doc):
+                owner[t] = {k: v for k, v in owner[t].items() if k not in gone and _ext_layer(k) != name}
+        return self._edit(Event("layer", name, "mesh", f"remove layer {name}"), m)
+
+    def reorder_layer(self, name: str, index: int) -> bool:
+        """Move a layer to list position ``index`` (the stacking order; later = in front)."""
+        def m(doc):
+            L = self._layer(doc, name)
+            doc["layers"].remove(L)
+            doc["layers"].insert(index if index >= 0 else len(doc["layers"]) + 1 + index, L)
+        return self._edit(Event("layer", name, "mesh", f"reorder layer {name}"), m)
+
+    def rename_layer(self, old: str, new: str) -> bool:
+        """Rename a layer everywhere: pins, links, automatic exterior point names in poses."""
+        def m(doc):
+            if old != new and any(L["name"] == new for L in doc["layers"]):
+                raise self._fail(f"a layer named {new!r} exists already")
+            self._layer(doc, old)["name"] = new
+            for p in doc.get("pins", []):
+                if p["layer"] == old:
+                    p["layer"] = new
+            for k in doc.get("links", []):
+                k["layers"] = [new if x == old else x for x in k["layers"]]
+            for owner, t in _pin_tables(doc):
+                owner[t] = {(new + k[len(old):] if _ext_layer(k) == old else k): v for k, v in owner[t].items()}
+        return self._edit(Event("layer", new, "none", f"rename layer {old}"), m)
+
+    def set_layer(self, name: str, **fields) -> bool:
+        """Change a layer's ``offset``, ``mask``, ``order``, ``inpaint``, ``mesh``,
+        ``exterior``, ``deformer`` ({"mode": ...}) or ``stiffness`` ({"file": ...})
+        (scene-format values; None removes the key, back to its default)."""
+        def m(doc):
+            L = self._layer(doc, name)
+            for k, v in _layer_fields(fields, keep_none=True).items():
+                if v is None:
+                    L.pop(k, None)
+                else:
+                    L[k] = v
+        return self._edit(Event("layer", name, "mesh", f"change layer {name}"), m)
+
+    def set_mask(self, name: str, mask) -> bool:
+        """A layer's mask: ``"alpha"`` or ``{"threshold": T}``, ``{"polygon": ...}``, ``{"rect": ...}``,
+        ``{"file": path}``, ``{"grabcut": ...}``."""
+        return self.set_layer(name, mask=mask)
+
+    def set_inpaint(self, name: str, method: str) -> bool:
+        return self.set_layer(name, inpaint=method)
+
+    def set_mesh_options(self, name: str, **options) -> bool:
+        """A layer's ``max_area``, ``min_angle``, ``simplify`` (None: back to the default)."""
+        L = self._layer(self._doc, name)
+        mesh = dict(L.get("mesh", {}))
+        for k, v in options.items():
+            if v is None:
+                mesh.pop(k, None)
+            else:
+                mesh[k] = v
+        return self.set_layer(name, mesh=mesh or None)
+
+    def set_mask_pixels(self, name: str, mask) -> bool:
+        """A layer's mask as pixels: ``mask`` (h, w) bool in the layer image's grid (the
+        source's for a layer without its own image). Kept as a PNG until :meth:`save`
+        writes it beside the scene (``mask: {"file": ...}``)."""
+        from puppet.scene.document.files import mask_rgba
+
+        return self.set_mask(name, {"file": self.pending.add(mask_rgba(mask), f"{name}-mask")})
+
+    def set_layer_pixels(self, name: str, rgba) -> bool:
+        """A layer's own pixels ((h, w, 4) uint8, placed at its offset): a repainted or
+        cloned layer. Kept as a PNG until :meth:`save` writes it beside the scene."""
+        path = self.pending.add(rgba, name)
+
+        def m(doc):
+            self._layer(doc, name)["image"] = path
+        return self._edit(Event("layer", name, "mesh", f"paint layer {name}"), m)
+
+    def split_layer(self, layer: str, region, name: str, *, cut: bool = True) -> bool:
+        """Layer via Cut (or, ``cut=False``, via Copy): the pixels of ``layer`` inside
+        ``region`` (a polygon, list of [x, y] canvas points, or an (H, W) bool mask of the
+        canvas) become a new layer ``name`` in front of it; a cut takes them out of
+        ``layer``, refilling it where the part covered its body (:mod:`puppet.scene.document.split`)."""
+        from puppet.scene.document.split import split_layer
+
+        return split_layer(self, layer, region, name, cut)
+
+    # links --------------------------------------------------------------------------
+    def add_link(self, a: str, b: str, segment) -> bool:
+        """A link segment ``[[x0, y0], [x1, y1]]`` between layers ``a`` and ``b``."""
+        seg = [_xy(segment[0]), _xy(segment[1])]
+
+        def m(doc):
+            links = doc.setdefault("links", [])
+            for k in links:
+                if set(k["layers"]) == {a, b}:
+                    k["segments"].append(seg)
+                    return
+            links.append({"layers": [a, b], "segments": [seg]})
+        return self._edit(Event("link", f"{a}+{b}", "mesh", f"link {a} and {b}"), m)
+
+    def remove_link(self, a: str, b: str, segment: int | None = None) -> bool:
+        """Remove segment number ``segment`` of the link between ``a`` and ``b`` (all when None)."""
+        def m(doc):
+            links = doc.get("links", [])
+            for k in links:
+                if set(k["layers"]) == {a, b}:
+                    if segment is not None and len(k["segments"]) > 1:
+                        if not 0 <= segment < len(k["segments"]):
+                            raise self._fail(f"the link {a}-{b} has no segment {segment}")
+                        del k["segments"][segment]
+                    else:
+                        links.remove(k)
+                    return
+            raise self._fail(f"no link between {a!r} and {b!r}")
+        return self._edit(Event("link", f"{a}+{b}", "mesh", f"unlink {a} and {b}"), m)
+
+    # poses ----------------------------------------------------------------------------
+    def add_pose(self, name: str, *, like: str | None = None, activate: bool = True) -> bool:
+        """A new pose (empty, or a copy of pose ``like``), made active unless ``activate=False``."""
+        def m(doc):
+            poses = doc.setdefault("poses", {})
+            if name in poses or name == "rest":
+                raise self._fail(f"a pose named {name!r} exists already")
+            poses[name] = dict(poses[like]) if like not in (None, "rest") else {}
+            return name if activate else None
+        return self._edit(Event("pose", name, "solve", f"add pose {name}"), m)
+
+    def rename_pose(self, old: str, new: str) -> bool:
+        """Rename a pose (and its animation keys)."""
+        def m(doc):
+            poses = doc.get("poses", {})
+            if old not in poses:
+                raise self._fail(f"no pose named {old!r}")
+            if new in poses and new != old or new == "rest":
+                raise self._fail(f"a pose named {new!r} exists already")
+            doc["poses"] = {(new if k == old else k): v for k, v in poses.items()}
+            for key in doc.get("animation", {}).get("keys", []):
+                if key.get("pose") == old:
+                    key["pose"] = new
+            return new if self._active == old else None
+        return self._edit(Event("pose", new, "none", f"rename pose {old}"), m)
+
+    def delete_pose(self, name: str) -> bool:
+        """Delete a pose and the animation keys that show it."""
+        def m(doc):
+            if name not in doc.get("poses", {}):
+                raise self._fail(f"no pose named {name!r}")
+            del doc["poses"][name]
+            anim = doc.get("animation")
+            if anim is not None:
+                anim["keys"] = [k for k in anim["keys"] if k.get("pose") != name]
+                if not anim["keys"]:
+                    del doc["animation"]
+            return "rest" if self._active == name else None
+        return self._edit(Event("pose", name, "solve", f"delete pose {name}"), m)
+
+    def set_active_pose(self, name: str) -> bool:
+        """Show and edit pose ``name`` (``"rest"`` included)."""
+        if name != "rest" and name not in self.data.poses:
+            raise self._fail(f"no pose named {name!r}")
+        return self._edit(Event("active", name, "solve", f"show pose {name}"), lambda doc: name)
+
+    def set_target(self, pin: str, to=None, *, angle: float | None = None, depth: float | None = None,
+                   pose: str | None = None) -> bool:
+        """Where pose ``pose`` (default: the active one) puts ``pin``: target, angle, depth.
+        Editing the ``rest`` pose makes a new pose and makes it active."""
+        def m(doc):
+            self._check_target_name(pin)
+            table, made = self._pose_of(doc, pose)
+            t = table.get(pin)
+            t = {"to": t} if isinstance(t, list) else dict(t or {})
+            if to is not None:
+                t["to"] = _xy(to)
+            if angle is not None:
+                t["angle"] = float(angle)
+            if depth is not None:
+                t["depth"] = float(depth)
+            table[pin] = t["to"] if set(t) == {"to"} else t
+            return made
+        return self._edit(Event("target", pin, "solve", f"move {pin}"), m)
+
+    def clear_target(self, pin: str, *, pose: str | None = None) -> bool:
+        """Put ``pin`` back at rest in pose ``pose`` (default: the active one)."""
+        def m(doc):
+            name = self._active if pose is None else pose
+            if name != "rest":
+                doc.get("poses", {}).get(name, {}).pop(pin, None)
+        return self._edit(Event("target", pin, "solve", f"reset {pin}"), m)
+
+    def _check_target_name(self, pin: str) -> None:
+        if pin in {p.name for p in self.data.pins}:
+            return
+        if not any(pin in ge.names for ge in self.built.exterior):
+            raise self._fail(f"no pin or exterior point named {pin!r}")
+
+    # app-only settings ----------------------------------------------------------------
+    def set_underlay(self, image: str | None, *, opacity: float = 0.5, offset=(0.0, 0.0), scale: float = 1.0) -> bool:
+        """The reference picture drawn under the canvas by the app (None removes it);
+        stored under the scene's ``app`` key, which render ignores."""
+        from puppet.imaging.io import load_rgba
+        from puppet.scene.format.extensions import underlay_json
+
+        if image is not None:  # a missing or bad picture is refused before anything changes
+            load_rgba(os.path.abspath(image), scene_file=self.file, json_path="app.underlay.image")
+
+        def m(doc):
+            app = doc.setdefault("app", {})
+            if image is None:
+                app.pop("underlay", None)
+            else:
+                app["underlay"] = underlay_json(image, opacity, offset, scale)
+            if not app:
+                del doc["app"]
+        return self._edit(Event("app", "underlay", "none", "set underlay"), m)
+
+    # deformer (animation keys: puppet.scene.document.key_edits) ---------------------------------------
+    def set_deformer(self, **options) -> bool:
+        """Deformer options: ``method``, ``weights``, ``init``, ``iterations``, ``alpha``, ``relax_foldovers``."""
+        def m(doc):
+            d = doc.setdefault("deformer", {})
+            d.update(options)
+        return self._edit(Event("deformer", "", "precompute", "change deformer"), m)
+
+
+def _pin_tables(doc: dict) -> list[tuple[dict, str]]:
+    """Every table of pin targets in the scene JSON as (owner, key): each pose, and the
+    ``pins`` or ``overrides`` of each animation key."""
+    out = [(doc["poses"], name) for name in doc.get("poses", {})]
+    return out + [(k, f) for k in doc.get("animation", {}).get("keys", []) for f in ("pins", "overrides") if f in k]
+
+
+def _ext_layer(name: str) -> str | None:
+    mt = EXTERIOR_NAME.match(name)
+    return mt.group("layer") if mt else None
+
+
+def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
+    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior", "deformer", "stiffness")
+    out = {}
+    for k, v in fields.items():
+        if k not in known:
+            raise SceneError(f"a layer has no field {k!r} (fields: {', '.join(known)})")
+        if v is None and not keep_none:
+            continue
+        if k == "offset" and v is not None:
+            v = _xy(v)
+        if k in ("mask", "stiffness") and isinstance(v, dict) and isinstance(v.get("file"), str):
+            v = dict(v, file=os.path.abspath(v["file"]))
+        out[k] = v
+    return out

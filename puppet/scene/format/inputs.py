@@ -1,0 +1,52 @@
+"""The files a scene reads, so that no output ever overwrites one of them."""
+from __future__ import annotations
+
+import os
+
+from puppet.scene.format.model import SceneData
+
+
+def input_files(data: SceneData, *, scene_file: bool = True) -> list[tuple[str, str]]:
+    """Every file the scene reads, with what it is.
+
+    Parameters
+    ----------
+    data : the validated scene (paths are absolute).
+    scene_file : include the scene file itself (False when saving the scene over itself).
+
+    Returns
+    -------
+    list of (path, description), e.g. ``("/a/arm.png", "layers[1].image")``, in scene order.
+    """
+    out: list[tuple[str, str]] = []
+    if scene_file and data.file:
+        out.append((data.file, "the scene file"))
+    if isinstance(data.background, str):
+        out.append((data.background, "background"))
+    if data.source:
+        out.append((data.source, "source"))
+    for i, layer in enumerate(data.layers):
+        if layer.image:
+            out.append((layer.image, f"layers[{i}].image"))
+        mask = layer.mask
+        if mask is not None and getattr(mask, "file", None):
+            out.append((mask.file, f"layers[{i}].mask.file"))
+        if getattr(layer, "stiffness", None):
+            out.append((layer.stiffness, f"layers[{i}].stiffness.file"))
+    underlay = _underlay(data)
+    if underlay:
+        out.append((underlay, "app.underlay.image"))
+    return out
+
+
+def _underlay(data: SceneData) -> str | None:
+    """The app's reference picture (``app.underlay.image``), absolute, if the scene names one."""
+    app = getattr(data, "app", None)
+    if not isinstance(app, dict):
+        raw = getattr(data, "raw", None)
+        app = raw.get("app") if isinstance(raw, dict) else None
+    u = app.get("underlay") if isinstance(app, dict) else None
+    image = u.get("image") if isinstance(u, dict) else None
+    if not isinstance(image, str) or not image:
+        return None
+    return os.path.normpath(os.path.join(os.path.dirname(data.file or ""), image))

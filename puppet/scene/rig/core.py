@@ -1,0 +1,198 @@
+"""The rig: a scene built for posing. Layer images, layer meshes, linked groups, their
+exterior points and solver precomputations, each built from exactly what it depends on
+and cached under a fingerprint of that (see :mod:`puppet.scene.rig.cache`).
+
+So an edit costs only what it must, by construction: a moved pin target re-solves only
+its group; a changed pin set re-meshes the layer the pin is on (pins are mesh vertices)
+and re-precomputes only its group; a changed mask, image, link or mesh option re-meshes
+the layers it touches and re-precomputes their groups. Nothing is invalidated by hand.
+
+The path of a pin from the scene file to the screen: ``SceneData.pins`` -> a vertex of
+its layer's mesh (:func:`build.mesh_layer`) -> a vertex ``b`` of its group's merged mesh
+(:func:`build.build_groups`) -> the group's solver (:mod:`puppet.scene.rig.solve`) ->
+deformed vertices and depth per layer (:meth:`Rig.evaluate`) -> the compositor.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from puppet.geom.contour import mask_regions
+from puppet.scene.rig import build
+from puppet.scene.rig.cache import Memo, file_stamp, fingerprint
+from puppet.scene.rig.exterior import GroupExterior, build_exterior
+from puppet.scene.rig.links import link_parts
+from puppet.scene.rig.stiffness import group_cells
+from puppet.scene.format.model import SceneData
+from puppet.scene.rig.solve import GroupPose, GroupPre, PinState, precompute_group, solve_group
+
+#: how many of each kind of built part are kept (least recently used dropped first)
+CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
+            "cells": 16}
+
+
+@dataclass
+class LayerResult:
+    """One layer in one pose: what `puppet mesh` writes and the renderer draws."""
+
+    name: str
+    group: int
+    order: int
+    rest: np.ndarray
+    deformed: np.ndarray
+    triangles: np.ndarray
+    depth: np.ndarray
+    pins: dict[str, int]
+    exterior: dict[str, list[float]]
+    key: str = ""  # fingerprint of the layer's pixels (a renderer's texture identity)
+
+
+@dataclass
+class Built:
+    """Everything one version of a scene needs for every pose."""
+
+    data: SceneData
+    rank: list[int]
+    images: list[build.LayerImage]
+    image_keys: list[str]
+    meshes: list  # per layer: geom.triangulate.Mesh
+    pin_vertex: list[dict[str, int]]
+    groups: list[build.Group]
+    exterior: list[GroupExterior]
+    pre: list[GroupPre]
+    pre_keys: list[str]
+    notes: list[str] = field(default_factory=list)  # for `puppet check` (clipped link segments)
+    regions: list = None  # per layer: its mask outline (geom.contour.mask_regions), as meshed
+
+    def group_of_pin(self, i: int) -> int | None:
+        """Group of scene pin ``i`` (None for exterior pins)."""
+        return next((gi for gi, g in enumerate(self.groups) if i in g.pins), None)
+
+    def ext_slices(self) -> list[slice]:
+        starts = np.cumsum([0] + [len(ge.names) for ge in self.exterior])
+        return [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:])]
+
+    def group_pose(self, gi: int, state: PinState) -> GroupPose:
+        g = self.groups[gi]
+        return GroupPose(bc=state.to[g.pins].reshape(-1, 2), angle=state.angle[g.pins],
+                         depth=state.depth[g.pins], ext_to=state.ext_to[self.ext_slices()[gi]])
+
+
+class Rig:
+    """Builds scenes into :class:`Built` parts and solves poses, caching by content.
+
+    ``memo.count(kind)`` tells how many parts of a kind were really built: ``"mesh"``
+    (layer triangulations), ``"precompute"`` (group factorisations), ``"solve"``.
+    """
+
+    def __init__(self):
+        self.memo = Memo(CAPACITY)
+
+    # -- building ----------------------------------------------------------------
+    def build(self, data: SceneData) -> Built:
+        memo = self.memo
+        rank = build.stacking(data)
+        source = None
+        if data.source is not None:
+            source = memo.get("pixels", fingerprint(file_stamp(data.source)), lambda: build.load_source(data))
+        base_keys, bases = [], []
+        for L in data.layers:
+            key = fingerprint(file_stamp(L.image), file_stamp(data.source) if L.image is None else None,
+                              L.offset, L.mask, file_stamp(L.mask.file) if L.mask is not None else None)
+            base_keys.append(key)
+            bases.append(memo.get("layer", key, lambda L=L: build.layer_image(data, L, source)))
+        image_keys, images = [], []
+        for k, L in enumerate(data.layers):
+            front = [base_keys[j] for j, im in enumerate(bases) if im.from_source and rank[j] > rank[k]]
+            key = fingerprint(base_keys[k], L.inpaint, front if L.inpaint != "none" else None)
+            image_keys.append(key)
+            images.append(memo.get("image", key, lambda k=k, L=L: build.finish_image(
+                bases[k], build.inpaint_hole(data, bases, k, rank), L.inpaint)))
+        areas = build.layer_areas(data, images)
+        parts = link_parts(data, images)
+        polylines = build.link_polylines(data, areas, parts)
+        mesh_keys, meshes, outlines = [], [], []
+        for k, L in enumerate(data.layers):
+            pins = [p.at for _, p in build.layer_pins(data, k)]
+            segs = [(path, P) for li, path, P in polylines[k]]
+            key = fingerprint(base_keys[k], L.mesh, areas[k], pins, segs)
+            mesh_keys.append(key)
+            regions = memo.get("outline", base_keys[k], lambda k=k: mask_regions(images[k].mask, images[k].offset))
+            outlines.append(regions)
+            meshes.append(memo.get("mesh", key, lambda k=k, regions=regions: build.mesh_layer(
+                data, k, images[k], areas[k], polylines[k], regions)))
+        pin_vertex = [build.pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
+        groups_key = fingerprint(mesh_keys, [(k.layers, k.segments) + _link_extra(k) for k in data.links],
+                                 [(p.name, p.layer, p.at, p.kind) for p in data.pins])
+        groups = memo.get("groups", groups_key, lambda: build.build_groups(data, meshes, pin_vertex, polylines))
+        group_keys = [fingerprint([mesh_keys[k] for k in g.layers], g.mesh.V.shape, g.b) for g in groups]
+        ext_key = fingerprint(group_keys, [(L.exterior, base_keys[k]) for k, L in enumerate(data.layers)],
+                              [(p.name, p.layer, p.at) for p in data.pins if p.kind == "exterior"],
+                              {n: sorted(pose) for n, pose in data.poses.items()})
+        exterior = memo.get("exterior", ext_key, lambda: build_exterior(data, images, groups)[0])
+        pre, pre_keys = [], []
+        for gi, g in enumerate(groups):
+            bones = _group_bones(data, g)
+            d = data.deformer
+            ckey = fingerprint(group_keys[gi], d.mode, [(data.layers[k].mode, data.layers[k].stiffness and file_stamp(
+                data.layers[k].stiffness)) for k in g.layers], [(p.layer, p.at, p.radius) for p in data.pins
+                                                                  if p.kind == "starch"],
+                               [(k.layers, k.polygons) for k in data.links if k.polygons])
+            cells = memo.get("cells", ckey, lambda g=g: group_cells(data, images, g, meshes))
+            key = fingerprint(group_keys[gi], d.method, d.weights, d.alpha, bones if d.method == "mls-skeleton" else 0,
+                              *_cells_key(d, cells, g))
+            pre_keys.append(key)
+            pre.append(memo.get("precompute", key, lambda g=g, bones=bones, cells=cells: precompute_group(
+                g, d, bones, cells)))
+        return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
+                     pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
+                     notes=parts.notes, regions=outlines)
+
+    # -- posing ------------------------------------------------------------------
+    def solve(self, built: Built, gi: int, state: PinState):
+        """(U, depth, exterior positions) of group ``gi`` in ``state``: exact, cached by content."""
+        d = built.data.deformer
+        gp = built.group_pose(gi, state)
+        key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]])
+        return self.memo.get("solve", key, lambda: solve_group(built.pre[gi], built.groups[gi], d,
+                                                               built.exterior[gi], gp))
+
+    def evaluate(self, built: Built, state: PinState, solved: dict | None = None) -> list[LayerResult]:
+        """Per-layer results of one pose, in scene layer order. ``solved`` may give some
+        groups' (U, depth, exterior) already (a drag preview); the rest are solved exactly."""
+        data = built.data
+        out: list[LayerResult | None] = [None] * len(data.layers)
+        for gi, g in enumerate(built.groups):
+            U, depth, ext = solved[gi] if solved and gi in solved else self.solve(built, gi, state)
+            ge = built.exterior[gi]
+            for li, k in enumerate(g.layers):
+                idx = g.mesh.maps[li]
+                L, r = data.layers[k], built.rank[k]
+                exterior = {n: [float(x) for x in ext[j]] for j, n in enumerate(ge.names) if ge.layers[j] == k}
+                out[k] = LayerResult(name=L.name, group=gi, order=r, rest=built.meshes[k].V, deformed=U[idx],
+                                     triangles=built.meshes[k].F, depth=r + depth[idx],
+                                     pins=dict(built.pin_vertex[k]), exterior=exterior, key=built.image_keys[k])
+        return out
+
+
+def _link_extra(link) -> tuple:
+    """The parts of a link besides its segments, () for a plain v1 link (same keys as before)."""
+    if not link.points and not link.polygons and link.strength == 1.0:
+        return ()
+    return (link.points, link.polygons, link.strength)
+
+
+def _cells_key(d, cells, g) -> tuple:
+    """What of the cells' settings enters a group's precomputation, () when nothing does."""
+    grey, modes = cells
+    if grey is None and all(m == "rigid" for m in modes) and not len(g.couple):
+        return ()
+    return (grey, modes if d.method == "arap" else None, g.couple, g.kappa)
+
+
+def _group_bones(data: SceneData, g: build.Group) -> np.ndarray:
+    """The scene's bones between pins of group ``g``, as (nb, 2) indices into its pins."""
+    local = {data.pins[i].name: k for k, i in enumerate(g.pins)}
+    return np.array([(local[a], local[z]) for a, z in data.bones if a in local and z in local],
+                    np.int64).reshape(-1, 2)

@@ -1,0 +1,1 @@
+"""puppet.scene.time."""
