@@ -7,14 +7,11 @@ import os
 
 from imgui_bundle import imgui
 
-import puppet
-
 from puppet.app.model import recent
 from puppet.app.ui.widgets import button, note
 
 #: the bundled example scenes (a source checkout or an editable install)
-EXAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(puppet.__file__))),
-                        "assets", "scenes")
+EXAMPLES = os.path.abspath(os.path.join(os.path.dirname(__file__), *[os.pardir] * 3, "assets", "scenes"))
 WIDTH = 460.0
 FLAGS = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
          | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings

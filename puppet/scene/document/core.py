@@ -18,21 +18,24 @@ from collections.abc import Callable
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.io import load_rgba
+from puppet.imaging.io import image_size, load_rgba
 from puppet.output import write_text
-from puppet.scene.time import evaluate as ev, timeline
-from puppet.scene.rig.cache import file_stamp, fingerprint
 from puppet.scene.document.deform_edits import DeformEdits
 from puppet.scene.document.edits import Edits
-from puppet.scene.document.key_edits import KeyEdits
 from puppet.scene.document.files import PendingFiles
 from puppet.scene.document.history import Event, Events, History, Step
-from puppet.scene.time.inbetween import layers_at
+from puppet.scene.document.key_edits import KeyEdits
+from puppet.scene.drag.session import DragSession
+from puppet.scene.format.extensions import UNDERLAY_DEFAULTS
 from puppet.scene.format.inputs import input_files
 from puppet.scene.format.load import Ctx, _pose, parse_scene, read_json
 from puppet.scene.format.model import SceneData, Target
 from puppet.scene.format.write import map_paths, relative_to, scene_text
+from puppet.scene.rig.cache import file_stamp, fingerprint
 from puppet.scene.rig.core import Built, LayerResult, Rig
+from puppet.scene.time import evaluate as ev
+from puppet.scene.time import timeline
+from puppet.scene.time.inbetween import layers_at
 from puppet.scene.time.tracks import Tracks, build_tracks, state_at
 
 PoseLike = str | dict | None
@@ -73,8 +76,6 @@ class Document(Edits, KeyEdits, DeformEdits):
         Not written anywhere until :meth:`save`; ``scene_file`` (default: the picture's
         name with ``.json``) is where it would be saved."""
         image = os.path.abspath(image)
-        from puppet.imaging.io import load_rgba
-
         load_rgba(image)  # a missing or bad picture is refused before anything is made
         doc = {"puppet": 1, "source": image, "layers": [{"name": layer}]}
         return cls(doc, scene_file or os.path.splitext(image)[0] + ".json")
@@ -162,8 +163,6 @@ class Document(Edits, KeyEdits, DeformEdits):
         u = self._doc.get("app", {}).get("underlay")
         if u is None:
             return None
-        from puppet.scene.format.extensions import UNDERLAY_DEFAULTS
-
         return {**UNDERLAY_DEFAULTS, **u}
 
     def underlay_image(self):
@@ -186,8 +185,6 @@ class Document(Edits, KeyEdits, DeformEdits):
             return d.canvas
         if d.source is not None:
             def size():  # from the header, checked like every image (a FIFO must not hang)
-                from puppet.imaging.io import image_size
-
                 return image_size(d.source, scene_file=self.file, json_path="source")
             return tuple(self.rig.memo.get("pixels", fingerprint("size", file_stamp(d.source)), size))
         h, w = self.built.images[0].rgba.shape[:2]
@@ -265,8 +262,6 @@ class Document(Edits, KeyEdits, DeformEdits):
         at ``time``, or a recording from ``time``; previews solved in ``solver`` (a
         :class:`~puppet.scene.drag.process.DragProcess`) when given (see
         :class:`puppet.scene.drag.session.DragSession`)."""
-        from puppet.scene.drag.session import DragSession
-
         return DragSession(self, names, time, record=record, iterations=iterations, solver=solver)
 
     def mesh(self, pose: PoseLike = None, time: float | None = None) -> dict:

@@ -12,7 +12,11 @@ from __future__ import annotations
 import os
 
 from puppet.errors import SceneError
+from puppet.imaging.io import load_rgba
+from puppet.scene.document.files import mask_rgba
 from puppet.scene.document.history import Event
+from puppet.scene.document.split import split_layer
+from puppet.scene.format.extensions import underlay_json
 from puppet.scene.format.load import EXTERIOR_NAME
 
 
@@ -202,8 +206,6 @@ class Edits:
         """A layer's mask as pixels: ``mask`` (h, w) bool in the layer image's grid (the
         source's for a layer without its own image). Kept as a PNG until :meth:`save`
         writes it beside the scene (``mask: {"file": ...}``)."""
-        from puppet.scene.document.files import mask_rgba
-
         return self.set_mask(name, {"file": self.pending.add(mask_rgba(mask), f"{name}-mask")})
 
     def set_layer_pixels(self, name: str, rgba) -> bool:
@@ -220,8 +222,6 @@ class Edits:
         ``region`` (a polygon, list of [x, y] canvas points, or an (H, W) bool mask of the
         canvas) become a new layer ``name`` in front of it; a cut takes them out of
         ``layer``, refilling it where the part covered its body (:mod:`puppet.scene.document.split`)."""
-        from puppet.scene.document.split import split_layer
-
         return split_layer(self, layer, region, name, cut)
 
     # links --------------------------------------------------------------------------
@@ -337,9 +337,6 @@ class Edits:
     def set_underlay(self, image: str | None, *, opacity: float = 0.5, offset=(0.0, 0.0), scale: float = 1.0) -> bool:
         """The reference picture drawn under the canvas by the app (None removes it);
         stored under the scene's ``app`` key, which render ignores."""
-        from puppet.imaging.io import load_rgba
-        from puppet.scene.format.extensions import underlay_json
-
         if image is not None:  # a missing or bad picture is refused before anything changes
             load_rgba(os.path.abspath(image), scene_file=self.file, json_path="app.underlay.image")
 

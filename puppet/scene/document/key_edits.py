@@ -14,8 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.scene.document.history import Event
+from puppet.scene.document.recording import recorded, write_motion
 from puppet.scene.format.animation import SAME_TIME, pins_json
 from puppet.scene.format.model import DEPTH_MODES, EASES, INBETWEENS
+from puppet.scene.time.evaluate import exterior_names
+from puppet.scene.time.tracks import mentions
+
 
 def _ease_fields(key: dict, ease: str, curve) -> None:
     key.pop("ease", None)
@@ -95,8 +99,6 @@ class KeyEdits:
         time with no key, a pins key is added. A recorded ``[x, y]`` keeps the angle and
         depth the pin has at that time in the animation (only its position is recorded).
         """
-        from puppet.scene.document.recording import recorded, write_motion
-
         if not keys:
             raise self._fail("nothing recorded (no keys)")
         times = sorted(float(t) for t in keys)
@@ -116,8 +118,6 @@ class KeyEdits:
         what a key there holds: a pose key keeps its pose and gets them as ``overrides``, a
         pins key gets them added, and with no key there a pins key is made. A ``[x, y]``
         keeps the angle and depth the pin has at that time (only its position changes)."""
-        from puppet.scene.document.recording import recorded, write_motion
-
         if not pins:
             raise self._fail("no pins to key")
         table = recorded(self, {float(time): pins})
@@ -194,8 +194,6 @@ class KeyEdits:
         key those it names); of every key when None."""
         if self.data.animation is None:
             return []
-        from puppet.scene.time.tracks import mentions
-
         try:
             hit = mentions(self.tracks(), pin, self.data, self.built.exterior)
         except KeyError:
@@ -227,8 +225,6 @@ class KeyEdits:
                 out[p.name] = to
             else:
                 out[p.name] = {"to": to, "angle": angle, "depth": depth}
-        from puppet.scene.time.evaluate import exterior_names
-
         for j, name in enumerate(exterior_names(self.built.exterior)):
             if not np.isnan(state.ext_to[j, 0]):
                 out[name] = [float(x) for x in state.ext_to[j]]

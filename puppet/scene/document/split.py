@@ -20,6 +20,11 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.imaging.cutout import body_after_cut
+from puppet.imaging.inpaint import inpaint_layer
+from puppet.imaging.io import load_rgba
+from puppet.imaging.masks import canvas_to_image, polygon_mask
+from puppet.scene.document.files import mask_rgba
 from puppet.scene.document.history import Event
 
 #: the refill of a cut layer whose own inpaint method is ``none``
@@ -38,8 +43,6 @@ def region_mask(region, canvas: tuple[int, int], offset, shape: tuple[int, int],
     canvas : (W, H). offset : the layer image's canvas position. shape : its (h, w).
     fail : ``fail(message) -> SceneError``.
     """
-    from puppet.imaging.masks import canvas_to_image, polygon_mask
-
     W, H = canvas
     try:
         arr = np.asarray(region)
@@ -67,9 +70,6 @@ def _short(v) -> str:
 
 def _refilled(s, k: int, part: np.ndarray) -> np.ndarray:
     """Layer ``k``'s own image with ``part`` refilled from the rest of the layer: (h, w, 4)."""
-    from puppet.imaging.inpaint import inpaint_layer
-    from puppet.imaging.io import load_rgba
-
     im, L = s.built.images[k], s.data.layers[k]
     base = load_rgba(L.image, scene_file=s.file, json_path=f"layers[{k}].image")
     return inpaint_layer(base, im.mask, part, L.inpaint if L.inpaint != "none" else DEFAULT_REFILL)
@@ -108,9 +108,6 @@ def _move_links(doc: dict, layer: str, name: str, keep: np.ndarray, part: np.nda
 def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
     """Layer via Cut (``cut=True``) or via Copy of ``region`` of ``layer`` into a new layer
     ``name`` in front of it, as one undo step on the document ``s``. See the module doc."""
-    from puppet.imaging.cutout import body_after_cut
-    from puppet.scene.document.files import mask_rgba
-
     if not isinstance(cut, (bool, np.bool_)):
         raise SceneError(f"cut is True (Layer via Cut) or False (Layer via Copy), not {cut!r}", file=s.file)
     d = s.data

@@ -10,8 +10,6 @@ from __future__ import annotations
 import os
 import sys
 
-import puppet
-
 
 def start_child(module: str, function: str, env: dict | None = None):
     """Run ``module.function(fd)`` in a child ``python``; returns ``(Popen, Connection)``
@@ -23,7 +21,7 @@ def start_child(module: str, function: str, env: dict | None = None):
 
     mine, theirs = socket.socketpair()
     env = dict(os.environ, **(env or {}))
-    root = os.path.dirname(os.path.dirname(os.path.abspath(puppet.__file__)))  # above puppet/
+    root = os.path.abspath(os.path.join(os.path.dirname(__file__), *[os.pardir] * 3))  # above puppet/
     env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
     code = f"from {module} import {function}; {function}({theirs.fileno()})"
     try:

@@ -10,7 +10,15 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from puppet.scene.format import model as m
-from puppet.scene.format.schema import Ctx, expect_list, expect_number, expect_object, expect_string, join, short
+from puppet.scene.format.schema import (
+    Ctx,
+    expect_list,
+    expect_number,
+    expect_object,
+    expect_string,
+    join,
+    short,
+)
 
 #: Largest |y| of a bezier ease's control points (overshoot beyond the keys is allowed).
 MAX_CURVE_Y = 10.0

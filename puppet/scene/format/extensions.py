@@ -13,7 +13,13 @@ from __future__ import annotations
 
 import os
 
-from puppet.scene.format.schema import Ctx, expect_number, expect_object, expect_point, join
+from puppet.scene.format.schema import (
+    Ctx,
+    expect_number,
+    expect_object,
+    expect_point,
+    join,
+)
 
 UNDERLAY_DEFAULTS = {"opacity": 0.5, "offset": [0.0, 0.0], "scale": 1.0}
 

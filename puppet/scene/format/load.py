@@ -10,15 +10,23 @@ import re
 
 import numpy as np
 
-from puppet.errors import SceneError
 from puppet.imaging import masks as mk
 from puppet.imaging.io import MAX_SIDE
 from puppet.scene.format import model as m
-from puppet.scene.format.extensions import parse_app
 from puppet.scene.format.animation import parse_animation
+from puppet.scene.format.extensions import parse_app
 from puppet.scene.format.reader import parse_text, read_text
-from puppet.scene.format.schema import (Ctx, expect_bool, expect_list, expect_number, expect_object,
-                                 expect_point, expect_string, join, short)
+from puppet.scene.format.schema import (
+    Ctx,
+    expect_bool,
+    expect_list,
+    expect_number,
+    expect_object,
+    expect_point,
+    expect_string,
+    join,
+    short,
+)
 from puppet.scene.format.video import parse_video
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",

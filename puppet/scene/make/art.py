@@ -25,7 +25,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.layered import ArtLayer
+from puppet.imaging.layered import ArtLayer, read_layered
+from puppet.imaging.skeleton import auto_pins
+from puppet.output import OutputError, check_file, write_text
+from puppet.scene.document.core import Document
+from puppet.scene.format.load import read_json
+from puppet.scene.format.write import map_paths, scene_text
+from puppet.scene.make.auto_links import propose_links
+from puppet.scene.make.merge import merge
 
 
 @dataclass
@@ -84,8 +91,6 @@ def made_from(scene: str, art_file: str | None = None) -> bool:
     ``app.art`` (a scene rigged, reloaded and saved in the app keeps its new pixels in
     ``SCENE.files/``), or every layer takes its image from the scene's layers folder (as
     :func:`import_art` writes it). False for an unreadable file."""
-    from puppet.scene.format.load import read_json
-
     try:
         doc = read_json(scene)
         images = [L.get("image") for L in doc["layers"]]
@@ -128,8 +133,6 @@ def mask_of(lay: ArtLayer) -> np.ndarray:
 
 def layer_pins(lay: ArtLayer, max_pins: int) -> list[dict]:
     """Pins at the skeleton's end points and junctions of a layer, in canvas coordinates."""
-    from puppet.imaging.skeleton import auto_pins
-
     ox, oy = lay.offset
     return [{"name": f"{lay.name}:{p.name}", "layer": lay.name,
              "at": [round(float(p.at[0]) + ox, 2), round(float(p.at[1]) + oy, 2)]}
@@ -154,9 +157,6 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
         Unreadable art, nothing visible, a scene to update that is missing or invalid,
         an output that cannot be written (nothing is written then).
     """
-    from puppet.imaging.layered import read_layered
-    from puppet.output import check_file
-
     shown, art_file, scene = scene, os.path.abspath(art_file), os.path.abspath(scene)
     inputs = [(art_file, "the art file")]
     check_file(scene, inputs=inputs, probe=True)
@@ -179,8 +179,6 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
         _move_in(tmp, folder, names.values())
         _write_scene(scene, final, inputs)
     except OSError as e:  # a full disk or a folder that went away while writing
-        from puppet.output import OutputError
-
         raise OutputError(folder, e.strerror or str(e)) from None
     finally:
         if tmp is not None:
@@ -202,8 +200,6 @@ def import_beside(art_file: str) -> ImportResult:
 
 
 def _old_scene(scene: str, shown: str) -> dict:
-    from puppet.scene.document.core import Document
-
     if not os.path.exists(scene):
         raise SceneError("--update: there is no scene to update (leave out --update to make one)", file=shown)
     return Document.load(scene).to_dict()
@@ -217,8 +213,6 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
     if old is None:
         doc = {"puppet": 1, "canvas": list(art.size), "layers": list(entries.values())}
     else:
-        from puppet.scene.make.merge import merge
-
         doc = merge(old, art, entries, res)
     doc["app"] = dict(doc.get("app") or {}, art=os.path.abspath(art.path))  # what "Reload art" re-imports
     pinned = {p["layer"] for p in doc.get("pins", [])}
@@ -226,8 +220,6 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
         new = [p for lay in art.layers if lay.name not in pinned for p in layer_pins(lay, max_pins)]
         doc["pins"] = doc.get("pins", []) + new
     if links == "auto":
-        from puppet.scene.make.auto_links import propose_links
-
         linked = {frozenset(k["layers"]) for k in doc.get("links", [])}
         found = propose_links(art.layers, skip=linked, canvas=art.size)
         doc["links"] = doc.get("links", []) + found
@@ -248,8 +240,6 @@ def _write_pngs(layers: list[ArtLayer], tmp: str, names: dict) -> None:
 
 def _validate(doc: dict, scene: str, *, mesh: bool) -> None:
     """Load the scene as it will be; mesh it too (pins and link segments placed) when asked."""
-    from puppet.scene.document.core import Document
-
     d = Document(doc, scene)
     if mesh:
         d.built  # noqa: B018  (pins outside their mesh, bad link segments fail here)
@@ -257,8 +247,6 @@ def _validate(doc: dict, scene: str, *, mesh: bool) -> None:
 
 def _final(doc: dict, tmp: str, folder: str, scene_folder: str) -> dict:
     """The scene as written: image paths moved from ``tmp`` to ``folder``, all relative."""
-    from puppet.scene.format.write import map_paths
-
     def fix(p: str) -> str:
         if os.path.dirname(p) == tmp:
             p = os.path.join(folder, os.path.basename(p))
@@ -267,8 +255,6 @@ def _final(doc: dict, tmp: str, folder: str, scene_folder: str) -> dict:
 
 
 def _move_in(tmp: str, folder: str, files) -> None:
-    from puppet.output import OutputError
-
     try:
         os.makedirs(folder, exist_ok=True)
         for name in files:
@@ -278,7 +264,4 @@ def _move_in(tmp: str, folder: str, files) -> None:
 
 
 def _write_scene(scene: str, doc: dict, inputs) -> None:
-    from puppet.output import write_text
-    from puppet.scene.format.write import scene_text
-
     write_text(scene, scene_text(doc), inputs=inputs)

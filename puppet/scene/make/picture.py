@@ -11,7 +11,6 @@ validated and meshed (with the mask as written) before either is put in place.
 """
 from __future__ import annotations
 
-import json
 import os
 import re
 from dataclasses import dataclass, field
@@ -20,6 +19,11 @@ import numpy as np
 
 from puppet.errors import SceneError
 from puppet.imaging import masks as mk
+from puppet.imaging.io import load_rgba
+from puppet.imaging.skeleton import auto_pins
+from puppet.output import Staged, check_file, commit_all
+from puppet.scene.document.core import Document
+from puppet.scene.format.write import scene_text
 
 #: How the mask is made: the scene format's default rule, alpha, a luminance threshold, GrabCut.
 MASK_RULES = ("default", "alpha", "threshold", "grabcut")
@@ -123,9 +127,6 @@ def init_scene(image: str, scene: str, *, rule: str = "default", threshold: floa
         Unreadable picture, an empty mask, an output that is an input or cannot be
         written (nothing is written then).
     """
-    from puppet.imaging.io import load_rgba
-    from puppet.output import Staged, check_file, commit_all
-
     shown = scene
     image = os.path.abspath(image)
     scene = os.path.abspath(scene)
@@ -140,8 +141,6 @@ def init_scene(image: str, scene: str, *, rule: str = "default", threshold: floa
                          "--threshold, --alpha or --grabcut", file=image)
     found = []
     if pins == "auto":
-        from puppet.imaging.skeleton import auto_pins
-
         found = auto_pins(mask, max_pins=max_pins)
     name = layer_name(image)
     text = scene_text(scene_doc(image, mask_file, name, found, os.path.dirname(scene)))
@@ -171,7 +170,5 @@ def init_scene(image: str, scene: str, *, rule: str = "default", threshold: floa
 
 def _validate(doc: dict, scene: str) -> None:
     """Load and mesh the scene as it will be (pins placed in the mesh), or raise SceneError."""
-    from puppet.scene.document.core import Document
-
     d = Document(doc, scene)
     d.built  # noqa: B018  (builds images, masks and meshes: pins outside the mask or the mesh fail here)

@@ -13,6 +13,10 @@ from __future__ import annotations
 import os
 
 from puppet.errors import SceneError
+from puppet.imaging.layered import read_layered
+from puppet.scene.document.history import Event
+from puppet.scene.make.art import ImportResult, art_of, layer_entry
+from puppet.scene.make.merge import merge
 
 
 def reload_art(scene):
@@ -27,11 +31,6 @@ def reload_art(scene):
         The scene names no art, the art is missing or unreadable, or the merged scene
         does not validate (the scene is unchanged then).
     """
-    from puppet.imaging.layered import read_layered
-    from puppet.scene.make.art import ImportResult, layer_entry
-    from puppet.scene.document.history import Event
-    from puppet.scene.make.merge import merge
-
     art_file = art_of(scene.to_dict(), scene.file)
     if art_file is None:
         raise SceneError("the scene names no art file (app.art): it was not imported from layered art",

@@ -10,11 +10,19 @@ import numpy as np
 from puppet.errors import SceneError
 from puppet.geom.contour import mask_regions, subdivide_segment
 from puppet.geom.merge import GroupMesh, UnionFind, merge_meshes
-from puppet.geom.triangulate import MAX_TRIANGLES, Mesh, MeshTooLarge, edge_length_for_area, triangulate_regions
+from puppet.geom.triangulate import (
+    MAX_TRIANGLES,
+    Mesh,
+    MeshTooLarge,
+    edge_length_for_area,
+    triangulate_regions,
+)
 from puppet.imaging import masks as mk
 from puppet.imaging.inpaint import inpaint_layer
 from puppet.imaging.io import load_mask_image, load_rgba
 from puppet.scene.format.model import Layer, SceneData
+from puppet.scene.format.video import start_frame
+from puppet.scene.rig.links import LinkParts, coupling
 
 #: Default meshes aim at about this many triangles per layer.
 TARGET_TRIANGLES = 2000
@@ -134,8 +142,6 @@ def load_source(data: SceneData):
     if data.source is None:
         return None
     if data.video is not None:  # a video scene: its start frame
-        from puppet.scene.format.video import start_frame
-
         return start_frame(data)
     return load_rgba(data.source, scene_file=data.file, json_path="source")
 
@@ -177,8 +183,6 @@ def link_polylines(data: SceneData, areas: list[float], parts=None) -> list[list
     layers (so both meshes share them), each hinge point as a (1, 2) array."""
     index = {L.name: L.index for L in data.layers}
     if parts is None:
-        from puppet.scene.rig.links import LinkParts
-
         parts = LinkParts(segments=[(li, f"links[{li}].segments[{si}]", s) for li, link in enumerate(data.links)
                                     for si, s in enumerate(link.segments)])
     polylines: list[list[tuple[int, str, np.ndarray]]] = [[] for _ in data.layers]
@@ -290,8 +294,6 @@ def build_groups(data: SceneData, meshes, pin_vertex, polylines) -> list[Group]:
         split = [(int(gm.maps[la][va]), int(gm.maps[lb][vb])) for la, va, lb, vb, li, one in springs if one]
         grp.hinges = np.array([(v, v) for v in merged] + split, np.int64).reshape(-1, 2)
         if springs:
-            from puppet.scene.rig.links import coupling
-
             pairs = {(int(gm.maps[la][va]), int(gm.maps[lb][vb])): coupling(data.links[li].strength)
                      for la, va, lb, vb, li, _ in springs}
             pairs = {ab: w for ab, w in pairs.items() if ab[0] != ab[1] and w > 0}

@@ -19,13 +19,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from puppet.geom.contour import mask_regions
+from puppet.scene.format.model import SceneData
 from puppet.scene.rig import build
 from puppet.scene.rig.cache import Memo, file_stamp, fingerprint
 from puppet.scene.rig.exterior import GroupExterior, build_exterior
 from puppet.scene.rig.links import link_parts
+from puppet.scene.rig.solve import (
+    GroupPose,
+    GroupPre,
+    PinState,
+    precompute_group,
+    solve_group,
+)
 from puppet.scene.rig.stiffness import group_cells
-from puppet.scene.format.model import SceneData
-from puppet.scene.rig.solve import GroupPose, GroupPre, PinState, precompute_group, solve_group
 
 #: how many of each kind of built part are kept (least recently used dropped first)
 CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,

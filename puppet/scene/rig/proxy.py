@@ -24,6 +24,7 @@ from puppet.errors import SceneError
 from puppet.geom.triangulate import edge_length_for_area, triangulate_regions
 from puppet.scene.rig import build
 from puppet.scene.rig.cache import fingerprint
+from puppet.scene.rig.core import LayerResult
 
 #: Groups with more vertices than this are previewed on a proxy.
 PROXY_MIN = 12000
@@ -93,8 +94,6 @@ def proxy_layer(proxy: Proxy, built, gi: int, U: np.ndarray, pin_depth: np.ndarr
     """The group's layer drawn as the deformed proxy: a
     :class:`~puppet.scene.rig.core.LayerResult` (rest, deformed and triangles of the proxy;
     ``pin_depth``: (k,) the scene pins' depths)."""
-    from puppet.scene.rig.core import LayerResult
-
     g, k = built.groups[gi], proxy.layer
     r = built.rank[k]
     depth = depth_field(proxy.arap.D, pin_depth[g.pins], alpha=built.data.deformer.alpha)

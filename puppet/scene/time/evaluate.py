@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.scene.rig.exterior import GroupExterior
 from puppet.scene.format.model import SceneData, Target
+from puppet.scene.rig.exterior import GroupExterior
 from puppet.scene.rig.solve import PinState
 
 __all__ = ["PinState", "rest_state", "pose_state", "blend"]

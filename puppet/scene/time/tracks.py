@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.scene.time.evaluate import PinState, exterior_names, pose_state, rest_state
-from puppet.scene.rig.exterior import GroupExterior
 from puppet.scene.format.model import Animation, SceneData
+from puppet.scene.rig.exterior import GroupExterior
+from puppet.scene.time.evaluate import PinState, exterior_names, pose_state, rest_state
 from puppet.scene.time.timeline import around, ease
 
 
