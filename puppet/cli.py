@@ -269,9 +269,9 @@ def _init_layered(args, out: str) -> int:
 def run(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "app":  # imported here only: render and mesh never load pyglet
-        import puppet.app
+        import puppet.app.main
 
-        return puppet.app.run(args.scene, size=args.size)  # art: puppet.app.model.opening.from_art
+        return puppet.app.main.run(args.scene, size=args.size)  # art: puppet.app.model.opening.from_art
     if args.command in _PLUGGED:
         return _PLUGGED[args.command].run(args)
     if args.command == "init":

@@ -1,53 +1,18 @@
-"""``puppet app``: an OpenGL window to pin, pose and arrange a puppet's layers.
+"""``puppet app``: an OpenGL window to pin, pose and animate a puppet's layers.
 
-Nothing in puppet imports this package (it sits on top of the import layers); the CLI
-imports it lazily, so ``render`` and ``mesh`` never load pyglet or ImGui.
+Four rooms, each importing only the rooms below it (import-linter contracts in
+``pyproject.toml`` check it, and that ``model`` and ``tools`` load no GL, window or
+ImGui library)::
+
+    gl/      the pyglet window, the canvas and ImGui renderers (moderngl), key input,
+             the onion skin's drawing
+    ui/      Dear ImGui: the action table, menus, toolbar, panels, dialogs, the start
+             page, the task script's step bar, what is drawn over the canvas
+    tools/   canvas tools: generators over (app, event) from press to release
+    model/   the app's state and intents, the scene session (the one thread that owns
+             the document), snapshots, the timeline, view, picking, recording, files
+
+:func:`puppet.app.main.run` opens the window (``puppet app``). Nothing in puppet imports
+this package but the CLI, lazily, so ``render`` and ``mesh`` never load pyglet or ImGui.
+See ``docs/architecture.md``.
 """
-from __future__ import annotations
-
-import os
-
-
-def run(path: str | None = None, *, size: tuple[int, int] = (1280, 800), headless: bool = False) -> int:
-    """Open the app window (on ``path`` when given) and run it until it quits; returns 0.
-
-    ``path`` (a scene, a picture or layered art) is loaded before the window opens: one
-    that cannot be opened raises SceneError (the CLI's one line, exit 2) with no window."""
-    if path is not None:
-        from puppet.app.model import opening
-
-        path = opening.preload(path)
-    import pyglet
-
-    pyglet.options["debug_gl"] = False
-    if headless:
-        pyglet.options["headless"] = True
-    elif not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-        from puppet.errors import SceneError
-
-        raise SceneError("puppet app needs a display (DISPLAY is not set; try xvfb-run -a -s "
-                         "'-screen 0 1280x1024x24' puppet app ...)")
-    else:
-        _connect_display()
-    from puppet.app.gl.window import AppWindow, print_ready
-
-    AppWindow(path, size=size, ready=print_ready).run()
-    return 0
-
-
-def _connect_display() -> None:
-    """Open the display named by DISPLAY now: one line (SceneError) when no server answers
-    there, instead of pyglet's NoSuchDisplayException from deep in the window's making."""
-    import pyglet
-
-    from puppet.errors import SceneError
-
-    module = getattr(pyglet, "display", None) or pyglet.canvas  # pyglet 2.1 renamed canvas
-    try:
-        module.get_display()
-    except Exception as e:
-        if type(e).__name__ != "NoSuchDisplayException":
-            raise
-        raise SceneError(f"puppet app cannot open the display {os.environ.get('DISPLAY', '')!r} (no X server "
-                         "answers there); check DISPLAY, or try xvfb-run -a -s '-screen 0 1280x1024x24' "
-                         "puppet app ...") from None

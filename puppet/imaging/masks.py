@@ -129,6 +129,20 @@ def canvas_to_image(canvas_mask: np.ndarray, offset, shape: tuple[int, int]) -> 
     return out
 
 
+def image_to_canvas(mask: np.ndarray, offset, canvas) -> np.ndarray:
+    """A layer image's mask (h, w), placed at canvas ``offset`` (rounded to whole pixels),
+    on the canvas grid of size ``canvas`` (W, H): (H, W) bool (the inverse of
+    :func:`canvas_to_image`)."""
+    W, H = int(canvas[0]), int(canvas[1])
+    out = np.zeros((H, W), bool)
+    ox, oy = int(round(offset[0])), int(round(offset[1]))
+    h, w = mask.shape
+    y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
+    if y1 > y0 and x1 > x0:
+        out[y0:y1, x0:x1] = mask[y0 - oy:y1 - oy, x0 - ox:x1 - ox]
+    return out
+
+
 def rect_mask(shape: tuple[int, int], rect, offset=(0.0, 0.0)) -> np.ndarray:
     """Pixels whose centre lies inside ``[x, y, w, h]`` (canvas coordinates)."""
     h, w = shape

@@ -27,7 +27,7 @@ def test_progress_callback_counts_every_frame(tmp_path, name):
 def test_app_exporter_child_prints_progress(tmp_path):
     scene = make_bar(tmp_path / "s", seconds=1.0, fps=10)
     out = tmp_path / "a.html"
-    proc = subprocess.run([sys.executable, "-m", "puppet.app.model.exporter", scene, str(out), json.dumps({"fps": 5})],
+    proc = subprocess.run([sys.executable, "-m", "puppet.anim.export_child", scene, str(out), json.dumps({"fps": 5})],
                           capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("progress")]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.app.tools import mask as mt
-from puppet.imaging.masks import canvas_to_image
+from puppet.imaging.masks import canvas_to_image, image_to_canvas
 
 
 def test_rect_mask_is_the_pixels_between_the_corners_in_any_order():
@@ -32,8 +32,8 @@ def test_stroke_mask_is_a_round_brush_along_the_path():
 def test_canvas_and_image_grids_round_trip_with_an_offset():
     img = np.zeros((4, 5), bool)
     img[1, 2] = img[3, 4] = True
-    canvas = mt.on_canvas(img, (3, 2), (10, 8))
+    canvas = image_to_canvas(img, (3, 2), (10, 8))
     assert canvas.shape == (8, 10) and canvas.sum() == 2 and canvas[3, 5] and canvas[5, 7]
     np.testing.assert_array_equal(canvas_to_image(canvas, (3, 2), img.shape), img)
     # partly off the canvas: what is outside is dropped
-    assert mt.on_canvas(img, (-3, 0), (10, 8)).sum() == 1
+    assert image_to_canvas(img, (-3, 0), (10, 8)).sum() == 1

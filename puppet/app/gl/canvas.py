@@ -17,6 +17,7 @@ import time
 import moderngl
 import numpy as np
 
+from puppet.render.compositor import Compositor
 from puppet.render.layers import DrawLayer, mesh_edges
 from puppet.render.programs import load_program
 
@@ -53,8 +54,6 @@ class CanvasRenderer:
     """
 
     def __init__(self, ctx: moderngl.Context, compositor=None):
-        from puppet.render.compositor import Compositor
-
         self.ctx = ctx
         self.compositor = compositor or Compositor(ctx)
         self.tex_prog = load_program(ctx, "app_quad")

@@ -1,53 +1,16 @@
-"""The onion skin: which times are ghosted (:func:`ghost_times`; the scene session
-solves them through its frame cache, :mod:`puppet.app.model.snapshot`), and how they are drawn.
-
-GL thread (:class:`GhostRenderer`): each ghost is composited by the same compositor as
-the canvas into a texture at window resolution and drawn tinted (red before, green
-after) at a lower opacity, behind the current frame.
+"""The onion skin as drawn (GL thread, :class:`GhostRenderer`): each ghost is composited
+by the same compositor as the canvas into a texture at window resolution and drawn tinted
+(red before, green after) at a lower opacity, behind the current frame. Which times are
+ghosted is :mod:`puppet.app.model.onion`.
 """
 from __future__ import annotations
 
 import moderngl
 import numpy as np
 
+from puppet.app.model.onion import DEFAULTS
 from puppet.render.layers import DrawLayer
 from puppet.render.programs import load_program
-
-#: default onion skin settings (the timeline panel edits a copy)
-DEFAULTS = {"mode": "keys", "count": 1, "opacity": 0.4, "before": (0.9, 0.15, 0.1), "after": (0.1, 0.75, 0.2),
-            "fps": 24.0}
-
-
-def key_times(anim: dict | None) -> list[float]:
-    """Sorted distinct key times of an animation in file form (every track)."""
-    if not anim:
-        return []
-    return sorted({float(k["time"]) for k in anim.get("keys", [])})
-
-
-def ghost_times(anim: dict | None, t: float, *, mode: str = "keys", count: int = 1, fps: float = 24.0,
-                **_) -> list[tuple[str, float, float]]:
-    """The onion skin around time ``t``: ``(side, weight, time)`` for each ghost.
-
-    ``mode="keys"``: the ``count`` keys before and after ``t`` (a key at ``t`` itself is the
-    current frame); ``mode="frames"``: ``t ± k / fps`` for k = 1..count, inside the
-    animation. ``weight`` is 1 for the nearest ghost and falls off linearly.
-    """
-    times = key_times(anim)
-    if not times or count < 1:
-        return []
-    eps = 1e-6
-    if mode == "frames":
-        before = [t - k / fps for k in range(1, count + 1) if t - k / fps >= times[0] - eps]
-        after = [t + k / fps for k in range(1, count + 1) if t + k / fps <= times[-1] + eps]
-    else:
-        before = [k for k in reversed(times) if k < t - eps][:count]
-        after = [k for k in times if k > t + eps][:count]
-    out = []
-    for side, ts in (("before", before), ("after", after)):
-        for k, gt in enumerate(ts):
-            out.append((side, 1.0 - k / max(count, 1), float(gt)))
-    return out
 
 
 class GhostRenderer:

@@ -17,6 +17,7 @@ from imgui_bundle import imgui
 
 from puppet.render.programs import load_program
 
+
 class ImGuiRenderer:
     """Draw ImGui frames into the current framebuffer of ``ctx``.
 

@@ -12,26 +12,28 @@ import os
 import sys
 import time
 
+import imgui_bundle
 import moderngl
 import pyglet
 import pyglet.window
-import imgui_bundle
 from imgui_bundle import imgui
 
-from puppet.app.model import autosave
-from puppet.app.tools import deform as deformtools
-from puppet.app.ui import actions, menus, overlay, script, start_page as startpage
-from puppet.app.model.app import App
 from puppet.app.gl.canvas import CanvasRenderer, depth_range
-from puppet.app.ui.files import Files
+from puppet.app.gl.ghosts import GhostRenderer
 from puppet.app.gl.imgui_renderer import ImGuiRenderer
 from puppet.app.gl.keys import ImGuiInput
-from puppet.app.gl.ghosts import GhostRenderer
-from puppet.app.ui.panels import Panels
-from puppet.app.ui.timeline_panel import MIN_HEIGHT as TIMELINE_MIN, TimelinePanel
-from puppet.app.tools.gestures import CanvasEvent
+from puppet.app.model import autosave
+from puppet.app.model.app import App
+from puppet.app.model.opening import scene_file
 from puppet.app.tools.dispatch import choose_tool
-from puppet.app.ui.widgets import Thumbs
+from puppet.app.tools.gestures import CanvasEvent
+from puppet.app.ui import actions, deform_overlay, menus, overlay, script
+from puppet.app.ui import start_page as startpage
+from puppet.app.ui.files import Files
+from puppet.app.ui.panels import Panels
+from puppet.app.ui.timeline_panel import MIN_HEIGHT as TIMELINE_MIN
+from puppet.app.ui.timeline_panel import TimelinePanel
+from puppet.app.ui.widgets import RECTS, Thumbs
 
 PANEL_WIDTH = 330
 #: the smallest window (every toolbar control and panel stays reachable down to it)
@@ -140,8 +142,6 @@ class AppWindow:
         if app.snap.loaded and app.snap.dirty and not discard:
             app.dialog, app.after_dialog = "unsaved", ("open", path)
             return
-        from puppet.app.model.opening import scene_file
-
         pending = autosave.pending(scene_file(path)) if os.path.isfile(path) else None
         if pending:
             app.recover_path, app.path_field = pending, path
@@ -273,8 +273,6 @@ class AppWindow:
         if now - getattr(self, "_rects_at", 0.0) < 0.2:
             return
         self._rects_at = now
-        from puppet.app.ui.widgets import RECTS
-
         app = self.app
         markers = {m.name: [float(v) for v in app.view.to_screen(app.marker_xy(m))] for m in app.markers()}
         info = {"rects": RECTS, "scale": app.view.scale, "origin": list(app.view.origin),
@@ -321,7 +319,7 @@ class AppWindow:
         dl = imgui.get_window_draw_list()
         if app.snap.loaded:
             script.draw_overlay(dl, app)
-            deformtools.draw_overlay(dl, app)
+            deform_overlay.draw_overlay(dl, app)
             if app.show_links:
                 overlay.draw_links(dl, app)
             if app.show_pins:

@@ -14,12 +14,13 @@ import os
 
 import numpy as np
 
-from puppet.app.model import pick
-from puppet.app.ui.script import Script
-from puppet.app.model.view import View
+from puppet.app.model import autosave, pick
 from puppet.app.model.opening import is_picture
 from puppet.app.model.session import SceneSession
 from puppet.app.model.snapshot import Message, Snapshot
+from puppet.app.model.steps import Script, set_step
+from puppet.app.model.timeline import Timeline
+from puppet.app.model.view import WHEEL_STEP, View
 
 MODES = ("pin", "pose")
 
@@ -56,8 +57,6 @@ class App:
         self._marker_version = -1
         self._layer_names: dict[str, int] = {}
         self.script = Script()  # the task script's step, tool and drafts
-        from puppet.app.model.timeline import Timeline
-
         self.timeline = Timeline(self)  # playhead, keys, record mode, onion skin
 
     # -- per frame ---------------------------------------------------------------
@@ -106,8 +105,6 @@ class App:
         ``keep_autosave`` (the window's loop ended by an exception: Ctrl+C in the terminal,
         a bug): unsaved changes are autosaved once more and the autosave is kept, so the
         next open offers to recover them; returns its path then."""
-        from puppet.app.model import autosave
-
         session = self.session
         session.wait_idle(timeout)
         kept = None
@@ -142,8 +139,6 @@ class App:
             self.fit()
 
     def zoom(self, cursor, notches: float) -> None:
-        from puppet.app.model.view import WHEEL_STEP
-
         self.view.zoom_at(cursor, WHEEL_STEP ** notches)
 
     # -- markers -------------------------------------------------------------------
@@ -409,13 +404,11 @@ class App:
         path = os.path.abspath(os.path.expanduser(path))
         picture = is_picture(path)
         self.selection, self.selected_layer, self.hidden = [], None, set()
-        from puppet.app.ui import script
-
         self.script = Script()
         self.timeline.reset()
         self.mode = "pin" if picture else "pose"  # as the command line opens it, whatever was open before
         if picture:
-            script.set_step(self, "image")
+            set_step(self, "image")
         self.session.open(path, picture=picture, recover_from=recover_from, rest=self.mode == "pin")
 
     def save(self, path: str | None = None) -> None:

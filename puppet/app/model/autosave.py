@@ -9,6 +9,10 @@ import os
 import re
 import stat
 
+from puppet.errors import SceneError
+from puppet.output import OutputError
+from puppet.scene.format.reader import parse_text, read_text
+
 #: Names of the pixels files a save writes (:meth:`puppet.scene.document.files.PendingFiles.add`).
 _PIXELS = re.compile(r"[A-Za-z0-9_.-]+-[0-9a-f]{12}\.png")
 #: seconds between autosaves of a scene with unsaved changes
@@ -32,8 +36,6 @@ def write(scene) -> str:
     the scene, never pointing into ``NAME.autosave.files/``. Only an earlier autosave is
     replaced: any other file at that name (a picture, a link) is refused (OutputError).
     """
-    from puppet.output import OutputError
-
     path = path_for(scene.file)
     if os.path.lexists(path) and not is_autosave(path):
         raise OutputError(path, "is not an autosave of this app (it is kept; move it away to autosave)")
@@ -43,9 +45,6 @@ def write(scene) -> str:
 
 def is_autosave(path: str) -> bool:
     """``path`` is a regular file (not a link) holding a scene: what :func:`write` writes."""
-    from puppet.errors import SceneError
-    from puppet.scene.format.reader import parse_text, read_text
-
     try:
         if not stat.S_ISREG(os.lstat(path).st_mode):
             return False

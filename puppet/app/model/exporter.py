@@ -3,7 +3,7 @@ in a child process, with its progress shown in the app.
 
 The scene as it is now (unsaved edits too) is written to a temporary folder
 (:meth:`~puppet.scene.document.core.Document.to_json`: paths relative to it, the scene's own
-files untouched), and ``python -m puppet.app.model.exporter SCENE OUTPUT OPTIONS`` draws it
+files untouched), and ``python -m puppet.anim.export_child SCENE OUTPUT OPTIONS`` draws it
 offscreen (EGL, its own GL context: no GL is shared with the window, whose context may
 be GLX under X). The child prints ``progress I N`` lines; Cancel interrupts it (SIGINT)
 and the export's atomic write leaves nothing behind.
@@ -56,7 +56,7 @@ class Export:
         app.write_copy(tmp, then)
 
     def _launch(self, scene_path: str, options: dict) -> None:
-        cmd = [sys.executable, "-m", "puppet.app.model.exporter", scene_path, self.output, json.dumps(options)]
+        cmd = [sys.executable, "-m", "puppet.anim.export_child", scene_path, self.output, json.dumps(options)]
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         env.pop("DISPLAY", None)  # EGL only in the child
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
@@ -105,37 +105,3 @@ class Export:
         el = time.monotonic() - self.started
         rate = self.done / el
         return f"{rate:.1f} frames/s, {max(self.total - self.done, 0) / rate:.0f} s left"
-
-
-def main(argv: list[str]) -> int:
-    """The child: ``SCENE OUTPUT OPTIONS_JSON``; prints ``progress I N``; exit 2 on a scene error."""
-    scene_path, output, options = argv[0], argv[1], json.loads(argv[2])
-    import puppet
-    from puppet.anim.export import animate_to, frame_count
-    from puppet.errors import SceneError
-
-    try:
-        scene = puppet.load_scene(scene_path)
-        anim = scene.data.animation
-        if anim is None:
-            raise SceneError("the scene has no animation to export: add keys first")
-        fps = float(options.get("fps") or anim.fps)
-        t0 = float(options["start"]) if options.get("start") is not None else anim.keys[0].time
-        t1 = float(options["end"]) if options.get("end") is not None else anim.keys[-1].time
-        total = frame_count(t0, t1, fps)
-        kw = {k: options[k] for k in ("fps", "start", "end", "background") if options.get(k) is not None}
-        if options.get("size"):
-            kw["size"] = tuple(options["size"])
-        animate_to(scene, output, progress=lambda done, n: print(f"progress {done} {n}", flush=True), **kw)
-        print(f"progress {total} {total}", flush=True)
-    except SceneError as e:
-        print(f"puppet: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        return 130
-    return 0
-
-
-if __name__ == "__main__":
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    sys.exit(main(sys.argv[1:]))

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import os
 
+import puppet
 from puppet.errors import SceneError
+from puppet.imaging.layered import is_layered
+from puppet.scene.make.art import import_beside
 
 #: ``puppet app FILE`` / File > Open with one of these opens a picture as a new scene
 PICTURES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
@@ -16,8 +19,6 @@ def is_picture(path: str) -> bool:
 
 def is_art(path: str) -> bool:
     """A layered art file (.psd .psb .ora .kra): opened as the scene ``ART.json`` beside it."""
-    from puppet.imaging.layered import is_layered
-
     return is_layered(path)
 
 
@@ -38,8 +39,6 @@ def from_art(art: str):
     """``puppet app ART.psd``, File > Open or a drop of the art: the scene ``ART.json``
     beside it, made or updated (rig kept) by :func:`puppet.scene.make.art.import_beside`;
     returns its ImportResult (``.scene`` the path, ``.notes``, ``.summary()``)."""
-    from puppet.scene.make.art import import_beside
-
     check_exists(art)
     return import_beside(art)
 
@@ -76,8 +75,6 @@ def load(path: str, *, picture: bool, recover_from: str | None = None):
     scene's place (the file is unchanged until a save). The scene is built here (images,
     meshes, groups), not in the window's first frame.
     """
-    import puppet
-
     pre = _preloaded.pop(os.path.abspath(path), None)
     if pre is not None and recover_from is None:
         return pre

@@ -22,8 +22,16 @@ import traceback
 from dataclasses import replace
 from typing import Any, Callable
 
-from puppet.app.model.snapshot import FrameCache, Message, Shown, Snapshot, build_snapshot
+from puppet.app.model import autosave, opening
+from puppet.app.model.snapshot import (
+    FrameCache,
+    Message,
+    Shown,
+    Snapshot,
+    build_snapshot,
+)
 from puppet.errors import SceneError
+from puppet.scene.drag.process import DragProcess
 
 _KEEP = object()
 #: the default of :attr:`SceneSession.solver` (``PUPPET_APP_SOLVER`` overrides it)
@@ -75,8 +83,6 @@ class SceneSession:
         """Open the scene at ``path`` (or a new scene over the picture ``path``; or the
         autosave ``recover_from`` in its place); show rest when ``rest``."""
         def job():
-            from puppet.app.model import opening
-
             scene, saved, msg = opening.load(path, picture=picture, recover_from=recover_from)
             self._set_scene(scene, saved)
             self._solver()  # the child starts while the user looks at the scene
@@ -90,8 +96,6 @@ class SceneSession:
     def save(self, path: str | None = None) -> int:
         """Save to the scene's file (or ``path``: Save As), atomically."""
         def job():
-            from puppet.app.model import autosave
-
             s = self._need()
             target = path or s.file
             s.save(target)
@@ -105,8 +109,6 @@ class SceneSession:
 
     def autosave(self) -> int:
         def job():
-            from puppet.app.model import autosave
-
             if self.scene is not None:
                 autosave.write(self.scene)
         return self._post(job, publish=False)
@@ -295,8 +297,6 @@ class SceneSession:
         if self.solver != "process":
             return None
         if self._proc is None or not self._proc.alive:
-            from puppet.scene.drag.process import DragProcess
-
             if self._proc is not None:
                 self._proc.close()
             self._proc = DragProcess()

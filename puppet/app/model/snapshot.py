@@ -8,6 +8,9 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from puppet.app.model import onion
+from puppet.errors import SceneError
+
 #: solved frames kept per scene state (LayerResults are a few arrays per layer: ~0.25 MB
 #: a frame for the T-rex's 9 800 vertices)
 FRAME_CACHE = 400
@@ -110,9 +113,6 @@ class FrameCache:
 def build_snapshot(session, version: int, layers=None) -> Snapshot:
     """The full snapshot of ``session``'s scene as it is now (scene thread); ``layers``:
     shown instead of the solved pose."""
-    from puppet.app.gl import ghosts as onion
-    from puppet.errors import SceneError
-
     s, shown = session.scene, session.shown
     built = s.built
     doc = s.to_dict()

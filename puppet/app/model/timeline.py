@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time as _time
 
-from puppet.app.gl import ghosts as onion
+from puppet.app.model import onion
 from puppet.app.model.record import Recording
 from puppet.scene.time.timeline import frame_count
 

@@ -13,8 +13,8 @@
 """
 from __future__ import annotations
 
-from puppet.app.tools.gestures import delta, drag_selection, grab, moved, offset
 from puppet.app.model.record import Recording
+from puppet.app.tools.gestures import delta, drag_selection, grab, moved, offset
 
 
 def choose(app, press):

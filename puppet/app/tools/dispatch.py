@@ -10,8 +10,19 @@ callbacks. A tool is called with the press event, and each later event (``drag``
 """
 from __future__ import annotations
 
-from puppet.app.tools import anim as animtools, deform as deformtools
-from puppet.app.tools.gestures import CanvasEvent, delta, moved, offset, pose_tool, remove_on_click
+from puppet.app.model.steps import TOOLS
+from puppet.app.tools import anim as animtools
+from puppet.app.tools import deform as deformtools
+from puppet.app.tools import link as linkpencil
+from puppet.app.tools import mask as masktools
+from puppet.app.tools.gestures import (
+    CanvasEvent,
+    delta,
+    moved,
+    offset,
+    pose_tool,
+    remove_on_click,
+)
 
 
 def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
@@ -20,9 +31,9 @@ def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
         return pan_tool
     if ev.button != 0:
         return None
-    step_tool = app.script.canvas_tool(app)  # the task script's mask, clone and link tools
-    if step_tool is not None:
-        return step_tool
+    tool = step_tool(app)  # the task script's mask, clone and link tools
+    if tool is not None:
+        return tool
     deform_tool = deformtools.canvas_tool(app)  # stiffness brush, hinge, patch (Deform panel)
     if deform_tool is not None:
         return deform_tool
@@ -32,6 +43,21 @@ def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
         if anim_tool is not None:
             return anim_tool
     return pin_tool if app.mode == "pin" else pose_tool
+
+
+def step_tool(app):
+    """The task script's tool for a left press in its step (None: the mode's)."""
+    sc = app.script
+    t = sc.tool if sc.step in TOOLS else None
+    if t in ("brush-add", "brush-sub", "clone-brush", "erase", "paint"):
+        return masktools.brush_tool
+    if t == "lasso":
+        return masktools.lasso_tool
+    if t in ("clone-rect", "grabcut"):
+        return masktools.rect_tool
+    if t == "link":
+        return linkpencil.link_tool
+    return None
 
 
 def pan_tool(app, ev: CanvasEvent):

@@ -2,7 +2,7 @@
 two link layers. While it drags, the canvas shows the part the build will keep (the
 segment clipped to the overlap of the two masks by :func:`puppet.scene.rig.links.clip_segment`,
 the very rule the meshes use) solid, as a stored link is drawn, and the parts it drops
-dashed. The release adds the kept part as the link segment (one undo step), so the file
+dashed (:func:`puppet.app.ui.overlay.draw_link_preview`). The release adds the kept part as the link segment (one undo step), so the file
 holds what is used; only a segment with nothing inside the overlap is refused.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.scene.rig.links import clip_segment
+from puppet.scene.rig.links import clip_masks, clip_segment
 
 #: dashes of the dropped parts, window px (on, off)
 DASH = (6.0, 5.0)
@@ -72,8 +72,6 @@ def link_masks(app, a: str, b: str) -> list | None:
     """``(grown mask, offset, mask)`` of layers ``a`` and ``b`` as the build clips link
     segments with them (:func:`puppet.scene.rig.links.link_parts`), from the shown snapshot;
     cached while the snapshot's version and the pair stay the same."""
-    from puppet.scene.rig.links import clip_masks
-
     sc = app.script
     key = (app.snap.version, a, b)
     hit = sc.link_masks
@@ -159,58 +157,3 @@ def stored(app, p: Preview) -> bool:
             if any(np.allclose(np.asarray(s, float), p.kept) for s in link.segments):
                 return True
     return False
-
-
-def draw(dl, app) -> None:
-    """The segment being drawn: the kept part solid (as a link), the dropped parts dashed;
-    after the release the kept part stays until the scene shows the link, the dropped
-    parts stay (faint) while the link holds the kept part, and a refused segment stays
-    dashed with a red cross until the next gesture or a change of the scene."""
-    from imgui_bundle import imgui
-
-    from puppet.app.ui.overlay import LINK
-
-    p = app.script.link_preview
-    if p is None:
-        return
-    col = imgui.get_color_u32
-    view = app.view
-    refused = p.kept is None
-    pending = p.done and not refused and app.snap.done < p.job  # the edit is on its way
-    if p.done and not refused and not pending and not stored(app, p):
-        return  # undone, or the edit failed
-    if p.done and refused and app.snap.data is not p.data:
-        return  # the scene changed since (an undo, another edit): the refusal is old news
-    drop = col(imgui.ImVec4(1.0, 1.0, 1.0, 0.5 if p.done and not refused else 0.8))
-    dark = col(imgui.ImVec4(0.0, 0.0, 0.0, 0.6))
-    for seg in p.dropped():
-        s0, s1 = (np.asarray(view.to_screen(q), float) for q in seg)
-        dashed(dl, s0, s1, dark, 4.0)
-        dashed(dl, s0, s1, drop, 2.0)
-    if refused and p.done:  # a red cross on the refused segment (dashes alone say "dropped")
-        m = np.asarray(view.to_screen((p.p0 + p.p1) / 2), float)
-        for w, c in ((6.0, dark), (3.0, col(imgui.ImVec4(1.0, 0.2, 0.15, 1.0)))):
-            for d in (np.array([8.0, 8.0]), np.array([8.0, -8.0])):
-                dl.add_line(imgui.ImVec2(*map(float, m - d)), imgui.ImVec2(*map(float, m + d)), c, w)
-    if not refused and (not p.done or pending):  # once shown, the stored link draws the kept part
-        k0, k1 = (imgui.ImVec2(*map(float, view.to_screen(q))) for q in p.kept)
-        dl.add_line(k0, k1, col(imgui.ImVec4(0.0, 0.0, 0.0, 0.8)), 5.0)
-        dl.add_line(k0, k1, col(imgui.ImVec4(*LINK)), 3.0)
-        for k in (k0, k1):
-            dl.add_circle_filled(k, 3.5, col(imgui.ImVec4(*LINK)))
-
-
-def dashed(dl, s0, s1, color, thickness: float) -> None:
-    """A dashed line from window point ``s0`` to ``s1`` (:data:`DASH`)."""
-    from imgui_bundle import imgui
-
-    d = s1 - s0
-    n = float(np.hypot(*d))
-    if n < 0.5:
-        return
-    u = d / n
-    t = 0.0
-    while t < n:
-        a, z = s0 + t * u, s0 + min(t + DASH[0], n) * u
-        dl.add_line(imgui.ImVec2(float(a[0]), float(a[1])), imgui.ImVec2(float(z[0]), float(z[1])), color, thickness)
-        t += DASH[0] + DASH[1]

@@ -12,7 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.masks import canvas_to_image
+from puppet.imaging.io import load_rgba
+from puppet.imaging.masks import canvas_to_image, image_to_canvas
+from puppet.scene.document.files import mask_rgba
+
 
 # -- rasterising (any thread) -----------------------------------------------------------------
 def stroke_mask(shape, points, radius: float) -> np.ndarray:
@@ -51,18 +54,6 @@ def rect_mask(shape, a, b) -> np.ndarray:
     return out
 
 
-def on_canvas(mask_img: np.ndarray, offset, canvas) -> np.ndarray:
-    """A layer mask (image grid, at ``offset``) on the canvas grid ``canvas`` (W, H)."""
-    W, H = int(canvas[0]), int(canvas[1])
-    out = np.zeros((H, W), bool)
-    ox, oy = int(round(offset[0])), int(round(offset[1]))
-    h, w = mask_img.shape
-    y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
-    if y1 > y0 and x1 > x0:
-        out[y0:y1, x0:x1] = mask_img[y0 - oy:y1 - oy, x0 - ox:x1 - ox]
-    return out
-
-
 # -- scene-thread jobs ----------------------------------------------------------------------
 def _index(s, name):
     return next((k for k, L in enumerate(s.data.layers) if L.name == name), None)
@@ -75,7 +66,7 @@ def object_mask(s, but: str | None = None) -> np.ndarray:
     out = np.zeros((H, W), bool)
     for L, im in zip(s.data.layers, s.built.images):
         if im.from_source and L.name != but:
-            out |= on_canvas(im.mask, im.offset, (W, H))
+            out |= image_to_canvas(im.mask, im.offset, (W, H))
     return out
 
 
@@ -84,8 +75,6 @@ def apply_mask(s, layer: str, shape_fn, op: str, label: str, clone: bool = False
     (making the layer, in front, when the app had it only as an empty new layer). A
     ``clone`` takes only pixels of the object (the other source layers' masks), not the
     picture's background."""
-    from puppet.scene.document.files import mask_rgba
-
     W, H = s.canvas
     stroke = shape_fn((H, W))
     if clone and op == "add":
@@ -98,8 +87,6 @@ def apply_mask(s, layer: str, shape_fn, op: str, label: str, clone: bool = False
             raise SceneError(f"layer {layer!r} has no pixels yet: clone some into it first")
         if s.data.source is None:
             raise SceneError("the scene has no source picture to clone from")
-        from puppet.imaging.io import load_rgba
-
         new = stroke & (load_rgba(s.data.source)[..., 3] > 0)
         if not new.any():
             raise SceneError("nothing cloned: the stroke is outside the picture")

@@ -1,7 +1,7 @@
 """The app's actions in one table: each :class:`Action` has its keys, its label, when it
 is enabled and what it runs; the table drives the key dispatch (:func:`handle_keys`,
 once a frame from ImGui's key state, so a text field that has the keyboard keeps its
-keys), the menus (:func:`menu`), the toolbar's tooltips (:func:`tip`) and the keys
+keys), the menus (:func:`puppet.app.ui.menus.menu_items`), the toolbar's tooltips (:func:`tip`) and the keys
 overlay (:func:`help_rows`). A shortcut is written once, here.
 """
 from __future__ import annotations
@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 from imgui_bundle import imgui
+
+from puppet.app.ui import export_dialog
 
 K = imgui.Key
 
@@ -61,8 +63,6 @@ def _loaded(app) -> bool:
 
 
 def _export(app, win) -> None:
-    from puppet.app.ui import export_dialog
-
     export_dialog.open_dialog(app)
 
 
@@ -223,27 +223,3 @@ def handle_keys(app, win) -> Action | None:
             a.run(app, win)
             return a
     return None
-
-
-def menu(app, win, title: str) -> None:
-    """The items of menu ``title`` (inside ``begin_menu``)."""
-    for a in ACTIONS:
-        if a.menu != title:
-            continue
-        if a.separator:
-            imgui.separator()
-        if a.name == "save":  # File > Open Recent under Open
-            from puppet.app.ui.menus import recent_menu
-
-            recent_menu(win)
-        label, enabled = a.label, a.enabled(app)
-        if a.name in ("undo", "redo"):  # named after the step, greyed when there is none
-            step = app.snap.undo_label if a.name == "undo" else app.snap.redo_label
-            label, enabled = f"{label} {step or ''}", enabled and step is not None
-        shortcut = a.keys.split(",")[0].split(" / ")[0]
-        if a.checked is not None:
-            clicked, _ = imgui.menu_item(label, shortcut, getattr(app, a.checked))
-        else:
-            clicked = imgui.menu_item_simple(label, shortcut, enabled=enabled)
-        if clicked and enabled:
-            a.run(app, win)

@@ -8,6 +8,7 @@ from imgui_bundle import imgui
 from puppet.app.tools import deform as deformtools
 from puppet.app.ui.widgets import button, live, note, toggle
 from puppet.scene.format.model import MODES
+from puppet.scene.rig.stiffness import STARCH_RADIUS
 
 MODE_TIPS = {
     "rigid": "as-rigid-as-possible: parts bend but keep their size (the default)",
@@ -132,8 +133,6 @@ def starch(app) -> None:
     pins = {p.name: p for p in app.snap.data.pins}
     p = pins.get(app.selection[0]) if len(app.selection) == 1 else None
     if p is not None and p.kind == "starch":
-        from puppet.scene.rig.stiffness import STARCH_RADIUS
-
         changed, r = imgui.slider_float(f"{p.name} radius", p.radius or STARCH_RADIUS, 4.0, 400.0, "%.0f px",
                                         imgui.SliderFlags_.logarithmic)
         imgui.set_item_tooltip("how far the starch pin stiffens the layer around it")

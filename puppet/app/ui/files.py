@@ -18,6 +18,8 @@ import time
 from puppet.app.model import recent
 from puppet.app.model.opening import PICTURES
 from puppet.imaging.layered import SUFFIXES as ART
+from puppet.scene.make.art import art_of, stamp
+from puppet.scene.make.reload import reload_art
 
 #: the environment variable that picks the dialogs: "field", "native", or unset (native
 #: when a dialog program is there)
@@ -169,8 +171,6 @@ class Files:
 
     # -- Reload art -------------------------------------------------------------------
     def _art_loaded(self, snap) -> None:
-        from puppet.scene.make.art import art_of, stamp
-
         raw = getattr(snap.data, "raw", None)
         self.art = art_of(raw, snap.file) if isinstance(raw, dict) else None
         self.art_stamp = stamp(self.art)
@@ -187,8 +187,6 @@ class Files:
         if now - self._looked < ART_POLL:
             return
         self._looked = now
-        from puppet.scene.make.art import stamp
-
         st = stamp(self.art)
         if st is not None and st != self.art_stamp:
             self.art_changed = True
@@ -201,8 +199,6 @@ class Files:
     def reload_art(self) -> None:
         """File > Reload art: the art merged into the open scene on the scene thread, one
         undo step; the status line lists what moved or went."""
-        from puppet.scene.make.art import stamp
-
         if self.art is None:
             return
         self.art_stamp, self.art_changed = stamp(self.art), False
@@ -213,8 +209,6 @@ def _reload_job(scene) -> str:
     """The scene-thread half of Reload art: returns the status line (what was replaced,
     added, removed, and the merge's notes: pins moved inside their layer, pins and links
     removed)."""
-    from puppet.scene.make.reload import reload_art
-
     res = reload_art(scene)
     line = (f"reloaded the art: {len(res.replaced)} replaced, {len(res.added)} added, "
             f"{len(res.removed)} removed")

@@ -6,7 +6,8 @@ import os
 
 from imgui_bundle import imgui
 
-from puppet.app.ui import actions
+from puppet.app.model import recent
+from puppet.app.ui import actions, export_dialog, script
 from puppet.app.ui.widgets import button, toggle
 
 ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
@@ -17,7 +18,7 @@ def menu_bar(app, win) -> float:
     if imgui.begin_main_menu_bar():
         for title in ("File", "Edit", "View"):
             if imgui.begin_menu(title):
-                actions.menu(app, win, title)
+                menu_items(app, win, title)
                 imgui.end_menu()
         h = imgui.get_window_height()
         imgui.end_main_menu_bar()
@@ -25,10 +26,30 @@ def menu_bar(app, win) -> float:
     return 0.0
 
 
+def menu_items(app, win, title: str) -> None:
+    """The items of menu ``title`` (inside ``begin_menu``)."""
+    for a in actions.ACTIONS:
+        if a.menu != title:
+            continue
+        if a.separator:
+            imgui.separator()
+        if a.name == "save":  # File > Open Recent under Open
+            recent_menu(win)
+        label, enabled = a.label, a.enabled(app)
+        if a.name in ("undo", "redo"):  # named after the step, greyed when there is none
+            step = app.snap.undo_label if a.name == "undo" else app.snap.redo_label
+            label, enabled = f"{label} {step or ''}", enabled and step is not None
+        shortcut = a.keys.split(",")[0].split(" / ")[0]
+        if a.checked is not None:
+            clicked, _ = imgui.menu_item(label, shortcut, getattr(app, a.checked))
+        else:
+            clicked = imgui.menu_item_simple(label, shortcut, enabled=enabled)
+        if clicked and enabled:
+            a.run(app, win)
+
+
 def recent_menu(win) -> None:
     """File > Open Recent (the recent files that still exist)."""
-    from puppet.app.model import recent
-
     paths = recent.existing()
     if imgui.begin_menu("Open Recent", bool(paths)):
         for i, path in enumerate(paths):
@@ -42,8 +63,6 @@ def toolbar(app, wrap: bool = False) -> float:
     """Task-script steps, mode buttons and view toggles (inside the toolbar window); with
     ``wrap``, the view toggles and the buttons after them go on a second row. Returns the
     width all of it takes in one row (window pixels), to choose ``wrap`` next frame."""
-    from puppet.app.ui import script
-
     script.bar(app)
     imgui.text("|")
     imgui.same_line()
@@ -135,8 +154,6 @@ def dialogs(app, win) -> None:
     if not opened:
         return
     if kind == "export":
-        from puppet.app.ui import export_dialog
-
         export_dialog.draw(app)
         imgui.end_popup()
         return

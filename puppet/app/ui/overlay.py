@@ -1,6 +1,6 @@
 """What is drawn over the canvas with ImGui's draw list: pins (interior, exterior and
 automatic exterior points in their own colours, selected ones ringed, names on hover),
-link segments, and the depth legend."""
+link segments, the link pencil's segment while it is drawn, and the depth legend."""
 from __future__ import annotations
 
 import math
@@ -9,6 +9,7 @@ import numpy as np
 from imgui_bundle import imgui
 
 from puppet.app.model import pick
+from puppet.app.tools import link as linkpencil
 
 #: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points, starch pins
 COLOURS = {"interior": (1.0, 0.85, 0.1, 1.0), "exterior": (0.2, 0.75, 1.0, 1.0), "auto": (0.55, 0.85, 1.0, 0.9),
@@ -105,3 +106,52 @@ def draw_depth_legend(dl, app, lo: float, hi: float) -> None:
     white = col((1, 1, 1, 1))
     dl.add_text(imgui.ImVec2(x, y + 12), white, f"back {lo:g}")
     dl.add_text(imgui.ImVec2(x + w - 60, y + 12), white, f"front {hi:g}")
+
+
+def draw_link_preview(dl, app) -> None:
+    """The segment being drawn: the kept part solid (as a link), the dropped parts dashed;
+    after the release the kept part stays until the scene shows the link, the dropped
+    parts stay (faint) while the link holds the kept part, and a refused segment stays
+    dashed with a red cross until the next gesture or a change of the scene."""
+    p = app.script.link_preview
+    if p is None:
+        return
+    col = imgui.get_color_u32
+    view = app.view
+    refused = p.kept is None
+    pending = p.done and not refused and app.snap.done < p.job  # the edit is on its way
+    if p.done and not refused and not pending and not linkpencil.stored(app, p):
+        return  # undone, or the edit failed
+    if p.done and refused and app.snap.data is not p.data:
+        return  # the scene changed since (an undo, another edit): the refusal is old news
+    drop = col(imgui.ImVec4(1.0, 1.0, 1.0, 0.5 if p.done and not refused else 0.8))
+    dark = col(imgui.ImVec4(0.0, 0.0, 0.0, 0.6))
+    for seg in p.dropped():
+        s0, s1 = (np.asarray(view.to_screen(q), float) for q in seg)
+        dashed(dl, s0, s1, dark, 4.0)
+        dashed(dl, s0, s1, drop, 2.0)
+    if refused and p.done:  # a red cross on the refused segment (dashes alone say "dropped")
+        m = np.asarray(view.to_screen((p.p0 + p.p1) / 2), float)
+        for w, c in ((6.0, dark), (3.0, col(imgui.ImVec4(1.0, 0.2, 0.15, 1.0)))):
+            for d in (np.array([8.0, 8.0]), np.array([8.0, -8.0])):
+                dl.add_line(imgui.ImVec2(*map(float, m - d)), imgui.ImVec2(*map(float, m + d)), c, w)
+    if not refused and (not p.done or pending):  # once shown, the stored link draws the kept part
+        k0, k1 = (imgui.ImVec2(*map(float, view.to_screen(q))) for q in p.kept)
+        dl.add_line(k0, k1, col(imgui.ImVec4(0.0, 0.0, 0.0, 0.8)), 5.0)
+        dl.add_line(k0, k1, col(imgui.ImVec4(*LINK)), 3.0)
+        for k in (k0, k1):
+            dl.add_circle_filled(k, 3.5, col(imgui.ImVec4(*LINK)))
+
+
+def dashed(dl, s0, s1, color, thickness: float) -> None:
+    """A dashed line from window point ``s0`` to ``s1`` (:data:`puppet.app.tools.link.DASH`)."""
+    d = s1 - s0
+    n = float(np.hypot(*d))
+    if n < 0.5:
+        return
+    u = d / n
+    t = 0.0
+    while t < n:
+        a, z = s0 + t * u, s0 + min(t + linkpencil.DASH[0], n) * u
+        dl.add_line(imgui.ImVec2(float(a[0]), float(a[1])), imgui.ImVec2(float(z[0]), float(z[1])), color, thickness)
+        t += linkpencil.DASH[0] + linkpencil.DASH[1]

@@ -6,8 +6,11 @@ import os
 
 from imgui_bundle import imgui
 
+from puppet.app.ui import deform_panel as deformpanel
+from puppet.app.ui import history_panel, script
 from puppet.app.ui.widgets import THUMB, button, live, note, toggle
 from puppet.scene.format.model import INPAINT_METHODS
+from puppet.scene.rig.build import default_max_area
 from puppet.scene.rig.stiffness import STARCH_RADIUS
 
 _H = imgui.TreeNodeFlags_.default_open
@@ -30,12 +33,8 @@ class Panels:
         if not app.snap.loaded:
             imgui.text_wrapped("No scene. File > Open (Ctrl+O) opens one.")
             return
-        from puppet.app.ui import script
-
         script.panel(app, self.thumbs)
         if app.script.step == "link":
-            from puppet.app.ui import deform_panel as deformpanel
-
             deformpanel.link_step_tools(app)
         if imgui.collapsing_header("Layers", _H):
             self.layers()
@@ -46,8 +45,6 @@ class Panels:
         deform = imgui.collapsing_header("Deform")
         note("header:Deform")
         if deform:
-            from puppet.app.ui import deform_panel as deformpanel
-
             deformpanel.panel(app)
         has = app.snap.underlay is not None
         if has and not self._had_underlay:  # a picture was just set: show its settings
@@ -60,8 +57,6 @@ class Panels:
         opened = imgui.collapsing_header("History")
         note("header:History")
         if opened:
-            from puppet.app.ui import history_panel
-
             history_panel.draw(app)
 
     # -- layers ---------------------------------------------------------------------
@@ -110,8 +105,6 @@ class Panels:
         imgui.text(f"Layer {name}")
         key = snap.image_keys[k]
         if key not in self._auto_area:
-            from puppet.scene.rig.build import default_max_area
-
             self._auto_area[key] = default_max_area(snap.images[k].mask)
         auto = L.mesh.max_area is None
         area = self._auto_area[key] if auto else L.mesh.max_area

@@ -11,9 +11,10 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
+from puppet.app.model import onion
 from puppet.app.model import timeline as tl
-from puppet.app.ui.overlay import col
 from puppet.app.model.record import SPEEDS
+from puppet.app.ui.overlay import col
 from puppet.app.ui.widgets import button, note, toggle
 
 HEIGHT = 200  # window pixels, at first (the top edge drags it)
@@ -82,7 +83,7 @@ class TimelinePanel:
         t = self.tl
         if button("|<", "to the first key (Home of the timeline)"):
             t.playing = False
-            t.scrub(min(tl.onion.key_times(t.anim), default=0.0))
+            t.scrub(min(onion.key_times(t.anim), default=0.0))
         imgui.same_line()
         if button("<", "previous frame (,)"):
             t.step_frame(-1)
