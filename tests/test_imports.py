@@ -30,3 +30,25 @@ def test_import_contracts_with_import_linter():
     r = subprocess.run([exe], capture_output=True, text=True, cwd=os.path.dirname(os.path.dirname(__file__)))
     assert r.returncode == 0, r.stdout[-2000:]
     assert "0 broken" in r.stdout
+
+
+APP_MODEL = """
+import os, sys, importlib
+for room in ("model", "tools"):
+    folder = os.path.join("puppet", "app", room)
+    for f in sorted(os.listdir(folder)):
+        if f.endswith(".py"):
+            importlib.import_module(f"puppet.app.{room}" + ("" if f == "__init__.py" else "." + f[:-3]))
+print(",".join(sorted(m for m in sys.modules if m.split('.')[0] in ('moderngl', 'pyglet', 'glcontext', 'imgui_bundle')
+                      or m.startswith(('puppet.render', 'puppet.app.ui', 'puppet.app.gl')))))
+"""
+
+
+def test_app_model_and_tools_load_no_gl_window_or_imgui():
+    """Every module of app/model and app/tools imported: no GL, window or ImGui library is
+    loaded (the app's state and its tools run and test without them)."""
+    import os
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    r = subprocess.run([sys.executable, "-c", APP_MODEL], capture_output=True, text=True, cwd=root)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == ""

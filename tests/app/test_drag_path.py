@@ -18,12 +18,12 @@ PUPPET = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file_
 
 #: where a stack is taken: the pyglet handler that takes the pointer, the window's post to
 #: the scene thread, the solver's entry and the renderer's entry (its passes run the shaders)
-MARKS = {("app/keys.py", "on_mouse_drag"): "event", ("app/session.py", "move_drag"): "post",
+MARKS = {("app/gl/keys.py", "on_mouse_drag"): "event", ("app/model/session.py", "move_drag"): "post",
          ("deform/arap.py", "arap_solve"): "solve", ("render/compositor.py", "draw"): "draw"}
 
 
 class Stacks:
-    """A profile hook on every thread: at each mark, the project modules on the stack."""
+    """A profile hook on every thread: at each mark, the project modules on the stack (paths under puppet/)."""
 
     def __init__(self):
         self.on = False
@@ -78,11 +78,11 @@ def test_a_pose_drag_crosses_ten_modules_and_one_hand_off(make_scene):
     solver_thread, solve_stack = stacks.seen["solve"]
     assert len(window) == 1 and solver_thread not in window  # the solve runs off the window's thread
     # the scene thread runs the solve itself: its stack starts in the session, no other queue
-    assert solve_stack[0] == "app/session.py", solve_stack
+    assert solve_stack[0] == "app/model/session.py", solve_stack
     modules = []
     for mark in ("event", "post", "solve", "draw"):
         modules += [m for m in stacks.seen[mark][1] if m not in modules]
     print("the drag's path:", " -> ".join(modules))
     assert len(modules) <= 10, modules
-    for hop in ("app/gestures.py", "app/app.py", "scene/drag.py", "app/canvas.py"):
+    for hop in ("app/tools/gestures.py", "app/model/app.py", "scene/drag/session.py", "app/gl/canvas.py"):
         assert hop in modules  # the path the docs describe (docs/app.md, How it works)
