@@ -44,6 +44,7 @@ def _app(path, cwd, display=True):
                           env=env, cwd=str(cwd), timeout=120)
 
 
+@pytest.mark.slow
 def test_app_on_a_file_it_cannot_open_fails_before_any_window(tmp_path):
     """Missing, a corrupt picture, an invalid scene, a folder: one line and exit 2, checked
     before the display (no display here: a window would fail differently)."""

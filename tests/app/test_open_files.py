@@ -135,6 +135,7 @@ def test_dropped_art_opens_as_the_scene_beside_it(art_app, tmp_path):
 
 
 @pytest.mark.gl
+@pytest.mark.slow
 def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
     d, art = art_app
     scene_file = tmp_path / "gbot.json"

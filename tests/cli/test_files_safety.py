@@ -115,6 +115,7 @@ def test_frame_folder_keeps_a_folder_or_link_named_like_a_frame(tmp_path):
 
 
 @pytest.mark.gl
+@pytest.mark.slow
 def test_grabcut_over_the_whole_picture(tmp_path):
     r = cli("init", HORSE, "-o", tmp_path / "s.json", "--grabcut", "0,0,400,328")
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
