@@ -1,6 +1,7 @@
 """Shared fixtures: small synthetic scenes written to a temporary folder."""
 from __future__ import annotations
 
+import functools
 import json
 import os
 
@@ -14,6 +15,87 @@ SCENES = os.path.join(ASSETS, "scenes")
 #: the app's native file dialogs cannot be clicked by a test: the path field instead
 #: (inherited by the apps the tests start under Xvfb; see puppet/app/ui/files.py)
 os.environ["PUPPET_FILE_DIALOG"] = os.environ.get("PUPPET_TEST_FILE_DIALOG", "field")
+
+
+# -- the gl and xvfb marks are kept true (``-m "not gl and not slow and not xvfb"`` is the fast subset)
+# gl: a test that makes an OpenGL context in this process (``moderngl.create_context``,
+# ``create_standalone_context`` or ``init_context``: puppet.render.context, a Compositor, the
+# app's window) but is not marked ``gl`` fails, naming the mark. Checked while the test's
+# set-up, call and teardown run, so it holds however the context comes (a fixture, a helper,
+# the test's body). A ``puppet`` command run as a subprocess is out of its sight; to check
+# those, PUPPET_TEST_HIDE_EGL=1 hides EGL from the subprocesses of tests not marked gl (so
+# theirs fail as on a machine without GL):
+#   PUPPET_TEST_HIDE_EGL=1 .venv/bin/python -m pytest -m "not gl and not xvfb"
+# (only with the gl tests left out: a subprocess started then, a Dask worker say, would keep
+# EGL hidden for later tests)
+# xvfb: a test that uses the ``display`` fixture (a private Xvfb server, tests/app/test_xvfb.py)
+# but is not marked ``xvfb`` stops the collection.
+_running: list = []  # the test item whose set-up, call or teardown runs now
+_GL_UNMARKED = pytest.StashKey[str]()
+_HIDE_EGL = os.environ.get("PUPPET_TEST_HIDE_EGL") == "1"
+
+
+def _watch_gl_contexts() -> None:
+    try:
+        import moderngl
+    except ImportError:  # no GL at all: nothing to watch
+        return
+
+    def watched(make):
+        @functools.wraps(make)
+        def wrapper(*args, **kwargs):
+            for item in _running:
+                if item.get_closest_marker("gl") is None and _GL_UNMARKED not in item.stash:
+                    item.stash[_GL_UNMARKED] = f"moderngl.{make.__name__}"
+            return make(*args, **kwargs)
+
+        wrapper.puppet_watched = True
+        return wrapper
+
+    for name in ("create_context", "init_context"):  # create_standalone_context calls create_context
+        make = getattr(moderngl, name, None)
+        if make is not None and not getattr(make, "puppet_watched", False):
+            setattr(moderngl, name, watched(make))
+
+
+_watch_gl_contexts()
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    _running.append(item)
+    hide = _HIDE_EGL and item.get_closest_marker("gl") is None
+    if hide:  # libglvnd finds no EGL driver (this process's EGL, if loaded, chose its driver already)
+        vendors = os.environ.get("__EGL_VENDOR_LIBRARY_FILENAMES")
+        os.environ["__EGL_VENDOR_LIBRARY_FILENAMES"] = "/nonexistent/egl-hidden-for-a-test-not-marked-gl.json"
+    try:
+        yield
+    finally:
+        _running.remove(item)
+        if hide:
+            os.environ.pop("__EGL_VENDOR_LIBRARY_FILENAMES")
+            if vendors is not None:
+                os.environ["__EGL_VENDOR_LIBRARY_FILENAMES"] = vendors
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    report = outcome.get_result()
+    made = item.stash.get(_GL_UNMARKED, None)
+    if made and report.passed and call.when in ("call", "teardown"):
+        item.stash[_GL_UNMARKED] = ""  # reported once
+        report.outcome = "failed"
+        report.longrepr = (f"{item.nodeid} makes an OpenGL context ({made}) but is not marked gl: add "
+                           "@pytest.mark.gl (or the module's pytestmark), so that -m \"not gl\" leaves it out")
+
+
+def pytest_collection_modifyitems(config, items):
+    unmarked = [item.nodeid for item in items
+                if "display" in item.fixturenames and item.get_closest_marker("xvfb") is None]
+    if unmarked:
+        raise pytest.UsageError("these tests use the Xvfb display fixture but are not marked xvfb: "
+                                + ", ".join(unmarked))
 
 
 @pytest.fixture(autouse=True, scope="session")

@@ -152,6 +152,7 @@ def test_cli_shows_no_bar_off_a_terminal(bar, tmp_path, capfd):
 
 
 @pytest.mark.parametrize("name", ["f/", "a.mp4"])
+@pytest.mark.slow
 def test_solver_process_gives_the_same_frames(tmp_path, name):
     scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=2.0))
     a, b = tmp_path / "a", tmp_path / "b"
@@ -165,6 +166,7 @@ def test_solver_process_gives_the_same_frames(tmp_path, name):
         assert (a / name).read_bytes() == (b / name).read_bytes()
 
 
+@pytest.mark.slow
 def test_solver_process_is_used_and_stopped(tmp_path, monkeypatch):
     from puppet.anim import solver
 
@@ -178,6 +180,7 @@ def test_solver_process_is_used_and_stopped(tmp_path, monkeypatch):
     assert started == [True] and closed and closed[0].poll() is not None  # the child has ended
 
 
+@pytest.mark.slow
 def test_solver_process_falls_back_when_the_scene_differs_from_its_file(tmp_path):
     """An edit the child cannot see (here: a solve patched in this process only) is caught
     on the first frame; the export then solves on a thread and matches the sequential one."""
@@ -201,6 +204,7 @@ def test_solver_process_falls_back_when_the_scene_differs_from_its_file(tmp_path
     assert all(np.array_equal(x, y) for x, y in zip(pngs(a), pngs(b)))
 
 
+@pytest.mark.slow
 def test_solver_process_error_is_raised(tmp_path):
     """A frame the child cannot solve (a negative time) raises the child's user error here."""
     from puppet.anim.solver import ProcessSolver
@@ -258,6 +262,7 @@ def test_cli_shows_the_bar_on_a_terminal(bar, tmp_path, winsize):
     assert shown and "100%" in shown[-1] and "frame/s" in shown[-1] and "<00:00" in shown[-1], out
 
 
+@pytest.mark.slow
 def test_solver_process_does_not_rerun_the_callers_script(tmp_path):
     """A script without a ``__main__`` guard runs once: the solver child does not import it
     (as multiprocessing's spawn would, exporting the whole animation a second time)."""

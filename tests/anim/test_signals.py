@@ -15,6 +15,7 @@ pytestmark = pytest.mark.gl
 
 
 @pytest.mark.parametrize("name", ["o.webm", "o.apng", "o.png"])
+@pytest.mark.slow
 def test_sigterm_mid_export_leaves_nothing(tmp_path, name):
     scene = make_bar(tmp_path / "s", seconds=1000.0)  # 10001 frames (WebM holds its first bytes a while)
     out_dir = tmp_path / "out"

@@ -120,6 +120,7 @@ DRIVE = """<script>
 
 
 @pytest.mark.gl
+@pytest.mark.slow
 @needs_browser
 def test_controls_play_pause_scrub_loop_and_hash(tmp_path):
     out = str(tmp_path / "trex.html")
@@ -143,6 +144,7 @@ def test_controls_play_pause_scrub_loop_and_hash(tmp_path):
 
 
 @pytest.mark.gl
+@pytest.mark.slow
 @needs_browser
 def test_background_image_is_the_canvas_background(tmp_path):
     from tests.cli.outputs_helpers import make_bar

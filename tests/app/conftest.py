@@ -6,7 +6,8 @@ import pytest
 from tests.app.harness import Driver
 from tests.conftest import bar_image, bar_scene
 
-pytestmark = pytest.mark.gl
+# (no pytestmark here: in a conftest it marks nothing. Each test module is marked gl itself,
+# and tests/conftest.py fails a test that makes a GL context without the mark)
 
 
 @pytest.fixture

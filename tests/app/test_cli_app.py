@@ -6,6 +6,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import ROOT, SCENES
 
 CODE = f"""
@@ -18,6 +20,7 @@ print(','.join(sorted(m for m in sys.modules if m.split('.')[0] in ('pyglet', 'i
 """
 
 
+@pytest.mark.gl  # renders (in a subprocess)
 def test_render_and_mesh_never_load_the_app(tmp_path):
     r = subprocess.run([sys.executable, "-c", CODE, str(tmp_path / "m.json"), str(tmp_path / "r.png")],
                        capture_output=True, text=True, cwd=ROOT)
@@ -41,6 +44,7 @@ def _app(path, cwd, display=True):
                           env=env, cwd=str(cwd), timeout=120)
 
 
+@pytest.mark.slow
 def test_app_on_a_file_it_cannot_open_fails_before_any_window(tmp_path):
     """Missing, a corrupt picture, an invalid scene, a folder: one line and exit 2, checked
     before the display (no display here: a window would fail differently)."""

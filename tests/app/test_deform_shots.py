@@ -110,6 +110,7 @@ def test_dress_squeezed_in_each_mode():
         d.close()
 
 
+@pytest.mark.slow
 def test_dress_skirt_band_painted_stiff():
     """The bundled 'sway' pose in rigid mode, a band of the skirt painted stiff with the
     brush (heat map shown while the brush is the tool): the band keeps its shape."""

@@ -13,6 +13,8 @@ from tests.app.test_session import at_time
 from tests.app.test_timeline import Clock, canvas_at_100
 from tests.conftest import bar_image, bar_scene
 
+pytestmark = pytest.mark.gl  # every test drives the app in a headless window (EGL)
+
 
 @pytest.fixture
 def three_pins(make_scene):

@@ -10,10 +10,12 @@ import os
 import sys
 import threading
 
+import pytest
 from pyglet.window import key
 
 from tests.app.harness import Driver
 
+pytestmark = pytest.mark.gl  # every test drives the app in a headless window (EGL)
 PUPPET = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))) + os.sep + "puppet" + os.sep
 
 #: where a stack is taken: the pyglet handler that takes the pointer, the window's post to

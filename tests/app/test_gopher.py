@@ -11,7 +11,7 @@ import pytest
 from tests.app.harness import Driver, widget
 from tests.app.test_deform_shots import gopher_images
 
-pytestmark = pytest.mark.gl
+pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
 #: a lasso round the arm and the drink (canvas px), rounded round the arm's root
 AROUND_ARM = [(178, 136), (280, 136), (280, 108), (320, 108), (320, 166), (178, 166), (172, 158), (170, 150),

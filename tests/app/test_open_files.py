@@ -54,6 +54,7 @@ def test_recent_files_never_an_error_when_the_config_folder_cannot_be_written(tm
     assert recent.load() == []
 
 
+@pytest.mark.gl
 def test_start_page_opens_an_example_then_lists_it_as_recent(config):
     RECTS.clear()
     d = Driver(None)
@@ -77,6 +78,7 @@ def test_start_page_opens_an_example_then_lists_it_as_recent(config):
         d.close()
 
 
+@pytest.mark.gl
 def test_without_a_dialog_program_open_is_the_path_field_and_takes_art(tmp_path, config):
     from pyglet.window import key
 
@@ -121,6 +123,7 @@ def art_app(tmp_path, config):
     d.close()
 
 
+@pytest.mark.gl
 def test_dropped_art_opens_as_the_scene_beside_it(art_app, tmp_path):
     d, art = art_app
     scene = tmp_path / "gbot.json"
@@ -132,6 +135,8 @@ def test_dropped_art_opens_as_the_scene_beside_it(art_app, tmp_path):
     assert recent.load() == [str(scene)]
 
 
+@pytest.mark.gl
+@pytest.mark.slow
 def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
     d, art = art_app
     scene_file = tmp_path / "gbot.json"
@@ -168,6 +173,7 @@ def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
     assert res.scene == str(scene_file) and res.replaced == artfiles.NAMES
 
 
+@pytest.mark.gl
 def test_art_newer_than_its_scene_is_offered_at_once(tmp_path, config):
     art = tmp_path / "gbot.psd"
     artfiles.write_psd(str(art))
@@ -184,6 +190,7 @@ def test_art_newer_than_its_scene_is_offered_at_once(tmp_path, config):
         d.close()
 
 
+@pytest.mark.gl
 def test_a_scene_without_art_has_no_reload(config):
     d = Driver(os.path.join(SCENES, "strips.json"))
     try:
@@ -192,6 +199,7 @@ def test_a_scene_without_art_has_no_reload(config):
         d.close()
 
 
+@pytest.mark.gl
 def test_start_page_lists_recent_newest_first(config):
     """(``PUPPET_UPDATE_DOCS=1``: docs/app/start-page.png; the folders shown depend on the checkout.)"""
     for name in ("horse.json", "dress.json", "trex-layers.json"):
@@ -207,6 +215,7 @@ def test_start_page_lists_recent_newest_first(config):
         d.close()
 
 
+@pytest.mark.gl
 def test_reload_reports_a_layer_gone_with_its_pins_and_undo_brings_them_back(art_app):
     from PIL import Image
     from psd_tools import PSDImage
@@ -231,6 +240,7 @@ def test_reload_reports_a_layer_gone_with_its_pins_and_undo_brings_them_back(art
     assert d.scene().to_dict()["pins"] == before["pins"] and len(d.scene().to_dict()["layers"]) == 7
 
 
+@pytest.mark.gl
 def test_dropping_several_files_on_unsaved_changes_asks_first(bar_app, tmp_path):
     d = bar_app
     d.app.move_pins({"left": (20.0, 22.0)})
@@ -264,6 +274,7 @@ def test_app_art_is_checked_kept_through_save_as_and_may_be_gone(tmp_path):
     assert art_of(saved, str(tmp_path / "sub" / "copy.json")) == str(tmp_path / "art" / "gone.psd")
 
 
+@pytest.mark.gl
 def test_opening_the_art_again_takes_its_changes_and_clears_the_hint(art_app, tmp_path):
     d, art = art_app
     mtime = os.stat(art).st_mtime_ns
@@ -279,6 +290,7 @@ def test_opening_the_art_again_takes_its_changes_and_clears_the_hint(art_app, tm
     assert not d.w.files.art_changed
 
 
+@pytest.mark.gl
 def test_reload_of_a_broken_art_file_says_so_and_changes_nothing(art_app):
     d, art = art_app
     before = d.scene().to_dict()
@@ -296,6 +308,7 @@ class _OpenDialog:
         return False
 
 
+@pytest.mark.gl
 def test_keys_wait_while_a_native_dialog_is_open(bar):
     """Typing into a native dialog that did not take the focus (no window manager) must
     not reach the app: "1" would switch to Pin mode, Space would play."""

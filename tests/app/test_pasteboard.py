@@ -12,6 +12,7 @@ from tests.conftest import bar_image, bar_scene
 
 PASTEBOARD = np.array(BOARD) * 255  # round the canvas
 RED = np.array([200, 40, 40])
+pytestmark = pytest.mark.gl  # every test drives the app in a headless window (EGL)
 
 
 @pytest.fixture(params=["opaque", "transparent"])

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+pytest.importorskip("hypothesis", reason="hypothesis (a test extra: pip install -e '.[test]') is not installed")
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

@@ -162,6 +162,7 @@ def walk(d, shots=None):
     return pose
 
 
+@pytest.mark.slow
 def test_task_script_from_a_flat_picture(tmp_path):
     picture = flat_runner(tmp_path)
     d = Driver(picture, size=(960, 640))

@@ -207,6 +207,7 @@ def test_close_scene(session):
     assert errors(session)[-1] == "no scene is open"
 
 
+@pytest.mark.slow
 def test_a_solver_process_gives_the_thread_s_previews_and_release(make_scene):
     """Previews solved in the session's child process are the scene thread's, bit for bit,
     and the release is the exact pose; the child stops with the session."""

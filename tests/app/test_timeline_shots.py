@@ -24,6 +24,7 @@ class Clock:
         return self.now
 
 
+@pytest.mark.slow
 def test_onion_skin_and_a_recording_on_the_trex():
     d = Driver(os.path.join(SCENES, "trex-layers.json"), size=(1280, 800))
     try:

@@ -22,7 +22,7 @@ TOOLS = ("Xvfb", "xdotool", "import")
 MISSING = [t for t in TOOLS if shutil.which(t) is None]
 
 pytestmark = [
-    pytest.mark.gl, pytest.mark.xvfb,
+    pytest.mark.gl, pytest.mark.xvfb, pytest.mark.slow,
     pytest.mark.skipif(bool(MISSING), reason=f"end-to-end X test needs {', '.join(MISSING)} "
                        "(apt-get install xvfb xauth xdotool imagemagick; .ci/run does it as root)"),
 ]

@@ -19,7 +19,7 @@ from tests.app.harness import pin_keys
 from tests.conftest import ROOT, bar_image, bar_scene
 
 pytestmark = [
-    pytest.mark.gl, pytest.mark.xvfb,
+    pytest.mark.gl, pytest.mark.xvfb, pytest.mark.slow,
     pytest.mark.skipif(bool(MISSING), reason=f"end-to-end X test needs {', '.join(MISSING)}"),
 ]
 

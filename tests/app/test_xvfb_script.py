@@ -26,7 +26,7 @@ from tests.app.test_xvfb import MISSING, display, render, wait_ready, x  # noqa:
 from tests.conftest import ROOT
 
 pytestmark = [
-    pytest.mark.gl, pytest.mark.xvfb,
+    pytest.mark.gl, pytest.mark.xvfb, pytest.mark.slow,
     pytest.mark.skipif(bool(MISSING), reason=f"end-to-end X test needs {', '.join(MISSING)}"),
 ]
 SIZE = (1280, 800)

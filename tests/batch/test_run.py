@@ -180,6 +180,7 @@ def test_resume_renders_only_what_is_missing_or_changed(cluster2, tmp_path):
     assert summary["counts"]["done"] == len(entries)
 
 
+@pytest.mark.slow
 def test_template_mode_transfers_and_renders_each_image(cluster2, tmp_path):
     from puppet.batch.jobs import template_jobs
     from puppet.batch.template import transfer

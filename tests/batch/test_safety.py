@@ -168,7 +168,7 @@ class FakeServer:
     ("ucx://127.0.0.1:8786", ["ucx:// is not supported"]),
     ("tcp://127.0.0.1:99999", ["not a port"]),
     ("tcp://127.0.0.1:9", ["cannot connect"]),
-    ("silent", ["does not answer"]),
+    pytest.param("silent", ["does not answer"], marks=pytest.mark.slow),  # waits reach.CONNECT_SECONDS (5 s) for an answer
     ("garbage", ["not like a Dask scheduler"]),
     ("huge", ["not like a Dask scheduler"]),
 ])

@@ -96,6 +96,7 @@ def test_tracks_and_video_are_written_both_or_neither(tmp_path):
         full.close()
 
 
+@pytest.mark.gl
 def test_frame_folder_keeps_a_folder_or_link_named_like_a_frame(tmp_path):
     s = make_bar(tmp_path / "in", seconds=0.2)
     out = tmp_path / "f"
@@ -113,6 +114,8 @@ def test_frame_folder_keeps_a_folder_or_link_named_like_a_frame(tmp_path):
     assert "frame_00001.png" in line and os.path.islink(out / "frame_00001.png")
 
 
+@pytest.mark.gl
+@pytest.mark.slow
 def test_grabcut_over_the_whole_picture(tmp_path):
     r = cli("init", HORSE, "-o", tmp_path / "s.json", "--grabcut", "0,0,400,328")
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
@@ -146,7 +149,8 @@ def test_background_out_of_range(tmp_path, colour):
 
 
 @pytest.mark.parametrize("where", ["image", "mask", "source"])
-@pytest.mark.parametrize("bad", ["x\u0000y.png", "/proc/self/mem"])
+@pytest.mark.parametrize("bad", ["x\u0000y.png",
+                                 pytest.param("/proc/self/mem", marks=pytest.mark.gl)])  # refused after render made its GL context
 def test_nul_bytes_and_proc_files_as_scene_paths(tmp_path, where, bad):
     s = make_bar(tmp_path / "in")
     doc = json.loads(open(s).read())

@@ -73,6 +73,7 @@ def test_signal_mid_animate_leaves_nothing(long_scene, tmp_path, name, sig):
     assert snapshot(os.path.dirname(long_scene)) == inputs
 
 
+@pytest.mark.slow
 def test_interrupted_rerun_keeps_the_old_frames(tmp_path):
     short = make_bar(tmp_path / "short")
     out = str(tmp_path / "out" / "frames") + "/"

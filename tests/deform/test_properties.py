@@ -15,7 +15,9 @@ from __future__ import annotations
 import os
 
 import numpy as np
+import pytest
 import triangle
+pytest.importorskip("hypothesis", reason="hypothesis (a test extra: pip install -e '.[test]') is not installed")
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 

@@ -270,6 +270,7 @@ def compare_modes() -> None:
         same_layers(a, b)
 
 
+@pytest.mark.slow
 def test_a_drag_on_the_scene_thread_gives_the_same_numbers():
     """The chosen mode: the solver on the scene thread (its factor releases the GIL).
     Run as the ``puppet`` command runs, one BLAS thread from the start (a BLAS product

@@ -187,6 +187,7 @@ def test_bad_recordings_are_refused(make_scene, call, words):
 
 # -- the command line ------------------------------------------------------------------------
 @pytest.mark.gl
+@pytest.mark.slow
 def test_render_time_with_overrides_equals_the_same_motion_as_pins_keys(tmp_path):
     Image.fromarray(bar_image()).save(tmp_path / "bar.png")
     over = scene([{"time": 0, "pose": "rest"}, {"time": 1, "pose": "bend", "overrides": {"right": [90, 10]}},
@@ -216,6 +217,7 @@ def test_render_time_with_overrides_equals_the_same_motion_as_pins_keys(tmp_path
 
 
 @pytest.mark.gl
+@pytest.mark.slow
 def test_render_time_of_a_bundled_scene_is_unchanged_by_empty_overrides(tmp_path):
     src = os.path.join(SCENES, "trex-layers.json")
     raw = puppet.load_scene(src).to_dict()  # file paths absolute: the copy reads the same images

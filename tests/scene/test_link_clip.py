@@ -5,6 +5,7 @@ scenes is unchanged)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import puppet
 from puppet.scene.rig.links import clip_masks, clip_segment
 from tests.scene.test_fit_modes import arm_images, arm_scene
@@ -51,6 +52,7 @@ def test_clipping_is_idempotent_on_random_segments():
     assert kept > 50
 
 
+@pytest.mark.gl
 def test_the_clipped_part_builds_and_renders_as_the_drawn_segment(make_scene):
     drawn = np.array([[150.0, 125.0], [215.0, 125.0]])  # leaves the arm at x 180
     a = puppet.load_scene(make_scene(arm_scene(segments=[drawn.tolist()]), arm_images(), name="a.json"))

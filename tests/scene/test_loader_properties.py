@@ -20,6 +20,7 @@ import tempfile
 from collections import Counter
 
 import pytest
+pytest.importorskip("hypothesis", reason="hypothesis (a test extra: pip install -e '.[test]') is not installed")
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 from hypothesis import given

@@ -176,6 +176,7 @@ def _outcome(results, name, capsys):
 
 
 @pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.slow
 def test_refused_with_one_line(results, name, capsys):
     path, r = _outcome(results, name, capsys)
     _, jpath, words = CASES[name]
@@ -193,6 +194,7 @@ def test_refused_with_one_line(results, name, capsys):
 
 
 @pytest.mark.parametrize("name", list(ACCEPTED))
+@pytest.mark.slow
 def test_accepted(results, name, capsys):
     _, r = _outcome(results, name, capsys)
     assert r.returncode == 0, r.stderr[-2000:]

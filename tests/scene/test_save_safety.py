@@ -16,6 +16,7 @@ from tests.conftest import bar_image, bar_scene, write_rgba
 pytestmark = pytest.mark.usefixtures("bounded")
 
 
+@pytest.mark.gl
 def test_save_into_a_symlinked_folder_loads_from_both_paths(tmp_path, make_scene):
     (tmp_path / "proj" / "imgs").mkdir(parents=True)
     (tmp_path / "proj" / "scenes").mkdir()
