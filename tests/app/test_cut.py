@@ -1,5 +1,5 @@
 """Layer via Cut / Copy in the app (issue 23): the Layers step's lasso on a flat picture
-of a disc with a bar stuck on it (tests/scene/test_split.py's picture) cuts the bar into
+of a disc with a bar stuck on it (tests/scene/document/test_split.py's picture) cuts the bar into
 a new layer in one undo step; swung away, the canvas shows background where the bar
 stuck out and the refilled disc inside; Layer via Copy keeps the bar behind."""
 from __future__ import annotations
@@ -10,7 +10,7 @@ from pyglet.window import key
 
 from tests.app.harness import Driver, widget
 from tests.conftest import write_rgba
-from tests.scene.test_split import AROUND_BAR, BAR, DISC, near, picture, shapes
+from tests.scene.document.test_split import AROUND_BAR, BAR, DISC, near, picture, shapes
 
 pytestmark = pytest.mark.gl
 

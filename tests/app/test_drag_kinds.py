@@ -9,7 +9,7 @@ import pytest
 from pyglet.window import key
 
 from tests.app.harness import Driver
-from tests.app.test_session import at_time
+from tests.app.model.test_session import at_time
 from tests.app.test_timeline import Clock, canvas_at_100
 from tests.conftest import bar_image, bar_scene
 

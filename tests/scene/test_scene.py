@@ -42,7 +42,7 @@ def test_trajectory_invariance(bar):
 
 def test_time_interpolates_pin_targets(bar):
     sc = puppet.load_scene(bar)
-    sc.set_inbetween("linear")  # pins on straight lines (the rigid default: tests/scene/test_keys.py)
+    sc.set_inbetween("linear")  # pins on straight lines (the rigid default: tests/scene/document/test_key_edits.py)
     (r,) = sc.layers(time=0.5)
     assert np.allclose(r.deformed[r.pins["right"]], [102.5, 12.5])
     assert np.allclose(sc.layers(time=5.0)[0].deformed, sc.layers("bend")[0].deformed)

@@ -8,7 +8,7 @@ import pytest
 
 from puppet.errors import SceneError
 from puppet.scene.document.core import Document
-from tests.scene.test_editing import bars, reloaded, same_layers, three_bars  # noqa: F401
+from tests.scene.document.test_edits import bars, reloaded, same_layers, three_bars  # noqa: F401
 
 
 def band(doc, name="b", value=255):

@@ -221,7 +221,7 @@ def test_rename_and_remove_follow_references(bars):
 
 
 # -- random edit sequences: the saved file always reloads to the same poses ----------
-# (without hypothesis the whole module skips, and tests/scene/test_deform_edits.py with it: it imports the fixtures above)
+# (without hypothesis the whole module skips, and tests/scene/document/test_deform_edits.py with it: it imports the fixtures above)
 pytest.importorskip("hypothesis", reason="hypothesis (a test extra: pip install -e '.[test]') is not installed")
 from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
 

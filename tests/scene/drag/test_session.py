@@ -279,9 +279,10 @@ def test_a_drag_on_the_scene_thread_gives_the_same_numbers():
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from tests.conftest import ROOT as root
+
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PUPPET_BLAS_SET_AT_START="1", PYTHONPATH=root)
-    r = subprocess.run([sys.executable, "-c", "from tests.scene.test_drag_session import compare_modes; "
+    r = subprocess.run([sys.executable, "-c", "from tests.scene.drag.test_session import compare_modes; "
                         "compare_modes()"], cwd=root, env=env, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
 
