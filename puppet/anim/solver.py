@@ -25,6 +25,7 @@ import numpy as np
 
 from puppet.errors import SceneError
 from puppet.scene.child import child_setup, start_child, stop_child
+from puppet.scene.document import Document
 
 #: Fields sent back per layer and frame (the others come from the template frame).
 STATIC = ("rest", "triangles")
@@ -49,8 +50,6 @@ def child_main(fd: int) -> None:
 def _child(conn, doc: dict, file: str, t0: float, rate: float) -> None:
     """The child's loop: frame index in, ``("ok", i, packed layers, seconds)`` out."""
     try:
-        from puppet.scene.document import Document
-
         scene = Document(doc, file)
         scene.built  # noqa: B018
         conn.send(("ready",))
