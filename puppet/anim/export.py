@@ -18,6 +18,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from puppet.anim import formats, pipeline, sinks
+from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (also read from here)
 from puppet.anim.solver import ProcessSolver
 from puppet.errors import SceneError
 from puppet.output import atomic_write, check_file, check_folder, write_folder
@@ -26,8 +27,6 @@ from puppet.scene.inputs import input_files
 
 #: Most frames one ``animate`` may write (duration x fps); longer exports are refused up front.
 MAX_FRAMES = 100_000
-#: Frame rates accepted, frames per second.
-MIN_FPS, MAX_FPS = 0.01, 240.0
 
 # kept importable from here (older callers)
 flatten = sinks.flatten
@@ -40,30 +39,6 @@ def output_kind(path: str, kind: str | None = None) -> str:
 
 
 atlas_path = formats.sheet_atlas
-
-
-def parse_background(text: str) -> str | tuple[int, int, int, int]:
-    """``transparent``, or a colour: ``#rgb``, ``#rrggbb``, ``#rrggbbaa``, a CSS colour
-    name (``white``, ``darkslategray``, ...) or ``rgb(r, g, b)`` -> RGBA 0..255 tuple.
-
-    Raises
-    ------
-    SceneError
-        Anything else (one line naming the flag).
-    """
-    t = text.strip().lower()
-    if t in ("transparent", "none"):
-        return "transparent"
-    from PIL import ImageColor
-
-    try:
-        r, g, b, a = ImageColor.getcolor(t, "RGBA")
-    except ValueError:
-        raise SceneError(f"{text!r} is not a colour: give transparent, #rrggbb, #rrggbbaa or a colour "
-                         "name such as white") from None
-    if not all(0 <= v <= 255 for v in (r, g, b, a)):  # Pillow passes rgb(300,0,0), hsl(0,0%,150%) through
-        raise SceneError(f"{text!r} is out of range: channels are 0..255 (0..100% for percentages)")
-    return int(r), int(g), int(b), int(a)
 
 
 def frame_count(start: float, end: float, fps: float) -> int:
