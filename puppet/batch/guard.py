@@ -19,6 +19,8 @@ import stat
 
 from puppet.batch.jobs import RESERVED
 from puppet.errors import SceneError
+from puppet.scene.document import Document
+from puppet.scene.inputs import input_files
 
 Inputs = list[tuple[str, str]]
 
@@ -26,9 +28,6 @@ Inputs = list[tuple[str, str]]
 def scene_inputs(jobs: list[dict]) -> dict[str, Inputs | None]:
     """Scene path -> the files it reads (:func:`puppet.scene.inputs.input_files`), or None
     when the scene cannot be read (its job will fail; only the scene file is then known)."""
-    from puppet.scene.document import Document
-    from puppet.scene.inputs import input_files
-
     found: dict[str, Inputs | None] = {}
     for j in jobs:
         path = j["scene"]

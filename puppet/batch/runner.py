@@ -11,12 +11,15 @@ import sys
 import time
 from collections.abc import Callable
 
+from puppet.batch.cluster import connect
 from puppet.batch.dispatch import Dispatch
 from puppet.batch.feed import Feeder
 from puppet.batch.guard import all_inputs, check_outputs, check_own_files, output_present, scene_inputs
 from puppet.batch.jobs import describe, spec
 from puppet.batch.state import Manifest, inputs_digest, now, write_report
 from puppet.errors import SceneError
+from puppet.scene.document import Document
+from puppet.scene.inputs import input_files
 
 #: Exit status when the batch ran to its end but some jobs failed (0: every job done).
 SOME_FAILED = 3
@@ -26,10 +29,6 @@ MANIFEST_EVERY = 1.0
 
 def client_digest(job: dict, cache: dict) -> str | None:
     """The hash the worker would record for ``job`` (None when its scene cannot be read)."""
-    from puppet.errors import SceneError
-    from puppet.scene.document import Document
-    from puppet.scene.inputs import input_files
-
     path = job["scene"]
     if path not in cache:
         try:
@@ -223,8 +222,6 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
         An output on a file the run reads, the batch's own files not regular files, a
         scheduler that cannot be reached: nothing is written (the manifest is left as it was).
     """
-    from puppet.batch.cluster import connect
-
     batch = Batch(jobs, out_dir, resume=resume, progress=progress)
     reads = list(reads)
     check_own_files(out_dir, {os.path.realpath(p): what for p, what in reads})  # at once: may a report be written
