@@ -79,7 +79,7 @@ def add_parser(sub, *, size, time) -> argparse.ArgumentParser:
 
 
 def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
-    from puppet.batch import jobs as J  # lazy: numpy (the parser imports this module)
+    from puppet.batch import jobs as J  # lazy: the batch's modules (the CLI's parser imports this one)
 
     defaults = {"size": list(args.size) if args.size else None, "budget": args.budget, "check_size": _check_size}
     template_flags = [f for f in ("template", "images", "pose", "tolerance") if getattr(args, f) is not None]
@@ -110,7 +110,7 @@ def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
 
 
 def _check_pose(template: str, pose: str) -> None:
-    from puppet.scene.document import Document  # lazy: as above
+    from puppet.scene.document import Document  # lazy: numpy and scipy
 
     doc = Document.load(template)
     if pose not in doc.pose_names():
@@ -143,11 +143,10 @@ def _reads(args: argparse.Namespace) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from puppet.batch.reach import parse_address  # lazy: the batch's own modules, loaded when it runs
+    from puppet.batch.reach import parse_address  # lazy: the batch's modules (the CLI's parser imports this one)
     from puppet.batch.runner import SOME_FAILED, run_batch  # lazy: as above
 
     if args.scheduler is not None:
-
         parse_address(args.scheduler)  # its form now; whether it answers once the jobs are known
         if args.workers:
             raise SceneError("--workers is for the embedded cluster; an existing --scheduler has its own workers")

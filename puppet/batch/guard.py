@@ -19,8 +19,6 @@ import stat
 
 from puppet.batch.jobs import RESERVED
 from puppet.errors import SceneError
-from puppet.scene.document import Document
-from puppet.scene.inputs import input_files
 
 Inputs = list[tuple[str, str]]
 
@@ -28,6 +26,9 @@ Inputs = list[tuple[str, str]]
 def scene_inputs(jobs: list[dict]) -> dict[str, Inputs | None]:
     """Scene path -> the files it reads (:func:`puppet.scene.inputs.input_files`), or None
     when the scene cannot be read (its job will fail; only the scene file is then known)."""
+    from puppet.scene.document import Document  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
+
     found: dict[str, Inputs | None] = {}
     for j in jobs:
         path = j["scene"]

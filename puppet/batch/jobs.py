@@ -23,8 +23,6 @@ from collections.abc import Iterable
 from puppet.anim import formats
 from puppet.anim.options import MAX_FPS, MIN_FPS  # the limits of ``puppet animate --fps``
 from puppet.errors import SceneError
-from puppet.scene.document import Document
-from puppet.scene.reader import parse_text, read_file
 
 #: Extensions of the images taken by template mode.
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff")
@@ -198,6 +196,8 @@ def read_job_list(file: str, out_dir: str, defaults: dict) -> list[dict]:
     The file is read as a scene file is (:mod:`puppet.scene.reader`): a regular file of at
     most :data:`MAX_LIST_BYTES`, strict JSON (no NaN, integers up to 2^53, nesting up to
     32 levels, no repeated key); anything else is one SceneError naming the file."""
+    from puppet.scene.reader import parse_text, read_file  # lazy: numpy (see puppet/batch/__init__.py)
+
     text = read_file(file, what="job list", max_bytes=MAX_LIST_BYTES)
     base = os.path.dirname(os.path.abspath(file))
     entries: list[tuple[object, str]] = []
@@ -253,6 +253,8 @@ def folder_jobs(folder: str, out_dir: str, defaults: dict) -> list[dict]:
     A file that is not a valid scene still gives one job (its ``rest`` pose), which then
     fails with the scene's error: it is reported, never skipped silently.
     """
+    from puppet.scene.document import Document  # lazy: numpy (see puppet/batch/__init__.py)
+
     names = sorted(n for n in os.listdir(folder) if n.lower().endswith(".json")
                    and os.path.isfile(os.path.join(folder, n)))
     if not names:

@@ -18,8 +18,6 @@ from puppet.batch.guard import all_inputs, check_outputs, check_own_files, outpu
 from puppet.batch.jobs import describe, spec
 from puppet.batch.state import Manifest, inputs_digest, now, write_report
 from puppet.errors import SceneError
-from puppet.scene.document import Document
-from puppet.scene.inputs import input_files
 
 #: Exit status when the batch ran to its end but some jobs failed (0: every job done).
 SOME_FAILED = 3
@@ -29,6 +27,9 @@ MANIFEST_EVERY = 1.0
 
 def client_digest(job: dict, cache: dict) -> str | None:
     """The hash the worker would record for ``job`` (None when its scene cannot be read)."""
+    from puppet.scene.document import Document  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
+
     path = job["scene"]
     if path not in cache:
         try:

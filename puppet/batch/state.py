@@ -13,7 +13,6 @@ import threading
 
 from puppet.errors import SceneError
 from puppet.output import write_text
-from puppet.scene.reader import parse_text, read_file
 
 MANIFEST = "manifest.json"
 REPORT = "report.json"
@@ -80,6 +79,8 @@ MAX_MANIFEST_BYTES = 64 * 1024 * 1024
 def _read(path: str) -> dict | None:
     """The manifest's JSON, read bounded and strictly (:func:`puppet.scene.reader.read_file`);
     None when missing, not a regular file, too large, too deep or not JSON."""
+    from puppet.scene.reader import parse_text, read_file  # lazy: numpy (see puppet/batch/__init__.py)
+
     if not os.path.lexists(path):
         return None
     try:

@@ -22,15 +22,11 @@ import threading
 import time
 from collections import OrderedDict
 
-from puppet.anim.export import animate_to
-from puppet.api import Scene
-from puppet.batch import template
 from puppet.batch.guard import unchanged_path
 from puppet.batch.jobs import spec
 from puppet.batch.state import inputs_digest
 from puppet.errors import SceneError
 from puppet.output import save_png
-from puppet.scene.inputs import input_files
 
 #: Scenes kept loaded per worker (each holds its images, meshes and factorisations).
 SCENE_CACHE = 4
@@ -110,6 +106,9 @@ def budget(seconds: float | None, what: str):
 
 def _scene(path: str):
     """(files hash, inputs, scene) of a scene file, from the cache when its files are unchanged."""
+    from puppet.api import Scene  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
+
     hit = _scenes.get(path)
     if hit is not None:
         with contextlib.suppress(OSError):
@@ -131,6 +130,10 @@ def _scene(path: str):
 
 def _template_scene(job: dict):
     """(hashed inputs, every input, scene) of a template job: the template's pins transferred to the image."""
+    from puppet.api import Scene  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.batch import template  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
+
     _, tinputs, _ = _scene(job["scene"])  # the template, parsed (and checked unchanged) once per worker
     doc = template.transfer(job["scene"], job["image"], tolerance=job["tolerance"])
     scene = Scene(doc, job["image"])
@@ -171,6 +174,8 @@ def _render(job: dict, scene, inputs) -> None:
         if step == "before":
             _make_parent(job["output"])
     if job["kind"] == "animate":
+        from puppet.anim.export import animate_to  # lazy: numpy (see puppet/batch/__init__.py)
+
         a = job["animate"]
         animate_to(_Budgeted(scene, job.get("budget")), job["output"], fps=a.get("fps"), start=a.get("from"),
                    end=a.get("to"), size=size, wireframe=job.get("wireframe", False))

@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     """Validate everything, then stream the re-posed frames to the output; 0 on success."""
     import numpy as np
 
-    from puppet.video.encode import output_kind, write_frames  # lazy: numpy (the parser imports this module)
+    from puppet.video.encode import output_kind, write_frames  # lazy: numpy (the CLI's parser imports this module)
 
     kind = output_kind(args.output)
     check = check_folder if kind == "dir" else check_file
@@ -136,7 +136,7 @@ def _stage_tracks(path: str, plan, joints: dict, conf: dict, lost: list[int], co
     """The ``--tracks`` file of the ``count`` frames written, staged (:class:`puppet.output.Staged`)."""
     import json
 
-    from puppet.video.track import Tracks  # lazy: numpy (the parser imports this module)
+    from puppet.video.track import Tracks  # lazy: numpy (the CLI's parser imports this module)
 
     doc = Tracks(joints={n: xy[:count] for n, xy in joints.items()}, confidence={n: c[:count] for n, c in conf.items()},
                  lost_frames=lost).to_json(plan.fps, plan.size)
