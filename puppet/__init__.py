@@ -12,21 +12,21 @@ __all__ = ["load_scene", "new_scene", "Scene", "SceneError", "ImageError", "defo
 
 def load_scene(path):
     """Read and validate a scene file (see ``docs/scene-format.md``); raises SceneError."""
-    from puppet.api import load_scene as _load
+    from puppet.api import load_scene as _load  # lazy: `import puppet` stays light (no numpy)
 
     return _load(path)
 
 
 def new_scene(image, **options):
     """A new one-layer scene over a picture, not yet saved (see ``docs/api.md``)."""
-    from puppet.api import new_scene as _new
+    from puppet.api import new_scene as _new  # lazy: `import puppet` stays light (no numpy)
 
     return _new(image, **options)
 
 
 def __getattr__(name):
     if name == "Scene":
-        from puppet.api import Scene
+        from puppet.api import Scene  # lazy: `import puppet` stays light (no numpy)
 
         return Scene
     if name == "deform":

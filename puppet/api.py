@@ -2,10 +2,15 @@
 itself (``render``), give its meshes (``mesh``) and follow a dragged pin (``drag``)."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
+from puppet.render.layers import DrawLayer
 from puppet.scene.document.core import Document, PoseLike
 from puppet.scene.drag.session import DragSession
+from puppet.scene.rig.build import reduced_rgba
+from puppet.scene.rig.cache import fingerprint
 
 #: Largest preview frame of a drag, pixels (a 4000x4000 picture previews at 640x640, about
 #: what a 1280x800 window shows of it; compositing time grows with the pixels drawn).
@@ -31,7 +36,7 @@ class Scene(Document):
     def compositor(self):
         """The compositor this scene draws with (created on first use)."""
         if self._compositor is None:
-            from puppet.render.compositor import Compositor
+            from puppet.render.compositor import Compositor  # lazy: moderngl, only once a scene draws
 
             self._compositor = Compositor()
             self._own_compositor = True
@@ -59,8 +64,6 @@ class Scene(Document):
         ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's).
         ``reduce`` > 1 draws from layer images shrunk that many times (drag previews of
         big pictures: far fewer texels to sample; the frame is not exact)."""
-        from puppet.render.layers import DrawLayer
-
         draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]
@@ -76,11 +79,6 @@ class Scene(Document):
     def _reduced(self, L, image_key: str, reduce: int):
         """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled
         about the offset so that every vertex keeps its texture coordinate."""
-        import dataclasses
-
-        from puppet.scene.rig.build import reduced_rgba
-        from puppet.scene.rig.cache import fingerprint
-
         image = self.rig.memo.get("pixels", fingerprint("reduced", image_key, reduce),
                                   lambda: reduced_rgba(L.image, reduce))
         seen = self._reduced_rest.get(L.key)

@@ -12,7 +12,14 @@ import re
 import signal
 import sys
 
+import puppet
+from puppet import __version__
+from puppet.anim import formats  # the one table of output formats (cheap: no numpy)
+from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background
+from puppet.batch import command as batch
 from puppet.errors import SceneError
+from puppet.output import check_file, check_folder, remove_leftovers, save_png
+from puppet.video import command as video
 
 if "numpy" not in sys.modules and "OPENBLAS_NUM_THREADS" not in os.environ:
     # The command's BLAS work is the solvers' skinny products, which run on one thread
@@ -59,8 +66,6 @@ def _time(text: str) -> float:
 
 
 def _fps(text: str) -> float:
-    from puppet.anim.export import MAX_FPS, MIN_FPS
-
     t = _time(text)
     if not MIN_FPS <= t <= MAX_FPS:
         raise argparse.ArgumentTypeError(f"{text!r}: fps must be in {MIN_FPS:g}..{MAX_FPS:g}")
@@ -68,8 +73,6 @@ def _fps(text: str) -> float:
 
 
 def _background(text: str):
-    from puppet.anim.export import parse_background
-
     try:
         return parse_background(text)
     except SceneError as e:
@@ -98,7 +101,7 @@ def _rect(text: str) -> tuple[float, float, float, float]:
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="puppet", description="Pose and animate 2D characters made of layers.")
-    p.add_argument("--version", action="version", version=f"puppet {_version()}")
+    p.add_argument("--version", action="version", version=f"puppet {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
@@ -116,8 +119,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     a = sub.add_parser("animate", help="render every frame of the scene's animation")
     a.add_argument("scene")
-    from puppet.anim import formats  # the one table of output formats (cheap: no numpy)
-
     a.add_argument("-o", "--output", required=True, metavar="OUT",
                    help="the ending picks the format: " + formats.describe().replace("%", "%%"))
     a.add_argument("--format", choices=tuple(formats.BY_KIND), metavar="KIND",
@@ -164,20 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _plugged():
-    from puppet.batch import command as batch
-    from puppet.video import command as video
-
-    return {"video": video, "batch": batch}
-
-
-_PLUGGED = _plugged()
-
-
-def _version() -> str:
-    from puppet import __version__
-
-    return __version__
+_PLUGGED = {"video": video, "batch": batch}
 
 
 def _output_file(path: str, exts: tuple[str, ...]) -> str:
@@ -189,7 +177,7 @@ def _output_file(path: str, exts: tuple[str, ...]) -> str:
 
 def _check_size(scene, size: tuple[int, int] | None) -> None:
     """Refuse an output the machine's OpenGL cannot draw, before anything is drawn."""
-    from puppet.render.context import output_size_problem
+    from puppet.render.context import output_size_problem  # lazy: moderngl, for render and animate only
 
     w, h = size or scene.canvas
     flag = f"--size {w}x{h}" if size else f"the canvas ({w}x{h}; give a smaller --size)"
@@ -235,7 +223,7 @@ def _stdout_to_devnull() -> None:
 
 
 def _is_art(path: str) -> bool:
-    from puppet.imaging.layered import is_layered
+    from puppet.imaging.layered import is_layered  # lazy: numpy, for init only
 
     return is_layered(path)
 
@@ -258,7 +246,7 @@ def _notes(art: str, res) -> None:
 
 
 def _init_layered(args, out: str) -> int:
-    from puppet.scene.make.art import import_art
+    from puppet.scene.make.art import import_art  # lazy: the init command's own modules
 
     res = import_art(args.image, out, pins=args.pins, links=args.links, update=args.update)
     _notes(args.image, res)
@@ -268,14 +256,14 @@ def _init_layered(args, out: str) -> int:
 
 def run(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if args.command == "app":  # imported here only: render and mesh never load pyglet
-        import puppet.app.main
+    if args.command == "app":
+        from puppet.app import main as app_main  # lazy: pyglet and imgui, never loaded by render or mesh
 
-        return puppet.app.main.run(args.scene, size=args.size)  # art: puppet.app.model.opening.from_art
+        return app_main.run(args.scene, size=args.size)  # art: puppet.app.model.opening.from_art
     if args.command in _PLUGGED:
         return _PLUGGED[args.command].run(args)
     if args.command == "init":
-        from puppet.scene.make.picture import init_scene
+        from puppet.scene.make.picture import init_scene  # lazy: the init command's own modules
 
         out = _output_file(args.output, (".json",))
         if _layered(args):
@@ -285,15 +273,11 @@ def run(argv: list[str] | None = None) -> int:
         res = init_scene(args.image, out, rule=rule, threshold=args.threshold, rect=args.grabcut, pins=args.pins)
         _print(res.summary())
         return 0
-    from puppet.output import check_file, check_folder
-
     # what can be checked without the scene is checked first (fast); again with its inputs after loading
     if args.command in ("render", "mesh"):
         out = _output_file(args.output, (".png",) if args.command == "render" else (".json",))
         check_file(out, probe=True)
     elif args.command == "animate":
-        from puppet.anim import formats
-
         fmt = formats.find(args.output, args.format)
         formats.check_options(fmt, size=args.size, wireframe=args.wireframe, background=args.background)
         if fmt.folder:
@@ -301,9 +285,7 @@ def run(argv: list[str] | None = None) -> int:
         else:
             check_file(args.output, probe=True)
 
-    import puppet
-    from puppet.output import save_png
-    from puppet.scene.format.inputs import input_files
+    from puppet.scene.format.inputs import input_files  # lazy: numpy, after the fast checks above
 
     scene = puppet.load_scene(args.scene)
     if args.command == "render":
@@ -319,7 +301,7 @@ def run(argv: list[str] | None = None) -> int:
     elif args.command == "check":
         _print(scene.summary())
     elif args.command == "animate":
-        from puppet.anim.export import animate_to
+        from puppet.anim.export import animate_to  # lazy: the animate command's own modules
 
         if fmt.pixels:  # mesh formats draw nothing
             _check_size(scene, args.size)
@@ -366,8 +348,6 @@ def _say(line: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (SIGTERM/SIGHUP end the process by that signal,
     after removing temporary files)."""
-    from puppet.output import remove_leftovers
-
     if argv is None:
         _install_handlers()
     try:

@@ -18,19 +18,15 @@ from collections.abc import Iterator
 import numpy as np
 
 from puppet.anim import formats, pipeline, sinks
+from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (also read from here)
+from puppet.anim.solver import ProcessSolver
 from puppet.errors import SceneError
 from puppet.output import atomic_write, check_file, check_folder, write_folder
-from puppet.scene.time import timeline
 from puppet.scene.format.inputs import input_files
+from puppet.scene.time import timeline
 
 #: Most frames one ``animate`` may write (duration x fps); longer exports are refused up front.
 MAX_FRAMES = 100_000
-#: Frame rates accepted, frames per second.
-MIN_FPS, MAX_FPS = 0.01, 240.0
-#: Frames drawn first to choose a GIF's palette, and the pixels taken from them.
-GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
-#: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
-GIF_SAMPLE_CACHE = 64 << 20
 
 # kept importable from here (older callers)
 flatten = sinks.flatten
@@ -43,30 +39,6 @@ def output_kind(path: str, kind: str | None = None) -> str:
 
 
 atlas_path = formats.sheet_atlas
-
-
-def parse_background(text: str) -> str | tuple[int, int, int, int]:
-    """``transparent``, or a colour: ``#rgb``, ``#rrggbb``, ``#rrggbbaa``, a CSS colour
-    name (``white``, ``darkslategray``, ...) or ``rgb(r, g, b)`` -> RGBA 0..255 tuple.
-
-    Raises
-    ------
-    SceneError
-        Anything else (one line naming the flag).
-    """
-    t = text.strip().lower()
-    if t in ("transparent", "none"):
-        return "transparent"
-    from PIL import ImageColor
-
-    try:
-        r, g, b, a = ImageColor.getcolor(t, "RGBA")
-    except ValueError:
-        raise SceneError(f"{text!r} is not a colour: give transparent, #rrggbb, #rrggbbaa or a colour "
-                         "name such as white") from None
-    if not all(0 <= v <= 255 for v in (r, g, b, a)):  # Pillow passes rgb(300,0,0), hsl(0,0%,150%) through
-        raise SceneError(f"{text!r} is out of range: channels are 0..255 (0..100% for percentages)")
-    return int(r), int(g), int(b), int(a)
 
 
 def frame_count(start: float, end: float, fps: float) -> int:
@@ -101,26 +73,6 @@ def _background(scene, kind: str, output: str, background) -> tuple[object, bool
             raise SceneError(f"--background: {what} is not possible in an MP4 (H.264 has no alpha); "
                              "use .webm, .apng, .gif, .png or a folder, or give an opaque colour")
     return bg, bool(alpha)
-
-
-def gif_palette(frame_at, n: int, alpha: bool) -> tuple[object, dict[int, np.ndarray]]:
-    """A palette from up to :data:`GIF_SAMPLE_FRAMES` frames spread over the animation,
-    and those frames (empty when they are too big to keep)."""
-    from puppet.anim.gif import palette_from_sample
-
-    picks = sorted({int(round(x)) for x in np.linspace(0, n - 1, min(n, GIF_SAMPLE_FRAMES))})
-    sample = {i: frame_at(i) for i in picks}
-    h, w = next(iter(sample.values())).shape[:2]
-    s = max(1, math.ceil(math.sqrt(h * w * len(sample) / GIF_SAMPLE_PIXELS)))
-    if alpha:  # colours of the pixels that show only; index 255 is the see-through one
-        px = np.concatenate([f[::s, ::s].reshape(-1, 4) for f in sample.values()])
-        px = px[px[:, 3] >= 128, :3]
-        palette = palette_from_sample((px if len(px) else np.zeros((1, 3), np.uint8))[None], colors=255)
-    else:
-        palette = palette_from_sample(np.concatenate([sinks.flatten(f[::s, ::s]) for f in sample.values()]))
-    if sum(f.nbytes for f in sample.values()) > GIF_SAMPLE_CACHE:
-        sample.clear()  # too big to keep: those frames are drawn again
-    return palette, sample
 
 
 def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None, wireframe=False,
@@ -202,8 +154,6 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     written = [0]
     try:
         if threads and todo and solver == "process":
-            from puppet.anim.solver import ProcessSolver
-
             remote = ProcessSolver(scene, t0, rate)
             if not remote.start(todo[0]):
                 remote = None

@@ -19,6 +19,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from puppet.anim.sidefiles import sheet_atlas, spine_side  # noqa: F401 (spine_side: also read from here)
 from puppet.errors import SceneError
 
 #: Options of ``animate_to`` that some formats cannot honour (the others always apply).
@@ -124,35 +125,37 @@ class _Owning:
             self.fp.close()
 
 
+# The openers below import their sink when a format is used: this table is read by the
+# command line's parser, which must not load numpy.
 def _dir(job: Job):
-    from puppet.anim.sinks import DirSink
+    from puppet.anim.sinks import DirSink  # lazy: format registry
     return DirSink(job.tmp)
 
 
 def _av(name: str):
     def open_(job: Job):
-        from puppet.anim import sinks
+        from puppet.anim import sinks  # lazy: format registry
         return getattr(sinks, f"{name}_sink")(job.tmp, job.size, job.fps)
     return open_
 
 
 def _gif(fp, job: Job):
-    from puppet.anim.sinks import GifSink
+    from puppet.anim.sinks import GifSink  # lazy: format registry
     return GifSink(fp, job.size, job.fps, job.extra["palette"], job.alpha)
 
 
 def _gif_prepare(job: Job, draw) -> None:
-    from puppet.anim.export import gif_palette
+    from puppet.anim.sinks import gif_palette  # lazy: format registry
     job.extra["palette"], job.extra["cached"] = gif_palette(draw, job.count, job.alpha)
 
 
 def _sheet(fp, job: Job):
-    from puppet.anim.sinks import SheetSink
+    from puppet.anim.sinks import SheetSink  # lazy: format registry
     return SheetSink(fp, job.extra["layout"], atlas=(sheet_atlas(job.output), job.output, job.fps, job.inputs))
 
 
 def _sheet_prepare(job: Job, draw) -> None:
-    from puppet.anim.sheet import MAX_SIDE, layout
+    from puppet.anim.sheet import MAX_SIDE, layout  # lazy: format registry
 
     lay = layout(job.count, *job.size)
     if lay is None:
@@ -163,36 +166,24 @@ def _sheet_prepare(job: Job, draw) -> None:
     job.extra["layout"] = lay
 
 
-def sheet_atlas(path: str) -> str:
-    """The JSON atlas beside a sprite sheet: ``OUT.png`` -> ``OUT.json``."""
-    return os.path.splitext(path)[0] + ".json"
-
-
 def _html(job: Job):
-    from puppet.anim.web import HtmlSink
+    from puppet.anim.web import HtmlSink  # lazy: format registry
     return HtmlSink(job)
 
 
 def _spine(job: Job):
-    from puppet.anim.spine import SpineSink
+    from puppet.anim.spine import SpineSink  # lazy: format registry
     return SpineSink(job)
 
 
 def _glb(job: Job):
-    from puppet.anim.gltf import GltfSink
+    from puppet.anim.gltf import GltfSink  # lazy: format registry
     return GltfSink(job)
 
 
 def _glb_prepare(job: Job, draw) -> None:
-    from puppet.anim.gltf import check_count
+    from puppet.anim.gltf import check_count  # lazy: format registry
     check_count(job)
-
-
-def spine_side(path: str) -> list[str]:
-    """Beside Spine's ``NAME.json``: [``NAME.atlas``, ``NAME.png``] (the first page; more
-    are ``NAME_2.png`` ...)."""
-    stem = path[:-5] if path.lower().endswith(".json") else os.path.splitext(path)[0]
-    return [stem + ".atlas", stem + ".png"]
 
 
 FORMATS: tuple[Format, ...] = (

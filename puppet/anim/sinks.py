@@ -21,10 +21,16 @@ formats (web player, Spine, glTF) have their sinks in :mod:`.web`, :mod:`.spine`
 """
 from __future__ import annotations
 
+import math
 import os
 from fractions import Fraction
 
 import numpy as np
+
+from puppet.anim import pipeline
+from puppet.anim.gif import GifStream, palette_from_sample, quantize
+from puppet.anim.sheet import SheetWriter, atlas_text, write_png
+from puppet.output import write_text
 
 #: zlib level of PNG frames in a folder, written with the "Up" filter
 #: (:func:`puppet.anim.sheet.write_png`): 11 ms of CPU per 1280x720 T-rex frame against
@@ -34,6 +40,10 @@ DIR_LEVEL = 1
 MP4_OPTIONS = {"crf": "18", "preset": "veryfast"}
 #: VP9 options: constant quality (``b`` 0), speed 4 (``cpu-used``), row threads.
 WEBM_OPTIONS = {"crf": "30", "b": "0", "cpu-used": "4", "row-mt": "1", "deadline": "good"}
+#: Frames drawn first to choose a GIF's palette, and the pixels taken from them.
+GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
+#: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
+GIF_SAMPLE_CACHE = 64 << 20
 
 
 def flatten(rgba: np.ndarray, over=(255, 255, 255)) -> np.ndarray:
@@ -56,8 +66,6 @@ def stream(sink: "Sink", frames, **run) -> int:
     """Feed ``frames`` to ``sink`` on the encoder's thread (:func:`puppet.anim.pipeline.run`,
     ``run`` its options) and finish it; on any failure let go of it (the caller removes
     the temporary). The frames written."""
-    from puppet.anim import pipeline
-
     try:
         count = pipeline.run(frames, sink.add, **run)
     except BaseException:
@@ -87,8 +95,6 @@ class DirSink(Sink):
     """``frame_00000.png``, ``frame_00001.png``, ... in the folder ``tmp``."""
 
     def __init__(self, tmp: str, level: int = DIR_LEVEL):
-        from puppet.anim.sheet import write_png  # imported here: the encoder thread imports nothing
-
         super().__init__()
         self.tmp, self.level, self.write_png = tmp, level, write_png
 
@@ -101,20 +107,34 @@ class DirSink(Sink):
         self.frames += 1
 
 
+def gif_palette(frame_at, n: int, alpha: bool) -> tuple[object, dict[int, np.ndarray]]:
+    """A palette from up to :data:`GIF_SAMPLE_FRAMES` frames spread over the animation,
+    and those frames (empty when they are too big to keep)."""
+    picks = sorted({int(round(x)) for x in np.linspace(0, n - 1, min(n, GIF_SAMPLE_FRAMES))})
+    sample = {i: frame_at(i) for i in picks}
+    h, w = next(iter(sample.values())).shape[:2]
+    s = max(1, math.ceil(math.sqrt(h * w * len(sample) / GIF_SAMPLE_PIXELS)))
+    if alpha:  # colours of the pixels that show only; index 255 is the see-through one
+        px = np.concatenate([f[::s, ::s].reshape(-1, 4) for f in sample.values()])
+        px = px[px[:, 3] >= 128, :3]
+        palette = palette_from_sample((px if len(px) else np.zeros((1, 3), np.uint8))[None], colors=255)
+    else:
+        palette = palette_from_sample(np.concatenate([flatten(f[::s, ::s]) for f in sample.values()]))
+    if sum(f.nbytes for f in sample.values()) > GIF_SAMPLE_CACHE:
+        sample.clear()  # too big to keep: those frames are drawn again
+    return palette, sample
+
+
 class GifSink(Sink):
     """A looping GIF through :class:`puppet.anim.gif.GifStream`; with ``transparent``,
     pixels under half opacity are see-through and the palette has 255 colours."""
 
     def __init__(self, fp, size: tuple[int, int], fps: float, palette, transparent: bool):
-        from puppet.anim.gif import GifStream
-
         super().__init__()
         self.palette, self.transparent = palette, transparent
         self.stream = GifStream(fp, size, palette, fps, transparent=255 if transparent else None)
 
     def add(self, rgba: np.ndarray) -> None:
-        from puppet.anim.gif import quantize
-
         if self.transparent:
             index = quantize(np.ascontiguousarray(rgba[..., :3]), self.palette)
             index = np.where(rgba[..., 3] < 128, np.uint8(255), index)
@@ -198,8 +218,6 @@ class SheetSink(Sink):
     sheet path, fps, inputs) its JSON atlas is written (atomically) when the sheet is done."""
 
     def __init__(self, fp, lay, atlas: tuple | None = None):
-        from puppet.anim.sheet import SheetWriter
-
         super().__init__()
         self.writer, self.lay, self.atlas = SheetWriter(fp, lay), lay, atlas
 
@@ -210,8 +228,5 @@ class SheetSink(Sink):
     def close(self) -> None:
         self.writer.close()
         if self.atlas is not None:
-            from puppet.anim.sheet import atlas_text
-            from puppet.output import write_text
-
             path, sheet, fps, inputs = self.atlas
             write_text(path, atlas_text(self.lay, os.path.basename(sheet), fps), inputs=inputs)

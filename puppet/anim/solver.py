@@ -24,6 +24,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.scene.document.core import Document
 from puppet.scene.drag.child import child_setup, start_child, stop_child
 
 #: Fields sent back per layer and frame (the others come from the template frame).
@@ -49,8 +50,6 @@ def child_main(fd: int) -> None:
 def _child(conn, doc: dict, file: str, t0: float, rate: float) -> None:
     """The child's loop: frame index in, ``("ok", i, packed layers, seconds)`` out."""
     try:
-        from puppet.scene.document.core import Document
-
         scene = Document(doc, file)
         scene.built  # noqa: B018
         conn.send(("ready",))

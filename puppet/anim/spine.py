@@ -40,10 +40,11 @@ import re
 
 import numpy as np
 
-from puppet.anim.formats import spine_side
+from puppet.anim.sidefiles import spine_side
 from puppet.anim.sinks import Sink
 from puppet.errors import SceneError
-from puppet.geom.mesh import edges
+from puppet.geom.mesh import boundary_edges, edges
+from puppet.output import save_png, write_text
 
 SPINE_VERSION = "4.2.0"
 #: Largest atlas page side; more pages are made when the layers do not fit in one.
@@ -83,8 +84,6 @@ def hull_first(triangles: np.ndarray, n: int) -> tuple[np.ndarray, int]:
     hull : int
         Length of that loop (0 when the mesh has no boundary).
     """
-    from puppet.geom.mesh import boundary_edges
-
     nxt: dict[int, list[int]] = {}
     for a, b in boundary_edges(np.asarray(triangles, np.int64).reshape(-1, 3)).tolist():
         nxt.setdefault(a, []).append(b)
@@ -280,8 +279,6 @@ class SpineSink(Sink):
         self._write_atlas(images)
 
     def _write_atlas(self, images) -> None:
-        from puppet.output import save_png, write_text
-
         out = self.job.output
         crops, place = [images[i][0] for i in self.slots], self.place
         pages = 1 + max((p for p, _, _ in place), default=0)

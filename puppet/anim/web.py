@@ -30,6 +30,7 @@ from importlib import resources
 import numpy as np
 
 from puppet.anim.sinks import Sink
+from puppet.render.layers import classify_triangles
 
 #: int16 codes used (symmetric: -Q..Q).
 Q = 32767
@@ -79,8 +80,6 @@ def _b64(a: np.ndarray, dtype: str) -> str:
 def layer_entry(result, image: np.ndarray, offset, base: int) -> dict:
     """The static part of one layer: texture, texture coordinates, triangles (the
     non-empty ones, then the edge ones, as the compositor's two passes draw them)."""
-    from puppet.render.layers import classify_triangles
-
     h, w = image.shape[:2]
     uv = (np.asarray(result.rest, np.float64) - offset) / (w, h)
     tri = np.asarray(result.triangles, np.int64).reshape(-1, 3)

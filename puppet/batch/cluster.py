@@ -12,6 +12,8 @@ import tempfile
 import threading
 from collections.abc import Iterator
 
+from puppet.batch.reach import CONNECT_SECONDS, check_scheduler, one_line_failure
+
 #: Logging level of Dask's loggers on the client and in embedded workers (the user's
 #: DASK_LOGGING__DISTRIBUTED wins).
 DASK_LOG_LEVEL = "critical"
@@ -96,8 +98,6 @@ def connect(*, workers: int | None = None, scheduler: str | None = None, retries
     quiet_dask()
     address = None
     if scheduler is not None:
-        from puppet.batch.reach import check_scheduler
-
         address = check_scheduler(scheduler)  # before Dask: malformed, refused, silent, not Dask: one line
     # Ctrl+C and SIGHUP are held from before Dask starts its first thread until the client is
     # up: every thread and process Dask starts inherits the block (no worker is interrupted
@@ -183,8 +183,6 @@ def _local(n: int, held: contextlib.ExitStack) -> Iterator[tuple]:
 def _client(scheduler: str, address: str):
     """A client on an existing scheduler (``address``: checked by :mod:`puppet.batch.reach`)."""
     from distributed import Client
-
-    from puppet.batch.reach import CONNECT_SECONDS, one_line_failure
 
     try:
         return Client(address, timeout=f"{CONNECT_SECONDS}s", set_as_default=False)

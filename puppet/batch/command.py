@@ -13,6 +13,7 @@ import os
 import sys
 
 from puppet.errors import SceneError
+from puppet.output import check_folder
 
 
 def _seconds(text: str) -> float:
@@ -78,7 +79,7 @@ def add_parser(sub, *, size, time) -> argparse.ArgumentParser:
 
 
 def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
-    from puppet.batch import jobs as J
+    from puppet.batch import jobs as J  # lazy: the batch's modules (the CLI's parser imports this one)
 
     defaults = {"size": list(args.size) if args.size else None, "budget": args.budget, "check_size": _check_size}
     template_flags = [f for f in ("template", "images", "pose", "tolerance") if getattr(args, f) is not None]
@@ -109,7 +110,7 @@ def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
 
 
 def _check_pose(template: str, pose: str) -> None:
-    from puppet.scene.document.core import Document
+    from puppet.scene.document.core import Document  # lazy: numpy and scipy
 
     doc = Document.load(template)
     if pose not in doc.pose_names():
@@ -117,8 +118,6 @@ def _check_pose(template: str, pose: str) -> None:
 
 
 def _out_dir(path: str) -> str:
-    from puppet.output import check_folder
-
     real = os.path.realpath(path)
     if os.path.exists(real) and not os.path.isdir(real):
         raise SceneError("exists and is not a folder", file=path)
@@ -144,11 +143,10 @@ def _reads(args: argparse.Namespace) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from puppet.batch.runner import SOME_FAILED, run_batch
+    from puppet.batch.reach import parse_address  # lazy: the batch's modules (the CLI's parser imports this one)
+    from puppet.batch.runner import SOME_FAILED, run_batch  # lazy: as above
 
     if args.scheduler is not None:
-        from puppet.batch.reach import parse_address
-
         parse_address(args.scheduler)  # its form now; whether it answers once the jobs are known
         if args.workers:
             raise SceneError("--workers is for the embedded cluster; an existing --scheduler has its own workers")

@@ -26,6 +26,7 @@ import threading
 import time
 
 from puppet.batch.feed import DEPTH, Feeder
+from puppet.batch.work import Runner
 
 #: Seconds between two reads of the cluster's worker list while a batch runs.
 WORKERS_EVERY = 1.0
@@ -83,8 +84,6 @@ class Dispatch:
 
     # -- the client's threads, one per worker -------------------------------------
     def _join_new_workers(self) -> None:
-        from puppet.batch.work import Runner
-
         self._seen = time.perf_counter()
         workers = sorted(self.client.scheduler_info()["workers"])
         self.alive = set(workers)

@@ -26,8 +26,8 @@ Inputs = list[tuple[str, str]]
 def scene_inputs(jobs: list[dict]) -> dict[str, Inputs | None]:
     """Scene path -> the files it reads (:func:`puppet.scene.format.inputs.input_files`), or None
     when the scene cannot be read (its job will fail; only the scene file is then known)."""
-    from puppet.scene.document.core import Document
-    from puppet.scene.format.inputs import input_files
+    from puppet.scene.document.core import Document  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.format.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
 
     found: dict[str, Inputs | None] = {}
     for j in jobs:

@@ -21,6 +21,7 @@ import re
 from collections.abc import Iterable
 
 from puppet.anim import formats
+from puppet.anim.options import MAX_FPS, MIN_FPS  # the limits of ``puppet animate --fps``
 from puppet.errors import SceneError
 
 #: Extensions of the images taken by template mode.
@@ -184,8 +185,6 @@ def job_from_entry(e, base: str, out_dir: str, defaults: dict, file: str, path: 
 
 
 def _check_fps(anim: dict, file, path) -> None:
-    from puppet.anim.export import MAX_FPS, MIN_FPS  # the limits of ``puppet animate --fps``
-
     if "fps" in anim and not MIN_FPS <= anim["fps"] <= MAX_FPS:
         raise SceneError(f"fps {anim['fps']:g} is outside {MIN_FPS:g}..{MAX_FPS:g} (as animate --fps)",
                          file=file, path=path)
@@ -197,7 +196,7 @@ def read_job_list(file: str, out_dir: str, defaults: dict) -> list[dict]:
     The file is read as a scene file is (:mod:`puppet.scene.format.reader`): a regular file of at
     most :data:`MAX_LIST_BYTES`, strict JSON (no NaN, integers up to 2^53, nesting up to
     32 levels, no repeated key); anything else is one SceneError naming the file."""
-    from puppet.scene.format.reader import parse_text, read_file
+    from puppet.scene.format.reader import parse_text, read_file  # lazy: numpy (see puppet/batch/__init__.py)
 
     text = read_file(file, what="job list", max_bytes=MAX_LIST_BYTES)
     base = os.path.dirname(os.path.abspath(file))
@@ -254,7 +253,7 @@ def folder_jobs(folder: str, out_dir: str, defaults: dict) -> list[dict]:
     A file that is not a valid scene still gives one job (its ``rest`` pose), which then
     fails with the scene's error: it is reported, never skipped silently.
     """
-    from puppet.scene.document.core import Document
+    from puppet.scene.document.core import Document  # lazy: numpy (see puppet/batch/__init__.py)
 
     names = sorted(n for n in os.listdir(folder) if n.lower().endswith(".json")
                    and os.path.isfile(os.path.join(folder, n)))

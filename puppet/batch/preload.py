@@ -6,6 +6,7 @@ each worker, no job cut half way by its own process).
 """
 from __future__ import annotations
 
+import os
 import signal
 import threading
 
@@ -15,9 +16,7 @@ def dask_setup(worker) -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     # a worker given one core's share (as many workers as cores) solves on one thread too:
     # the factorisation's and the two coordinates' second thread would only contend
-    import os
-
     if os.environ.get("LP_NUM_THREADS") in ("0", "1"):
-        from puppet.deform import factor
+        from puppet.deform import factor  # lazy: a worker's preload; numpy comes with its first job
 
         factor.THREADS = False

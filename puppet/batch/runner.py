@@ -11,6 +11,7 @@ import sys
 import time
 from collections.abc import Callable
 
+from puppet.batch.cluster import connect
 from puppet.batch.dispatch import Dispatch
 from puppet.batch.feed import Feeder
 from puppet.batch.guard import all_inputs, check_outputs, check_own_files, output_present, scene_inputs
@@ -26,9 +27,8 @@ MANIFEST_EVERY = 1.0
 
 def client_digest(job: dict, cache: dict) -> str | None:
     """The hash the worker would record for ``job`` (None when its scene cannot be read)."""
-    from puppet.errors import SceneError
-    from puppet.scene.document.core import Document
-    from puppet.scene.format.inputs import input_files
+    from puppet.scene.document.core import Document  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.format.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
 
     path = job["scene"]
     if path not in cache:
@@ -223,8 +223,6 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
         An output on a file the run reads, the batch's own files not regular files, a
         scheduler that cannot be reached: nothing is written (the manifest is left as it was).
     """
-    from puppet.batch.cluster import connect
-
     batch = Batch(jobs, out_dir, resume=resume, progress=progress)
     reads = list(reads)
     check_own_files(out_dir, {os.path.realpath(p): what for p, what in reads})  # at once: may a report be written

@@ -11,6 +11,7 @@ import os
 import stat
 import threading
 
+from puppet.errors import SceneError
 from puppet.output import write_text
 
 MANIFEST = "manifest.json"
@@ -78,8 +79,7 @@ MAX_MANIFEST_BYTES = 64 * 1024 * 1024
 def _read(path: str) -> dict | None:
     """The manifest's JSON, read bounded and strictly (:func:`puppet.scene.format.reader.read_file`);
     None when missing, not a regular file, too large, too deep or not JSON."""
-    from puppet.errors import SceneError
-    from puppet.scene.format.reader import parse_text, read_file
+    from puppet.scene.format.reader import parse_text, read_file  # lazy: numpy (see puppet/batch/__init__.py)
 
     if not os.path.lexists(path):
         return None

@@ -51,9 +51,10 @@ from puppet.geom.mvc import mean_value_coordinates
 from puppet.geom.outline_corr import Correspondence, LandmarkRing, match_outlines
 from puppet.geom.outline_match import Similarity
 from puppet.imaging.io import load_rgba
-from puppet.scene.rig import build
 from puppet.scene.format.load import load_scene_data, parse_scene
 from puppet.scene.format.model import Layer, SceneData
+from puppet.scene.rig import build
+from puppet.scene.rig.exterior import auto_points
 
 __all__ = ["NoMatch", "Template", "Transfer", "transfer", "transfer_points", "NUDGE", "BOUNDARY", "TOLERANCE"]
 
@@ -180,8 +181,6 @@ class Template:
         self.pins = [p for p in data.pins if p.layer == self.layer.name]
         self.auto_ext = None
         if self.layer.exterior is not None:
-            from puppet.scene.rig.exterior import auto_points
-
             self.auto_ext = auto_points(self.image.mask, self.image.offset, self.layer.exterior.beta)
 
     def _pick(self, data: SceneData, layer: str | None) -> Layer:
@@ -252,8 +251,6 @@ class Template:
         if self.auto_ext is None or not len(self.auto_ext):
             return {}
         from scipy.optimize import linear_sum_assignment
-
-        from puppet.scene.rig.exterior import auto_points
 
         new = auto_points(mask, (0.0, 0.0), self.layer.exterior.beta)
         if not len(new):

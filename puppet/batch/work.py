@@ -22,9 +22,11 @@ import threading
 import time
 from collections import OrderedDict
 
+from puppet.batch.guard import unchanged_path
 from puppet.batch.jobs import spec
 from puppet.batch.state import inputs_digest
 from puppet.errors import SceneError
+from puppet.output import save_png
 
 #: Scenes kept loaded per worker (each holds its images, meshes and factorisations).
 SCENE_CACHE = 4
@@ -48,7 +50,7 @@ def compositor():
     tid = threading.get_ident()
     comp = _compositors.get(tid)
     if comp is None:
-        from puppet.render.compositor import Compositor
+        from puppet.render.compositor import Compositor  # lazy: moderngl (the client imports Runner, draws nothing)
 
         comp = _compositors[tid] = Compositor()
     # Each frame starts like a fresh `puppet render`'s (K-buffer first, A-buffer on overflow),
@@ -104,20 +106,19 @@ def budget(seconds: float | None, what: str):
 
 def _scene(path: str):
     """(files hash, inputs, scene) of a scene file, from the cache when its files are unchanged."""
-    from puppet.api import Scene
-    from puppet.batch.state import inputs_digest as digest_of
-    from puppet.scene.format.inputs import input_files
+    from puppet.api import Scene  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.format.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
 
     hit = _scenes.get(path)
     if hit is not None:
         with contextlib.suppress(OSError):
-            if digest_of({}, hit[1]) == hit[0]:
+            if inputs_digest({}, hit[1]) == hit[0]:
                 _scenes.move_to_end(path)
                 return hit
         del _scenes[path]
     scene = Scene.load(path)
     inputs = input_files(scene.data)
-    entry = (digest_of({}, inputs), inputs, scene)
+    entry = (inputs_digest({}, inputs), inputs, scene)
     _scenes[path] = entry
     while len(_scenes) > SCENE_CACHE:
         _scenes.popitem(last=False)
@@ -129,14 +130,13 @@ def _scene(path: str):
 
 def _template_scene(job: dict):
     """(hashed inputs, every input, scene) of a template job: the template's pins transferred to the image."""
-    from puppet.api import Scene
-    from puppet.batch import template
+    from puppet.api import Scene  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.batch import template  # lazy: numpy (see puppet/batch/__init__.py)
+    from puppet.scene.format.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
 
     _, tinputs, _ = _scene(job["scene"])  # the template, parsed (and checked unchanged) once per worker
     doc = template.transfer(job["scene"], job["image"], tolerance=job["tolerance"])
     scene = Scene(doc, job["image"])
-    from puppet.scene.format.inputs import input_files
-
     # hashed for --resume: what the client can know without transferring (template files + image)
     hashed = list(tinputs) + [(job["image"], "image")]
     return hashed, hashed + input_files(scene.data, scene_file=False), scene
@@ -166,10 +166,6 @@ def _make_parent(output: str) -> None:
 
 
 def _render(job: dict, scene, inputs) -> None:
-    from puppet.output import save_png
-
-    from puppet.batch.guard import unchanged_path
-
     size = tuple(job["size"]) if job.get("size") else None
     for step in ("before", "after"):  # a folder on the way swapped for a symbolic link since the client checked
         why = unchanged_path(job["output"])
@@ -178,7 +174,7 @@ def _render(job: dict, scene, inputs) -> None:
         if step == "before":
             _make_parent(job["output"])
     if job["kind"] == "animate":
-        from puppet.anim.export import animate_to
+        from puppet.anim.export import animate_to  # lazy: numpy (see puppet/batch/__init__.py)
 
         a = job["animate"]
         animate_to(_Budgeted(scene, job.get("budget")), job["output"], fps=a.get("fps"), start=a.get("from"),

@@ -33,6 +33,7 @@ from scipy.sparse import csgraph
 
 from puppet.deform import factor
 from puppet.deform.mls import mls_object_space
+from puppet.deform.modes import mode_operators, mode_rhs
 from puppet.deform.threads import blas_capped, one_blas_thread
 from puppet.geom.laplacian import cotangent_weights, spring_weights, uniform_weights
 from puppet.geom.mesh import check_mesh
@@ -286,8 +287,6 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
             data.k = k
             data.R = (data.R @ sp.diags(k)).tocsr()
         if mix is not None:
-            from puppet.deform.modes import mode_operators
-
             data.mix = np.asarray(mix, np.float64).reshape(len(V), 3)
             data.modes = mode_operators(data, P, fmap, bmap)
         data.factor = worker.result() if nf else None  # built meanwhile
@@ -446,8 +445,6 @@ def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
     xb = (bc[:, 0] - V[b, 0]) + 1j * (bc[:, 1] - V[b, 1])
     rhs_of = _rigid_rhs(data, xb)
     if data.mix is not None:  # other modes (puppet.deform.modes): another local step
-        from puppet.deform.modes import mode_rhs
-
         rhs_of = mode_rhs(data, xb, held, scale)
     elif held is not None:
         raise ValueError("held cells need data.mix (see puppet.deform.rotate for rigid ARAP)")

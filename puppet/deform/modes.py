@@ -31,10 +31,10 @@ decrease it monotonically; all three share the Laplacian, so no mode refactorise
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 __all__ = ["MODES", "MIX", "mode_mix", "cell_sigma", "similarity_fit", "apply_similarity",
-           "stiffness_from_grey", "STIFF_MAX", "ModeOps", "mode_operators", "mode_rhs", "SCALE_SPAN",
-           "mode_solve_rotated"]
+           "stiffness_from_grey", "STIFF_MAX", "ModeOps", "mode_operators", "mode_rhs", "SCALE_SPAN"]
 
 #: The modes and the (rigid, similar, affine) weights of their cell energies.
 MIX = {"rigid": (1.0, 0.0, 0.0), "similar": (0.0, 1.0, 0.0), "distort": (0.5, 0.0, 0.5)}
@@ -234,8 +234,6 @@ def mode_operators(data, P, fmap, bmap) -> ModeOps:
     m = data.ew * e.conj()
     Rc = P.block(P.data(0.5 * m, 0.5 * g.conj(), np.complex128), fmap, None, (nf, n))
     if data.k is not None:
-        import scipy.sparse as sp
-
         Rc = (Rc @ sp.diags(data.k)).tocsr()
     return ModeOps(G=G, T_f=P.block(T.data, None, fmap, (n, nf)), T_b=P.block(T.data, None, bmap, (n, k)), Rc=Rc,
                    mix=data.mix, S0=data.S0)
@@ -265,19 +263,3 @@ def mode_rhs(data, xb, held=None, scale=None):
             rhs += ops.Rc @ beta
         return rhs
     return rhs_of
-
-
-def mode_solve_rotated(data, bc, angles_deg, *, iterations: int = 20, scale=None) -> np.ndarray:
-    """Pins that also turn the region around them, in a mode other than rigid.
-
-    As :func:`puppet.deform.rotate.arap_solve_rotated`'s full pass: every vertex whose
-    nearest pin is turned starts turned about it, and the cells near a turned pin keep
-    its rotation while the others take their mode's fit (no residual rounds: those
-    re-solve rigid cells). Returns U (n, 2) with ``U[b] == bc``.
-    """
-    from puppet.deform.arap import arap_solve
-    from puppet.deform.rotate import held_rotations, rotation_initial_guess
-
-    U0 = rotation_initial_guess(data, bc, angles_deg)
-    cells, cm1, s = held_rotations(data, angles_deg)
-    return arap_solve(data, bc, iterations=iterations, U0=U0, held=(cells, (cm1 + 1.0) + 1j * s), scale=scale)

@@ -54,7 +54,7 @@ from puppet.deform.mls import mls_object_space
 from puppet.deform.threads import blas_capped
 
 __all__ = ["screen_rotation", "rotation_initial_guess", "held_rotations", "cell_residuals",
-           "default_eps", "arap_solve_rotated"]
+           "default_eps", "arap_solve_rotated", "mode_solve_rotated"]
 
 #: Default ``eps``: this many times the median cell residual after the full pass ...
 EPS_MEDIAN = 10.0
@@ -371,3 +371,15 @@ def arap_solve_rotated(data: ArapData, bc, angles_deg, *, iterations: int = 20,
                                    "factor_s": t1 - t0, "solve_s": time.perf_counter() - t1})
     U[data.b] = bc
     return U
+
+
+def mode_solve_rotated(data, bc, angles_deg, *, iterations: int = 20, scale=None) -> np.ndarray:
+    """Pins that also turn the region around them, in a mode other than rigid.
+
+    As :func:`arap_solve_rotated`'s full pass: every vertex whose nearest pin is turned
+    starts turned about it, and the cells near a turned pin keep its rotation while the
+    others take their mode's fit (no residual rounds: those re-solve rigid cells). Returns U (n, 2) with ``U[b] == bc``.
+    """
+    U0 = rotation_initial_guess(data, bc, angles_deg)
+    cells, cm1, s = held_rotations(data, angles_deg)
+    return arap_solve(data, bc, iterations=iterations, U0=U0, held=(cells, (cm1 + 1.0) + 1j * s), scale=scale)

@@ -17,6 +17,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from puppet.errors import ImageError
+from puppet.imaging import io as image_io  # the limits, read when used
 
 #: File name endings read as videos (a GIF is a video only in a video scene: see :func:`is_video`).
 VIDEO_EXTS = (".mp4", ".webm", ".mkv", ".mov", ".avi", ".m4v", ".gif")
@@ -129,16 +130,13 @@ class FrameSource:
     def _check_size(self, w: int, h: int) -> None:
         """Frames are held to the limits of every image (:data:`~puppet.imaging.io.MAX_SIDE`,
         :data:`~puppet.imaging.io.MAX_PIXELS`), checked before a pixel is decoded."""
-        from puppet.imaging.io import MAX_PIXELS, MAX_SIDE
-
-        if w > MAX_SIDE or h > MAX_SIDE or w * h > MAX_PIXELS:
-            raise self.fail(f"frames too large ({w}x{h}; at most {MAX_SIDE} per side and {MAX_PIXELS} pixels)")
+        side, pixels = image_io.MAX_SIDE, image_io.MAX_PIXELS
+        if w > side or h > side or w * h > pixels:
+            raise self.fail(f"frames too large ({w}x{h}; at most {side} per side and {pixels} pixels)")
 
     # -- reading --------------------------------------------------------------------------
     def _load(self, i: int) -> np.ndarray:
-        from puppet.imaging.io import load_rgba
-
-        rgba = load_rgba(self.files[i], scene_file=self._where["file"], json_path=self._where["path"])
+        rgba = image_io.load_rgba(self.files[i], scene_file=self._where["file"], json_path=self._where["path"])
         if i and (rgba.shape[1], rgba.shape[0]) != self.size:
             raise self.fail(f"is {rgba.shape[1]}x{rgba.shape[0]}, the first frame "
                             f"{self.size[0]}x{self.size[1]}", what=repr(self.files[i]))

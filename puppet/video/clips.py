@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import puppet
+
 VERSION = 4
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -161,8 +163,6 @@ def generate_clip(name: str, *, n: int = 100, size: tuple[int, int] = (640, 480)
     """Render the clip ``name`` (no cache): ``n`` frames of ``size`` (W, H)."""
     import cv2
     from PIL import Image
-
-    import puppet
 
     spec = SPECS[name]
     scene = puppet.load_scene(os.path.join(ROOT, spec["scene"]))

@@ -4,7 +4,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+import puppet
 from puppet.errors import SceneError
+from puppet.output import Staged, check_file, check_folder, commit_all
 
 
 def add_parser(sub, *, size, time) -> argparse.ArgumentParser:
@@ -36,8 +38,7 @@ def run(args: argparse.Namespace) -> int:
     """Validate everything, then stream the re-posed frames to the output; 0 on success."""
     import numpy as np
 
-    from puppet.output import check_file, check_folder, commit_all
-    from puppet.video.encode import output_kind, write_frames
+    from puppet.video.encode import output_kind, write_frames  # lazy: numpy (the CLI's parser imports this module)
 
     kind = output_kind(args.output)
     check = check_folder if kind == "dir" else check_file
@@ -47,9 +48,8 @@ def run(args: argparse.Namespace) -> int:
             raise SceneError(f"--tracks {args.tracks!r}: give a .json file")
         check_file(args.tracks, probe=True)
 
-    import puppet
-    from puppet.scene.format.inputs import input_files
-    from puppet.video.pipeline import plan_video, read_anchors, run_video
+    from puppet.scene.format.inputs import input_files  # lazy: as above
+    from puppet.video.pipeline import plan_video, read_anchors, run_video  # lazy: as above
 
     scene = puppet.load_scene(args.scene)
     anchors = read_anchors(args.anchors) if args.anchors else None
@@ -136,8 +136,7 @@ def _stage_tracks(path: str, plan, joints: dict, conf: dict, lost: list[int], co
     """The ``--tracks`` file of the ``count`` frames written, staged (:class:`puppet.output.Staged`)."""
     import json
 
-    from puppet.output import Staged
-    from puppet.video.track import Tracks
+    from puppet.video.track import Tracks  # lazy: numpy (the CLI's parser imports this module)
 
     doc = Tracks(joints={n: xy[:count] for n, xy in joints.items()}, confidence={n: c[:count] for n, c in conf.items()},
                  lost_frames=lost).to_json(plan.fps, plan.size)

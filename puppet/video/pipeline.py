@@ -10,13 +10,21 @@ coordinates (canvas minus 0.5).
 """
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from puppet.errors import SceneError
+from puppet.scene.format.reader import MAX_SCENE_BYTES, parse_text, read_file
+from puppet.scene.format.schema import Ctx, expect_object, expect_point, join
+from puppet.video import track
+from puppet.video.plate import Plate
 from puppet.video.retarget import RelativeSkeleton, relative_skeleton
+from puppet.video.segment import Segmenter
+from puppet.video.source import clip_source, prefetch
+from puppet.video.warp import background_fill, composite, skeleton_maps
 
 __all__ = ["VideoPlan", "FrameResult", "plan_video", "run_video", "read_anchors"]
 
@@ -127,9 +135,6 @@ def plan_video(doc, pose: str, *, first: int | None = None, last: int | None = N
 def read_anchors(path: str) -> dict[int, dict[str, tuple[float, float]]]:
     """``{"frame": {"pin": [x, y]}}`` from a JSON file (canvas coordinates); SceneError naming
     the file and the JSON path when it is not that."""
-    from puppet.scene.format.reader import MAX_SCENE_BYTES, parse_text, read_file
-    from puppet.scene.format.schema import Ctx, expect_object, expect_point, join
-
     raw = parse_text(read_file(path, what="--anchors file", max_bytes=MAX_SCENE_BYTES), path)
     c = Ctx(path)
     expect_object(c, raw, "", optional=raw.keys() if isinstance(raw, dict) else ())
@@ -159,22 +164,14 @@ def run_video(plan: VideoPlan, *, tracker: Callable | None = None, step: int = 6
     timer : when given, seconds spent per stage are added to it
         (``decode``, ``segment``, ``track``, ``deform``).
     """
-    import time
-
-    from puppet.video.segment import Segmenter
-    from puppet.video.source import clip_source, prefetch
-    from puppet.video.warp import background_fill, composite, skeleton_maps
-
     if tracker is None:
-        from puppet.video.track import Tracker as tracker
+        tracker = track.Tracker  # looked up now (a test may swap it)
     clock = timer if timer is not None else {}
 
     def add(stage: str, t0: float) -> float:
         t = time.perf_counter()
         clock[stage] = clock.get(stage, 0.0) + t - t0
         return t
-
-    from puppet.video.plate import Plate
 
     src = clip_source(plan.data)
     clean = Plate() if plate else None

@@ -19,6 +19,10 @@ from typing import Iterable
 
 import numpy as np
 
+from puppet.video.carry import PairMap
+from puppet.video.features import Detector, match, motion_groups
+from puppet.video.refine import patch_radius, refine
+
 Point = tuple[float, float]
 
 
@@ -136,8 +140,6 @@ class Tracker:
     def __init__(self, first: np.ndarray, joints: dict[str, Point], *, mask: np.ndarray | None = None,
                  min_matches: int = 8, detect_scale: float | None = None, contrast: float = 0.02, ratio: float = 0.8,
                  align: bool = True, patch: int | None = None):
-        from puppet.video.features import Detector
-
         self.names = list(joints)
         self.min_matches = int(min_matches)
         self.ratio = float(ratio)
@@ -229,8 +231,6 @@ class Tracker:
         around them; failing that, the carried position.
         Returns ``(xy, confidence, affine)`` or None when both are None.
         """
-        from puppet.video.refine import refine
-
         cands = [c for c in (a, b) if c is not None]
         if not cands:
             return None
@@ -261,8 +261,6 @@ class Tracker:
         return b.xy, 0.5 * _confidence(b), b.affine
 
     def _radius(self, gray: np.ndarray, p: np.ndarray) -> int:
-        from puppet.video.refine import patch_radius
-
         if self.patch:
             return self.patch
         f = float(np.hypot(*gray.shape)) / 800.0
@@ -275,9 +273,6 @@ class Tracker:
         return {n: (float(p[0]), float(p[1])) for n, p in zip(self.names, P)}
 
     def _pair(self, a, b):
-        from puppet.video.carry import PairMap
-        from puppet.video.features import match, motion_groups
-
         ia, ib = match(a, b, ratio=self.ratio)
         src, dst = a.pts[ia], b.pts[ib]
         groups = motion_groups(src, dst)

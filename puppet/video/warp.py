@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from puppet.deform.skeleton import skeleton_from_distances, skeleton_solve
+from puppet.imaging.inpaint import inpaint
 
 __all__ = ["grid_mesh", "backward_map", "skeleton_maps", "WarpMaps", "composite", "background_fill"]
 
@@ -323,8 +324,6 @@ def background_fill(rgb: np.ndarray, mask: np.ndarray, method: str = "telea", *,
     rgb : (H, W, 3) uint8. mask : (H, W) bool. method : ``telea``, ``ns``, ``pyramid``, ``fsr``.
     """
     import cv2
-
-    from puppet.imaging.inpaint import inpaint
 
     out = rgb.copy()
     H, W = mask.shape

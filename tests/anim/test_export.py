@@ -41,7 +41,7 @@ def test_gif_matches_the_png_frames(bar, tmp_path, monkeypatch):
     for (rgb, _), rgba in zip(gif, frames):
         want = export.flatten(rgba).astype(int)
         assert np.abs(rgb - want).mean() < 1.5 and np.abs(rgb - want).max() <= 64
-    monkeypatch.setattr(export, "GIF_SAMPLE_CACHE", 0)  # the sample frames are drawn again
+    monkeypatch.setattr(sinks, "GIF_SAMPLE_CACHE", 0)  # the sample frames are drawn again
     assert main(["animate", bar, "-o", str(tmp_path / "b.gif")]) == 0
     assert (tmp_path / "a.gif").read_bytes() == (tmp_path / "b.gif").read_bytes()
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.imaging.layered import ArtLayer, apply_mask, to_uint8
+from puppet.imaging.layered.art import ArtLayer, apply_mask, to_uint8
 
 
 def adjustment_function(layer):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.imaging.layered import ArtLayer, LayeredArt, cropped, to_uint8, unique
+from puppet.imaging.layered.art import ArtLayer, LayeredArt, cropped, to_uint8, unique
 
 #: Separable blends over floats (backdrop Cb, source Cs), by ORA composite-op and Krita
 #: compositeop names.

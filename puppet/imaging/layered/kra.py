@@ -17,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique, why
+from puppet.imaging import io as image_io  # the limits, read when used
+from puppet.imaging.layered.art import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique, why
 from puppet.imaging.layered.blend import add_blended, separable
 from puppet.imaging.layered.zipped import member, open_zip, png_member, xml_member
 
@@ -141,8 +142,6 @@ class _Walk:
         self.unread = 0  # visible layers of a kind or colour space not read
 
     def layers(self, el, prefix: str, opacity: float) -> None:
-        from puppet.imaging.io import MAX_PIXELS
-
         for node in reversed(list(el.findall("layer"))):  # maindoc.xml lists the top first
             name, tags = split_tags(node.get("name") or "layer")
             full, kind = prefix + name, node.get("nodetype", "")
@@ -162,7 +161,8 @@ class _Walk:
                 self.art.notes.append(f"{full}: {kind or 'layer'} ({node.get('colorspacename', '?')}) skipped")
                 self.unread += 1
                 continue
-            data = member(self.zf, f"{self.doc}/layers/{node.get('filename')}", MAX_PIXELS * 6 + (16 << 20), self.path)
+            limit = image_io.MAX_PIXELS * 6 + (16 << 20)
+            data = member(self.zf, f"{self.doc}/layers/{node.get('filename')}", limit, self.path)
             try:
                 xy = (int(node.get("x", 0)), int(node.get("y", 0)))
                 rgba, offset = read_tiles(data, xy, full, self.path)

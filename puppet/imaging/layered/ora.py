@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique
+from puppet.imaging.layered.art import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique
 from puppet.imaging.layered.blend import add_blended, separable
 from puppet.imaging.layered.zipped import open_zip, png_member, xml_member
 

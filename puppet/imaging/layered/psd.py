@@ -26,8 +26,10 @@ import struct
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import (ArtLayer, LayeredArt, apply_mask, check_size, cropped, scale_alpha,
-                                    split_tags, to_rgba, to_uint8, unique, why)
+from puppet.imaging import io as image_io  # the limits, read when used
+from puppet.imaging.layered.adjust import adjustment_function, bake_adjustment
+from puppet.imaging.layered.art import (ArtLayer, LayeredArt, apply_mask, check_size, cropped, scale_alpha,
+                                        split_tags, to_rgba, to_uint8, unique, why)
 from puppet.imaging.layered.blend import bake_down, bake_onto
 
 #: Largest PSD/PSB file read: psd-tools reads a whole file into memory (a document within
@@ -81,10 +83,8 @@ def read_psd(path: str) -> LayeredArt:
 
 
 def _read_psd(path: str) -> LayeredArt:
-    from puppet.imaging.io import MAX_PIXELS
-
     w, h, _, _ = read_header(path)
-    psd = _open(path, max_alloc=MAX_PIXELS * 4 * 8)
+    psd = _open(path, max_alloc=image_io.MAX_PIXELS * 4 * 8)
     art = LayeredArt(path, (w, h))
     reader = _Reader(art, path, psd)
     try:
@@ -163,8 +163,6 @@ class _Reader:
                 self.pixels(layer, full, opacity, masks)
 
     def adjust(self, layer, name: str, start: int) -> None:
-        from puppet.imaging.layered.adjust import adjustment_function, bake_adjustment
-
         fn = adjustment_function(layer)
         if fn is None or not self.rgb or self.depth == 32:
             self.note(f"{name}: adjustment layer ({layer.kind}) skipped (not drawn for this kind or document)")

@@ -12,7 +12,9 @@ import zipfile
 import numpy as np
 
 from puppet.errors import ImageError
-from puppet.imaging.layered import why
+from puppet.imaging import io as image_io  # the limits, read when used
+from puppet.imaging.decode import pillow_to_rgba
+from puppet.imaging.layered.art import check_size, why
 
 #: Largest XML member (stack.xml, maindoc.xml).
 MAX_XML = 16 << 20
@@ -64,11 +66,7 @@ def png_member(zf: zipfile.ZipFile, name: str, path: str) -> np.ndarray:
     before any pixel is decoded."""
     from PIL import Image
 
-    from puppet.imaging.decode import pillow_to_rgba
-    from puppet.imaging.io import MAX_PIXELS
-    from puppet.imaging.layered import check_size
-
-    data = member(zf, name, MAX_PIXELS * 8 + (16 << 20), path)
+    data = member(zf, name, image_io.MAX_PIXELS * 8 + (16 << 20), path)
     try:
         im = Image.open(io.BytesIO(data))
         check_size(*im.size, name, path)

@@ -18,16 +18,9 @@ from puppet.deform.depth import depth_field
 from puppet.deform.hinge import hinge_guess
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
 from puppet.deform.mls import mls_object_space
-from puppet.deform.modes import (
-    SCALE_SPAN,
-    apply_similarity,
-    mode_mix,
-    mode_solve_rotated,
-    similarity_fit,
-    stiffness_from_grey,
-)
+from puppet.deform.modes import SCALE_SPAN, apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
 from puppet.deform.relax import relax_foldovers
-from puppet.deform.rotate import arap_solve_rotated
+from puppet.deform.rotate import arap_solve_rotated, mode_solve_rotated
 from puppet.deform.skeleton import skeleton_precompute, skeleton_solve
 from puppet.geom.geodesic import geodesic_distances
 from puppet.scene.format.model import Deformer
