@@ -11,7 +11,8 @@ import json
 import os
 from collections.abc import Callable
 
-#: columns a value may take on one line (indentation and key included)
+#: columns a line may take (indentation, key and the comma after a value included),
+#: unless it holds one value that cannot be split
 WIDTH = 100
 
 
@@ -23,7 +24,7 @@ def scene_text(doc: dict) -> str:
 def _value(v, indent: int, used: int) -> str:
     """``v`` as JSON text starting ``used`` columns into a line indented ``indent`` spaces."""
     flat = json.dumps(v)
-    if used + len(flat) <= WIDTH or not isinstance(v, (dict, list)) or not v:
+    if used + len(flat) < WIDTH or not isinstance(v, (dict, list)) or not v:
         return flat
     pad = " " * (indent + 1)
     if isinstance(v, dict):
