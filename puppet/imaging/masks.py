@@ -118,16 +118,25 @@ def polygon_mask(shape: tuple[int, int], polygon: np.ndarray, offset=(0.0, 0.0))
     return (np.cumsum(toggles[:, :w], axis=1, dtype=np.uint8) & 1).astype(bool)  # mod 256 keeps parity
 
 
+def _overlap(offset, image_shape: tuple[int, int], canvas_shape: tuple[int, int]):
+    """Where a layer image of ``image_shape`` (h, w) placed at canvas ``offset`` (rounded to
+    whole pixels) meets a canvas of ``canvas_shape`` (H, W): (canvas slices, image slices),
+    or None when they do not meet."""
+    ox, oy = int(round(offset[0])), int(round(offset[1]))
+    (h, w), (H, W) = image_shape, canvas_shape
+    y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
+    if y1 <= y0 or x1 <= x0:
+        return None
+    return (slice(y0, y1), slice(x0, x1)), (slice(y0 - oy, y1 - oy), slice(x0 - ox, x1 - ox))
+
+
 def canvas_to_image(canvas_mask: np.ndarray, offset, shape: tuple[int, int]) -> np.ndarray:
     """A canvas-grid mask (H, W) moved into the grid of a layer image of ``shape`` (h, w)
     placed at canvas ``offset`` (rounded to whole pixels): (h, w) bool, False off the canvas."""
-    H, W = canvas_mask.shape
     out = np.zeros(shape, bool)
-    ox, oy = int(round(offset[0])), int(round(offset[1]))
-    h, w = shape
-    y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
-    if y1 > y0 and x1 > x0:
-        out[y0 - oy:y1 - oy, x0 - ox:x1 - ox] = canvas_mask[y0:y1, x0:x1]
+    both = _overlap(offset, shape, canvas_mask.shape)
+    if both is not None:
+        out[both[1]] = canvas_mask[both[0]]
     return out
 
 
@@ -135,13 +144,10 @@ def image_to_canvas(mask: np.ndarray, offset, canvas) -> np.ndarray:
     """A layer image's mask (h, w), placed at canvas ``offset`` (rounded to whole pixels),
     on the canvas grid of size ``canvas`` (W, H): (H, W) bool (the inverse of
     :func:`canvas_to_image`)."""
-    W, H = int(canvas[0]), int(canvas[1])
-    out = np.zeros((H, W), bool)
-    ox, oy = int(round(offset[0])), int(round(offset[1]))
-    h, w = mask.shape
-    y0, x0, y1, x1 = max(oy, 0), max(ox, 0), min(oy + h, H), min(ox + w, W)
-    if y1 > y0 and x1 > x0:
-        out[y0:y1, x0:x1] = mask[y0 - oy:y1 - oy, x0 - ox:x1 - ox]
+    out = np.zeros((int(canvas[1]), int(canvas[0])), bool)
+    both = _overlap(offset, mask.shape, out.shape)
+    if both is not None:
+        out[both[0]] = mask[both[1]]
     return out
 
 
