@@ -18,7 +18,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from puppet.anim import formats, pipeline, sinks
-from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (also read from here)
+from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (docs/api.md names export.parse_background)
 from puppet.anim.solver import ProcessSolver
 from puppet.errors import SceneError
 from puppet.output import atomic_write, check_file, check_folder, write_folder
@@ -36,9 +36,6 @@ def output_kind(path: str, kind: str | None = None) -> str:
     """The format's kind (``mp4``, ``html``, ``spine``, ``dir`` ...) of an output path, or
     ``kind`` checked against it (see :func:`puppet.anim.formats.find`)."""
     return formats.find(path, kind).kind
-
-
-atlas_path = formats.sheet_atlas
 
 
 def frame_count(start: float, end: float, fps: float) -> int:

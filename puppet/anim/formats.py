@@ -19,7 +19,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from puppet.anim.sidefiles import sheet_atlas, spine_side  # noqa: F401 (spine_side: also read from here)
+from puppet.anim.sidefiles import sheet_atlas, spine_side
 from puppet.errors import SceneError
 
 #: Options of ``animate_to`` that some formats cannot honour (the others always apply).
