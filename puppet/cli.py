@@ -152,7 +152,10 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--links", choices=("auto", "none"), default="none",
                    help="layered art (.psd .psb .ora .kra): auto: a link where two layers overlap")
     i.add_argument("--update", action="store_true",
-                   help="layered art: re-import into the existing scene, keeping its pins, links and poses")
+                   help="layered art: re-import into the existing scene, keeping its pins, links and poses "
+                        "(the old scene is kept as SCENE.json.bak)")
+    i.add_argument("--force", action="store_true",
+                   help="layered art: replace files in SCENE-layers/ that an earlier import did not write")
 
     w = sub.add_parser("app", help="open the scene in a window to pin, pose and arrange it")
     w.add_argument("scene", nargs="?", help="a scene, or a picture (PNG, JPEG...): a new puppet made from it")
@@ -235,8 +238,8 @@ def _layered(args) -> bool:
             raise UsageError(f"{args.image}: --threshold, --alpha and --grabcut are for flat pictures; "
                              "layered art keeps each layer's own alpha")
         return True
-    if args.update or args.links != "none":
-        raise UsageError(f"{args.image}: --update and --links are for layered art (.psd .psb .ora .kra)")
+    if args.update or args.links != "none" or args.force:
+        raise UsageError(f"{args.image}: --update, --links and --force are for layered art (.psd .psb .ora .kra)")
     return False
 
 
@@ -248,7 +251,8 @@ def _notes(art: str, res) -> None:
 def _init_layered(args, out: str) -> int:
     from puppet.scene.make.art import import_art  # lazy: the init command's own modules
 
-    res = import_art(args.image, out, pins=args.pins, links=args.links, update=args.update)
+    res = import_art(args.image, out, pins=args.pins, links=args.links, update=args.update,
+                     force=args.force)
     _notes(args.image, res)
     _print(res.summary())
     return 0

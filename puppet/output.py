@@ -426,3 +426,76 @@ def write_text(path: str, text: str, *, inputs: Inputs = (), follow: bool = True
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
     atomic_write(path, write, inputs=inputs, follow=follow)
+
+
+# -- a folder of files puppet names itself, committed with other outputs ---------------
+def staging_folder(path: str) -> str:
+    """A new temporary folder beside ``path`` (same file system, so its files can be
+    renamed into place), registered for :func:`remove_leftovers`; remove it with
+    :func:`drop_staging`."""
+    folder = os.path.dirname(os.path.abspath(path))
+    why = _folder_reason(folder)
+    if why:
+        raise OutputError(path, why)
+    return _temp(path, folder, _make_folder)
+
+
+def drop_staging(tmp: str) -> None:
+    """Remove a folder made by :func:`staging_folder` and whatever is left in it."""
+    _remove(tmp)
+
+
+def commit_into(folder: str, staged: str, names: Iterable[str], after: Iterable[Staged] = ()) -> None:
+    """Move the files ``names`` from the staging folder ``staged`` into ``folder`` (made
+    when missing; never a symlink), then commit the files ``after`` (:func:`commit_all`):
+    all of it or nothing.
+
+    A file already at a name is replaced (the caller decided it may be: puppet wrote it,
+    or the user said ``--force``); it is kept aside in ``staged`` until everything is in
+    place, and put back, with the new files removed (and a folder made here removed),
+    when any step fails. Signals are held meanwhile, so a stop never leaves half of it.
+
+    Raises
+    ------
+    OutputError
+        ``folder`` is a symlink or not a folder, or a rename failed (all undone).
+    """
+    after = list(after)
+    if os.path.islink(folder):
+        raise OutputError(folder, "is a symbolic link (puppet never writes the files it names through a link)")
+    if os.path.lexists(folder) and not os.path.isdir(folder):
+        raise OutputError(folder, "exists and is not a folder")
+    done: list[tuple[str, str | None, bool]] = []  # (destination, old file kept aside or None, new file placed)
+    made = False
+    with _signals_blocked():
+        try:
+            if not os.path.isdir(folder):
+                os.mkdir(folder)
+                made = True
+            for k, name in enumerate(names):
+                dst = os.path.join(folder, name)
+                aside = None
+                if os.path.lexists(dst):
+                    aside = os.path.join(staged, f".old-{k}")
+                    os.rename(dst, aside)
+                done.append((dst, aside, False))
+                os.rename(os.path.join(staged, name), dst)
+                done[-1] = (dst, aside, True)
+            commit_all(after)
+        except BaseException as e:
+            for dst, aside, placed in reversed(done):
+                with contextlib.suppress(OSError):
+                    if placed:
+                        os.remove(dst)
+                    if aside is not None:
+                        os.rename(aside, dst)
+            if made:
+                with contextlib.suppress(OSError):
+                    os.rmdir(folder)
+            for s in after:  # those not committed yet (commit_all discards them itself when it ran)
+                if os.path.lexists(s.tmp):
+                    s.discard()
+            err = _failed(folder, e)
+            if err is e:
+                raise
+            raise err from None

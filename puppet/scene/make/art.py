@@ -16,23 +16,31 @@ file is only read.
 """
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import json
 import os
 import re
 import shutil
-import tempfile
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.layered import ArtLayer, read_layered
+from puppet.geom.contour import mask_regions
+from puppet.geom.triangulate import triangulate_regions
+from puppet.imaging.layered import ArtLayer, LayeredArt, read_layered
 from puppet.imaging.skeleton import auto_pins
-from puppet.output import OutputError, check_file, write_text
+from puppet.output import OutputError, Staged, check_file, commit_into, drop_staging, staging_folder
 from puppet.scene.document.core import Document
+from puppet.scene.format.inputs import input_files
 from puppet.scene.format.load import read_json
-from puppet.scene.format.write import map_paths, scene_text
+from puppet.scene.format.model import MeshOptions
+from puppet.scene.format.write import map_paths, relative_to, scene_text
 from puppet.scene.make.auto_links import propose_links
 from puppet.scene.make.merge import merge
+from puppet.scene.rig.build import default_max_area
 
 
 @dataclass
@@ -110,13 +118,40 @@ def _same_file(a: str, b: str) -> bool:
         return False
 
 
-def file_stem(name: str, taken: set[str]) -> str:
-    """A file name (without ``.png``) for a layer name, unique (case-insensitively) in ``taken``."""
+#: Longest layer file name (UTF-8 bytes, ``.png`` included): well under NAME_MAX (255),
+#: with room for the temporary and aside names built from it.
+MAX_FILE_NAME = 100
+#: The import's manifest in the layers folder: what the import wrote (name -> content hash).
+MANIFEST = ".puppet-import.json"
+
+
+def safe_stem(name: str) -> str:
+    """A layer name as a file stem: ``/`` as ``__``, other characters than letters, digits,
+    ``_ . -`` as ``_``; when longer than fits :data:`MAX_FILE_NAME`, cut and ended with a
+    short hash of the whole name (so two long names that share a beginning differ)."""
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", name.replace("/", "__")).strip("._") or "layer"
-    out, i = stem, 1
+    room = MAX_FILE_NAME - len(".png") - len("-12345678-99")  # a hash and a counter may follow
+    if len(stem) > room:
+        stem = stem[:room - 9].rstrip("._") + "-" + _short_hash(name)
+    return stem
+
+
+def _short_hash(name: str) -> str:
+    return hashlib.sha1(name.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+
+
+def file_stem(name: str, taken: set[str]) -> str:
+    """A file name (without ``.png``) for a layer name, unique (case-insensitively) in
+    ``taken``, at most :data:`MAX_FILE_NAME` bytes with the suffix, the same for the
+    same name and ``taken``."""
+    stem = safe_stem(name)
+    out = stem
+    if out.lower() in taken:
+        out = f"{stem}-{_short_hash(name)}"
+    i = 1
     while out.lower() in taken:
         i += 1
-        out = f"{stem}-{i}"
+        out = f"{stem}-{_short_hash(name)}-{i}"
     taken.add(out.lower())
     return out
 
@@ -140,7 +175,7 @@ def layer_pins(lay: ArtLayer, max_pins: int) -> list[dict]:
 
 
 def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "none",
-               update: bool = False, max_pins: int = 8) -> ImportResult:
+               update: bool = False, max_pins: int = 8, force: bool = False) -> ImportResult:
     """Write a scene over a layered art file, or re-import the art into it (``update``).
 
     Parameters
@@ -150,39 +185,61 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
     pins : ``"auto"``: pin every layer (with ``update``: every layer that has no pin).
     links : ``"auto"``: propose a link where two layers overlap (and have none).
     max_pins : most automatic pins per layer.
+    force : replace files in the layers folder that an earlier import of this scene did
+        not write (or that were edited since), and symlinks there (the link, never its target).
+
+    The layer images go to ``SCENE-layers/`` (never a symlink), named by
+    :func:`file_stem`; the folder's manifest (:data:`MANIFEST`) records what the import
+    wrote, so a later import replaces only those files. With ``update`` the scene as it
+    was is kept first (:func:`backup_path`), a file the scene reads is never replaced,
+    and renamed layers are matched by content (:func:`puppet.scene.make.merge.merge`).
+    Layers too small to mesh are left out with a note. PNGs, manifest, backup and scene
+    are staged and put in place together, or nothing is.
 
     Raises
     ------
     SceneError
         Unreadable art, nothing visible, a scene to update that is missing or invalid,
-        an output that cannot be written (nothing is written then).
+        a file in the way (without ``force``), an output that cannot be written
+        (nothing is written then).
     """
     shown, art_file, scene = scene, os.path.abspath(art_file), os.path.abspath(scene)
     inputs = [(art_file, "the art file")]
     check_file(scene, inputs=inputs, probe=True)
     folder = layers_folder(scene)
+    if os.path.islink(folder):
+        raise SceneError(f"{folder}: is a symbolic link; puppet never writes the layer images through a link "
+                         "(remove it, or give another -o)", file=shown)
     if os.path.lexists(folder) and not os.path.isdir(folder):
         raise SceneError(f"{folder}: exists and is not a folder (the layer images go there)", file=shown)
     old = _old_scene(scene, shown) if update else None
+    owned = read_manifest(folder, old)
+    reads = _read_by(old, folder, owned)
     art = read_layered(art_file)
-    names, taken = {}, set()
-    for lay in art.layers:
-        names[lay.name] = file_stem(lay.name, taken) + ".png"
-    tmp = None
+    art, small = meshable(art)
+    names = _file_names(art.layers, owned, reads)
+    _check_way(folder, list(names.values()) + [MANIFEST], owned, force=force)
+    tmp = staging_folder(folder)
     try:
-        tmp = tempfile.mkdtemp(prefix="." + os.path.basename(folder) + ".", dir=os.path.dirname(scene))
         doc, res = _document(art, old, tmp, names, pins=pins, links=links, max_pins=max_pins)
+        res.notes += small
         res.scene, res.folder = shown, os.path.relpath(folder)
-        _write_pngs(art.layers, tmp, names)
-        _validate(doc, scene, mesh=bool(doc.get("pins") or doc.get("links")))
+        written = _write_pngs(art.layers, tmp, names)
+        _validate(doc, scene, mesh=True)
         final = _final(doc, tmp, folder, os.path.dirname(scene))
-        _move_in(tmp, folder, names.values())
-        _write_scene(scene, final, inputs)
+        _write_manifest(tmp, folder, owned, written, names)
+        after = []
+        if old is not None:
+            bak = backup_path(scene)
+            after.append(_copy_staged(scene, bak))
+            res.notes.append(f"the scene as it was is kept in {os.path.relpath(bak)}")
+        text = scene_text(final)
+        after.append(Staged(scene, lambda t: _write(t, text), inputs=inputs))
+        commit_into(folder, tmp, list(names.values()) + [MANIFEST], after)
     except OSError as e:  # a full disk or a folder that went away while writing
         raise OutputError(folder, e.strerror or str(e)) from None
     finally:
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
+        drop_staging(tmp)
     return res
 
 
@@ -199,10 +256,181 @@ def import_beside(art_file: str) -> ImportResult:
     return import_art(art_file, scene, pins=auto, links=auto, update=update)
 
 
-def _old_scene(scene: str, shown: str) -> dict:
+def backup_path(scene: str) -> str:
+    """Where ``--update`` keeps the scene it replaces: ``SCENE.json.bak``, or, when that
+    exists, ``SCENE.json.YYYYmmdd-HHMMSS.bak`` (``-2``, ``-3``... when that exists too)."""
+    bak = scene + ".bak"
+    if not os.path.lexists(bak):
+        return bak
+    stamp_ = time.strftime("%Y%m%d-%H%M%S")
+    bak, i = f"{scene}.{stamp_}.bak", 1
+    while os.path.lexists(bak):
+        i += 1
+        bak = f"{scene}.{stamp_}-{i}.bak"
+    return bak
+
+
+def read_manifest(folder: str, old: Document | None = None) -> dict[str, dict]:
+    """What earlier imports wrote in the layers folder: file name -> ``{"layer": name,
+    "sha256": hex}``. A folder without a manifest, when a scene made before manifests
+    existed is updated, owns the layer images that scene takes from the folder."""
+    try:
+        with open(os.path.join(folder, MANIFEST), "rb") as f:
+            data = json.loads(f.read(1 << 24).decode("utf-8"))
+        files = data["files"]
+        return {n: {"layer": str(e["layer"]), "sha256": str(e["sha256"])} for n, e in files.items()
+                if isinstance(n, str) and _plain_name(n)}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        pass
+    owned = {}
+    if old is not None and not os.path.lexists(os.path.join(folder, MANIFEST)):
+        for L in old.to_dict().get("layers", []):
+            p = L.get("image")
+            if isinstance(p, str) and os.path.dirname(p) == folder and os.path.isfile(p) and not os.path.islink(p):
+                owned[os.path.basename(p)] = {"layer": L["name"], "sha256": _sha256_file(p)}
+    return owned
+
+
+def meshable(art: LayeredArt) -> tuple[LayeredArt, list[str]]:
+    """The art without the layers the scene could not mesh (a pixel or two: ``render``
+    would refuse the scene), and a note for each one left out."""
+    kept, notes = [], []
+    for lay in art.layers:
+        if _too_small(lay):
+            h, w = lay.rgba.shape[:2]
+            notes.append(f"layer {lay.name!r} ({w}x{h} px) is too small to mesh: left out")
+        else:
+            kept.append(lay)
+    return dataclasses.replace(art, layers=kept), notes
+
+
+def _too_small(lay: ArtLayer) -> bool:
+    """Whether the layer's alpha mask gives no triangle with the scene's default mesh
+    options (as :func:`puppet.scene.rig.build.mesh_layer` meshes it). Only small or thin
+    layers are tried; the build of the whole scene checks the rest."""
+    mask = mask_of(lay)
+    h, w = mask.shape
+    if min(h, w) >= 8 and mask.sum() >= 256:
+        return False
+    if not mask.any():
+        return True
+    opts = MeshOptions()
+    try:
+        mesh = triangulate_regions(mask_regions(mask, lay.offset), max_area=default_max_area(mask),
+                                   min_angle=opts.min_angle, simplify=opts.simplify)
+    except Exception:  # any other failure is the build's to report, with its JSON path
+        return False
+    return len(mesh.F) == 0
+
+
+def _old_scene(scene: str, shown: str) -> Document:
     if not os.path.exists(scene):
         raise SceneError("--update: there is no scene to update (leave out --update to make one)", file=shown)
-    return Document.load(scene).to_dict()
+    return Document.load(scene)
+
+
+def _plain_name(name: str) -> bool:
+    return bool(name) and "/" not in name and "\0" not in name and name not in (".", "..") \
+        and len(name.encode("utf-8", "surrogatepass")) <= 255
+
+
+def _sha256_file(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _read_by(old: Document | None, folder: str, owned: dict) -> set[str]:
+    """Lower-cased names of the files in ``folder`` that the old scene reads and that no
+    import wrote (a stiffness or mask image put there by the user): never replaced."""
+    if old is None:
+        return set()
+    out = set()
+    for path, _ in input_files(old.data):
+        if os.path.dirname(os.path.abspath(path)) == folder and os.path.basename(path) not in owned:
+            out.add(os.path.basename(path).lower())
+    return out
+
+
+def _file_names(layers: list[ArtLayer], owned: dict, reads: set[str]) -> dict[str, str]:
+    """Layer name -> PNG name: the one an earlier import gave the layer (stable across
+    re-imports), else :func:`file_stem`; never a name the old scene reads otherwise."""
+    earlier = {e["layer"]: n for n, e in sorted(owned.items())}
+    taken = set(reads) | {MANIFEST.lower()}
+    names = {}
+    for lay in layers:  # the names kept first, so a new layer never takes one
+        n = earlier.get(lay.name)
+        if n and n.lower() not in taken and n.endswith(".png") and len(n.encode()) <= MAX_FILE_NAME:
+            names[lay.name] = n
+            taken.add(n.lower())
+    for n, e in owned.items():  # an old layer's file is not given to a new layer of another name
+        if e["layer"] not in names:
+            taken.add(n.lower())
+    for lay in layers:
+        if lay.name not in names:
+            names[lay.name] = file_stem(lay.name, taken) + ".png"
+    return {lay.name: names[lay.name] for lay in layers}
+
+
+def _check_way(folder: str, files: list[str], owned: dict, *, force: bool) -> None:
+    """Refuse (unless ``force``) to replace a file at one of ``files`` in ``folder`` that
+    no import of this scene wrote, or that was changed since (content hash), and any
+    symlink there; a folder or other non-file there is always refused."""
+    for name in files:
+        path = os.path.join(folder, name)
+        if not os.path.lexists(path):
+            continue
+        if os.path.islink(path):
+            why = "is a symbolic link"
+        elif not os.path.isfile(path):
+            raise SceneError("is in the way of a layer image and is not a file; move it away", file=path)
+        elif name == MANIFEST:
+            why = None if owned or _is_manifest(path) else "is not a manifest puppet wrote"
+        elif name not in owned:
+            why = "was not written by an import of this scene"
+        elif _sha256_file(path) != owned[name]["sha256"]:
+            why = "was changed since the import wrote it"
+        else:
+            why = None
+        if why and not force:
+            raise SceneError(f"{why}; puppet will not replace it (give --force to replace it)", file=path)
+
+
+def _is_manifest(path: str) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return isinstance(json.loads(f.read(1 << 24).decode("utf-8")).get("files"), dict)
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _write_manifest(tmp: str, folder: str, owned: dict, written: dict, names: dict) -> None:
+    """The manifest for the folder after the import: what it writes now, with what earlier
+    imports wrote that is still there unchanged (images of layers the art no longer has)."""
+    files = {}
+    for n, e in owned.items():
+        p = os.path.join(folder, n)
+        if n not in written and os.path.isfile(p) and not os.path.islink(p) and _sha256_file(p) == e["sha256"]:
+            files[n] = e
+    layer_of = {v: k for k, v in names.items()}
+    for n, digest in written.items():
+        files[n] = {"layer": layer_of[n], "sha256": digest}
+    text = json.dumps({"puppet-import": 1, "files": dict(sorted(files.items()))}, indent=1, ensure_ascii=False)
+    _write(os.path.join(tmp, MANIFEST), text + "\n")
+
+
+def _copy_staged(scene: str, bak: str) -> Staged:
+    """The scene file's bytes staged at ``bak`` (a name puppet chose: never through a link)."""
+    def write(t: str) -> None:
+        shutil.copyfile(scene, t)
+    return Staged(bak, write, inputs=[(scene, "the scene file")], follow=False)
+
+
+def _write(path: str, text: str) -> None:
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
 
 
 def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pins: int):
@@ -213,7 +441,7 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
     if old is None:
         doc = {"puppet": 1, "canvas": list(art.size), "layers": list(entries.values())}
     else:
-        doc = merge(old, art, entries, res)
+        doc = merge(old.to_dict(), art, entries, res)
     doc["app"] = dict(doc.get("app") or {}, art=os.path.abspath(art.path))  # what "Reload art" re-imports
     pinned = {p["layer"] for p in doc.get("pins", [])}
     if pins == "auto":
@@ -227,41 +455,38 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
     return doc, res
 
 
-def _write_pngs(layers: list[ArtLayer], tmp: str, names: dict) -> None:
-    import cv2
+def _write_pngs(layers: list[ArtLayer], tmp: str, names: dict) -> dict[str, str]:
+    """Encode every layer's PNG into ``tmp``; returns file name -> SHA-256 of what was written."""
+    import cv2  # lazy: OpenCV, for the PNG encoder only
 
+    written = {}
     for lay in layers:
         ok, png = cv2.imencode(".png", cv2.cvtColor(lay.rgba, cv2.COLOR_RGBA2BGRA))
         if not ok:
             raise SceneError(f"layer {lay.name!r}: OpenCV could not encode its PNG")
+        data = png.tobytes()
         with open(os.path.join(tmp, names[lay.name]), "wb") as f:
-            f.write(png.data)
+            f.write(data)
+        written[names[lay.name]] = hashlib.sha256(data).hexdigest()
+    return written
 
 
 def _validate(doc: dict, scene: str, *, mesh: bool) -> None:
-    """Load the scene as it will be; mesh it too (pins and link segments placed) when asked."""
+    """Load the scene as it will be; build it too (images, masks, meshes, pins and link
+    segments placed: what ``render`` needs) when asked."""
     d = Document(doc, scene)
     if mesh:
-        d.built  # noqa: B018  (pins outside their mesh, bad link segments fail here)
+        d.built  # noqa: B018  (a layer too small to mesh, pins outside their mesh, bad link segments fail here)
 
 
 def _final(doc: dict, tmp: str, folder: str, scene_folder: str) -> dict:
-    """The scene as written: image paths moved from ``tmp`` to ``folder``, all relative."""
+    """The scene as written: image paths moved from ``tmp`` to ``folder``, relative to the
+    scene's folder as the loader resolves them (absolute where a symlinked scene or folder
+    would make a relative path name another file)."""
+    rel = relative_to(scene_folder)
+
     def fix(p: str) -> str:
         if os.path.dirname(p) == tmp:
             p = os.path.join(folder, os.path.basename(p))
-        return os.path.relpath(p, scene_folder).replace(os.sep, "/")
+        return rel(p)
     return map_paths(doc, fix)
-
-
-def _move_in(tmp: str, folder: str, files) -> None:
-    try:
-        os.makedirs(folder, exist_ok=True)
-        for name in files:
-            os.replace(os.path.join(tmp, name), os.path.join(folder, name))
-    except OSError as e:
-        raise OutputError(folder, e.strerror or str(e)) from None
-
-
-def _write_scene(scene: str, doc: dict, inputs) -> None:
-    write_text(scene, scene_text(doc), inputs=inputs)
