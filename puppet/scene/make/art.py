@@ -226,7 +226,7 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
         res.scene, res.folder = shown, os.path.relpath(folder)
         written = _write_pngs(art.layers, tmp, names)
         _validate(doc, scene, mesh=True)
-        final = _final(doc, tmp, folder, os.path.dirname(scene))
+        final = _final(doc, tmp, folder, scene)
         _write_manifest(tmp, folder, owned, written, names)
         after = []
         if old is not None:
@@ -301,6 +301,9 @@ def meshable(art: LayeredArt) -> tuple[LayeredArt, list[str]]:
             notes.append(f"layer {lay.name!r} ({w}x{h} px) is too small to mesh: left out")
         else:
             kept.append(lay)
+    if not kept:
+        raise SceneError("every visible layer is too small to mesh (a pixel or two): nothing to import",
+                         file=art.path)
     return dataclasses.replace(art, layers=kept), notes
 
 
@@ -479,11 +482,24 @@ def _validate(doc: dict, scene: str, *, mesh: bool) -> None:
         d.built  # noqa: B018  (a layer too small to mesh, pins outside their mesh, bad link segments fail here)
 
 
-def _final(doc: dict, tmp: str, folder: str, scene_folder: str) -> dict:
+def scene_paths(scene: str):
+    """``fn(path) -> str``: a path as written in the scene file ``scene``: relative where it
+    names the same file from the scene's folder as given and from the real folder of the
+    file (``scene`` may be a symlink into another folder: it loads by either path), else
+    absolute (see :func:`~puppet.scene.format.write.relative_to`)."""
+    given = relative_to(os.path.dirname(os.path.abspath(scene)))
+    real = relative_to(os.path.dirname(os.path.realpath(scene)))
+
+    def rel(p: str) -> str:
+        r = given(p)
+        return r if r == real(p) else os.path.abspath(p).replace(os.sep, "/")
+    return rel
+
+
+def _final(doc: dict, tmp: str, folder: str, scene: str) -> dict:
     """The scene as written: image paths moved from ``tmp`` to ``folder``, relative to the
-    scene's folder as the loader resolves them (absolute where a symlinked scene or folder
-    would make a relative path name another file)."""
-    rel = relative_to(scene_folder)
+    scene as the loader resolves them (:func:`scene_paths`)."""
+    rel = scene_paths(scene)
 
     def fix(p: str) -> str:
         if os.path.dirname(p) == tmp:

@@ -24,6 +24,7 @@ from puppet.imaging.skeleton import auto_pins
 from puppet.output import Staged, check_file, commit_all
 from puppet.scene.document.core import Document
 from puppet.scene.format.write import scene_text
+from puppet.scene.make.art import scene_paths
 
 #: How the mask is made: the scene format's default rule, alpha, a luminance threshold, GrabCut.
 MASK_RULES = ("default", "alpha", "threshold", "grabcut")
@@ -94,10 +95,11 @@ def count_components(mask: np.ndarray) -> int:
     return int(cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)[0]) - 1
 
 
-def scene_doc(image: str, mask_file: str, layer: str, pins, folder: str | None) -> dict:
-    """The scene JSON; paths relative to ``folder`` (None: kept as given)."""
-    def rel(p: str) -> str:
-        return p if folder is None else os.path.relpath(p, folder).replace(os.sep, "/")
+def scene_doc(image: str, mask_file: str, layer: str, pins, scene: str | None) -> dict:
+    """The scene JSON; paths as written in the scene file ``scene``
+    (:func:`~puppet.scene.make.art.scene_paths`: relative where that loads through a
+    symlinked scene too), None: kept as given."""
+    rel = (lambda p: p) if scene is None else scene_paths(scene)
 
     doc = {"puppet": 1, "source": rel(image),
            "layers": [{"name": layer, "mask": {"file": rel(mask_file)}}]}
@@ -143,7 +145,7 @@ def init_scene(image: str, scene: str, *, rule: str = "default", threshold: floa
     if pins == "auto":
         found = auto_pins(mask, max_pins=max_pins)
     name = layer_name(image)
-    text = scene_text(scene_doc(image, mask_file, name, found, os.path.dirname(scene)))
+    text = scene_text(scene_doc(image, mask_file, name, found, scene))
 
     def write_mask(tmp: str) -> None:
         from PIL import Image
