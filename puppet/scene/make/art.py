@@ -360,17 +360,19 @@ def _read_by(old: Document | None, folder: str, owned: dict) -> set[str]:
 def _file_names(layers: list[ArtLayer], owned: dict, reads: set[str]) -> dict[str, str]:
     """Layer name -> PNG name: the one an earlier import gave the layer (stable across
     re-imports), else :func:`file_stem`; never a name the old scene reads otherwise."""
+    def stem(n: str) -> str | None:
+        return n[:-4].lower() if n.lower().endswith(".png") else None
     earlier = {e["layer"]: n for n, e in sorted(owned.items())}
-    taken = set(reads) | {MANIFEST.lower()}
+    taken = {stem(n) for n in reads} - {None}  # file_stem compares stems (lower case)
     names = {}
     for lay in layers:  # the names kept first, so a new layer never takes one
         n = earlier.get(lay.name)
-        if n and n.lower() not in taken and n.endswith(".png") and len(n.encode()) <= MAX_FILE_NAME:
+        if n and stem(n) and stem(n) not in taken and len(n.encode()) <= MAX_FILE_NAME:
             names[lay.name] = n
-            taken.add(n.lower())
+            taken.add(stem(n))
     for n, e in owned.items():  # an old layer's file is not given to a new layer of another name
-        if e["layer"] not in names:
-            taken.add(n.lower())
+        if e["layer"] not in names and stem(n):
+            taken.add(stem(n))
     for lay in layers:
         if lay.name not in names:
             names[lay.name] = file_stem(lay.name, taken) + ".png"

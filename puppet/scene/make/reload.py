@@ -3,7 +3,7 @@ it is in memory (the app's File > Reload art), as one undo step.
 
 The scene names its art in ``app.art`` (written by :func:`puppet.scene.make.art.import_art`).
 The merge is :func:`puppet.scene.make.merge.merge`, the one ``puppet init ART --update``
-runs, applied to the open document instead of the file on disk: unsaved edits stay, the
+runs (renamed layers matched by content, layers too small to mesh left out), applied to the open document instead of the file on disk: unsaved edits stay, the
 new layer pixels are owned by the document until it is saved (written then into
 ``SCENE.files/`` like painted pixels), and undo brings back the old layers, pins and
 links with their pixels. The art file is only read.
@@ -15,7 +15,7 @@ import os
 from puppet.errors import SceneError
 from puppet.imaging.layered import read_layered
 from puppet.scene.document.history import Event
-from puppet.scene.make.art import ImportResult, art_of, layer_entry
+from puppet.scene.make.art import ImportResult, art_of, layer_entry, meshable, safe_stem
 from puppet.scene.make.merge import merge
 
 
@@ -37,11 +37,11 @@ def reload_art(scene):
                          file=scene.file)
     if not os.path.isfile(art_file):
         raise SceneError("the art file the scene was imported from is gone", file=art_file)
-    art = read_layered(art_file)
-    entries = {lay.name: layer_entry(lay, scene.pending.add(lay.rgba, lay.name.replace("/", "__")))
+    art, small = meshable(read_layered(art_file))
+    entries = {lay.name: layer_entry(lay, scene.pending.add(lay.rgba, safe_stem(lay.name)))  # a bounded file name
                for lay in art.layers}
     res = ImportResult(scene=scene.file or "", folder="", size=art.size,
-                       layers=[lay.name for lay in art.layers], notes=list(art.notes))
+                       layers=[lay.name for lay in art.layers], notes=list(art.notes) + small)
 
     def m(doc):
         new = merge(doc, art, entries, res)

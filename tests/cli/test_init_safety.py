@@ -1,0 +1,311 @@
+"""Issue 30 (what an import writes) through the real CLI, a subprocess each (bounded in
+time and address space): the layers folder or a layer file as a symlink, a user's files in
+the layers folder, a file the scene reads, ``--update`` after a rename or over unrelated
+art (the backup, the notes), a write that fails after the PNGs (nothing left, old files
+intact), layers too small to mesh, a scene file that is a symlink into another folder,
+layer names too long for a file name. Every refusal: exit 2, one stderr line, no
+traceback, every file byte-identical, nothing left behind."""
+from __future__ import annotations
+
+import io
+import json
+import os
+import resource
+import signal
+import subprocess
+import sys
+import zipfile
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from tests.artfiles import CANVAS, parts
+from tests.cli.outputs_helpers import Mount, one_error_line
+from tests.conftest import ROOT
+from tests.fstree import snapshot
+
+MEMORY = 3 << 30  # the child's address space
+
+
+def cli(*args, cwd, timeout=60, fsize=None) -> subprocess.CompletedProcess:
+    """``python -m puppet ARGS`` in ``cwd``, under a memory cap (and a file size cap)."""
+    def limits():
+        resource.setrlimit(resource.RLIMIT_AS, (MEMORY, MEMORY))
+        if fsize is not None:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the cap fails with EFBIG
+            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    return subprocess.run([sys.executable, "-m", "puppet", *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout, env=env, cwd=str(cwd), preexec_fn=limits)
+
+
+def ok(r) -> list[str]:
+    """Exit 0, no traceback; the stderr notes."""
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    return r.stderr.splitlines()
+
+
+def png(a: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    Image.fromarray(a).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def write_ora(path, layers, canvas=CANVAS) -> None:
+    """An OpenRaster file of ``layers``: (name, rgba, (x, y)) back to front; a name with
+    ``/`` is put in nested groups."""
+    xml = ['<?xml version="1.0" encoding="UTF-8"?>', f'<image w="{canvas[0]}" h="{canvas[1]}">', "<stack>"]
+    members = {}
+    for k, (name, rgba, (x, y)) in enumerate(reversed(layers)):
+        *groups, leaf = name.split("/")
+        members[f"data/{k}.png"] = png(rgba)
+        xml += [f"<stack name={quoteattr(g)}>" for g in groups]
+        xml.append(f'<layer name={quoteattr(leaf)} src="data/{k}.png" x="{x}" y="{y}" visibility="visible"/>')
+        xml += ["</stack>"] * len(groups)
+    xml += ["</stack>", "</image>"]
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr(zipfile.ZipInfo("mimetype"), "image/openraster")
+        z.writestr("stack.xml", "\n".join(xml))
+        for k, v in members.items():
+            z.writestr(k, v, compress_type=zipfile.ZIP_DEFLATED)
+
+
+def character(rename: dict | None = None, drop=()) -> list:
+    """The seven-part character (tests/artfiles.py) as ORA layers; ``rename``: old -> new names."""
+    rename = rename or {}
+    out = []
+    for name, group, rgba, off in parts():
+        full = f"{group}/{name}" if group else name
+        if full not in drop:
+            out.append((rename.get(full, full), rgba, off))
+    return out
+
+
+def blob(w, h, colour=(200, 60, 40)) -> np.ndarray:
+    a = np.zeros((h, w, 4), np.uint8)
+    a[..., :3] = colour
+    a[..., 3] = 255
+    return a
+
+
+@pytest.fixture
+def art(tmp_path):
+    path = tmp_path / "char.ora"
+    write_ora(path, character())
+    return path
+
+
+def rigged(tmp_path, art) -> dict:
+    """Import the character with pins, add a pose and keys over every pin; the scene JSON."""
+    ok(cli("init", art, "-o", "char.json", "--pins", "auto", cwd=tmp_path))
+    doc = json.loads((tmp_path / "char.json").read_text())
+    pins = {p["name"]: p["at"] for p in doc["pins"]}
+    doc["poses"] = {"up": {n: [at[0], at[1] - 1] for n, at in pins.items()}}
+    doc["animation"] = {"fps": 10, "keys": [{"time": 0, "pose": "rest"}, {"time": 1, "pose": "up"}]}
+    (tmp_path / "char.json").write_text(json.dumps(doc))
+    return doc
+
+
+# -- 1. writes outside the output ---------------------------------------------------------
+def test_a_symlinked_layers_folder_is_refused_and_its_target_untouched(tmp_path, art):
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "body.png").write_bytes(b"the user's own body.png")
+    os.symlink(other, tmp_path / "char-layers")
+    before = snapshot(str(tmp_path))
+    line = one_error_line(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    assert "char-layers" in line and "symbolic link" in line
+    assert snapshot(str(tmp_path)) == before
+    line = one_error_line(cli("init", art, "-o", "char.json", "--force", cwd=tmp_path))  # never through a link
+    assert snapshot(str(tmp_path)) == before
+
+
+# -- 2. a user's files overwritten -----------------------------------------------------
+def test_a_users_file_in_the_layers_folder_needs_force(tmp_path, art):
+    (tmp_path / "char-layers").mkdir()
+    (tmp_path / "char-layers" / "body.png").write_bytes(b"mine")
+    (tmp_path / "char-layers" / "notes.txt").write_bytes(b"also mine")
+    before = snapshot(str(tmp_path))
+    line = one_error_line(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    assert "char-layers/body.png" in line and "--force" in line
+    assert snapshot(str(tmp_path)) == before
+    ok(cli("init", art, "-o", "char.json", "--force", cwd=tmp_path))
+    assert (tmp_path / "char-layers" / "body.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "char-layers" / "notes.txt").read_bytes() == b"also mine"  # not in the way: kept
+
+
+def test_a_file_edited_since_the_import_needs_force(tmp_path, art):
+    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))  # its own files: replaced without a word
+    (tmp_path / "char-layers" / "head.png").write_bytes(b"painted over")
+    before = snapshot(str(tmp_path))
+    line = one_error_line(cli("init", art, "-o", "char.json", "--update", cwd=tmp_path))
+    assert "head.png" in line and "changed since" in line and "--force" in line
+    assert snapshot(str(tmp_path)) == before
+
+
+def test_update_never_replaces_a_file_the_scene_reads(tmp_path, art):
+    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    h, w = parts()[3][2].shape[:2]  # the body's size
+    stiff = blob(w, h, (128, 128, 128))
+    (tmp_path / "char-layers" / "tail.png").write_bytes(png(stiff))
+    doc = json.loads((tmp_path / "char.json").read_text())
+    body = next(L for L in doc["layers"] if L["name"] == "body")
+    body["stiffness"] = {"file": "char-layers/tail.png"}
+    (tmp_path / "char.json").write_text(json.dumps(doc))
+    ok(cli("check", "char.json", cwd=tmp_path))
+    before = (tmp_path / "char-layers" / "tail.png").read_bytes()
+    write_ora(art, character() + [("tail", blob(30, 20), (10, 10))])  # the art gains a layer of that name
+    notes = ok(cli("init", art, "-o", "char.json", "--update", cwd=tmp_path))
+    assert (tmp_path / "char-layers" / "tail.png").read_bytes() == before
+    new = json.loads((tmp_path / "char.json").read_text())
+    tail = next(L for L in new["layers"] if L["name"] == "tail")
+    assert tail["image"] != "char-layers/tail.png" and tail["image"].startswith("char-layers/tail")
+    assert any("kept in char.json.bak" in n for n in notes)
+    ok(cli("check", "char.json", cwd=tmp_path))
+
+
+def test_a_symlink_in_the_layers_folder_is_refused_then_replaced_not_followed(tmp_path, art):
+    outside = tmp_path / "outside.png"
+    outside.write_bytes(b"the linked file")
+    (tmp_path / "char-layers").mkdir()
+    os.symlink(outside, tmp_path / "char-layers" / "head.png")
+    before = snapshot(str(tmp_path))
+    line = one_error_line(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    assert "head.png" in line and "symbolic link" in line and "--force" in line
+    assert snapshot(str(tmp_path)) == before
+    ok(cli("init", art, "-o", "char.json", "--force", cwd=tmp_path))
+    assert outside.read_bytes() == b"the linked file"
+    assert not os.path.islink(tmp_path / "char-layers" / "head.png")
+
+
+# -- 3. the rig lost without a copy ------------------------------------------------------
+def test_update_after_a_rename_keeps_the_rig_by_content_and_a_backup(tmp_path, art):
+    doc = rigged(tmp_path, art)
+    old_bytes = (tmp_path / "char.json").read_bytes()
+    on_arm = sorted(p["name"] for p in doc["pins"] if p["layer"] == "arm_front")
+    on_legs = sorted(p["name"] for p in doc["pins"] if p["layer"].startswith("legs/"))
+    assert on_arm and on_legs
+    write_ora(art, character(rename={"arm_front": "front arm", "legs/left": "pants/left",
+                                     "legs/right": "pants/right"}))
+    notes = ok(cli("init", art, "-o", "char.json", "--update", cwd=tmp_path))
+    text = "\n".join(notes)
+    assert "layer 'arm_front' renamed to 'front arm' (matched by content)" in text
+    assert "layer 'legs/left' renamed to 'pants/left' (matched by content)" in text
+    assert "removed" not in text.split("note:")[-1] or "0 removed" in text
+    new = json.loads((tmp_path / "char.json").read_text())
+    assert len(new["pins"]) == len(doc["pins"])
+    assert sorted(p["name"] for p in new["pins"] if p["layer"] == "front arm") == on_arm
+    assert len(new["poses"]["up"]) == len(doc["poses"]["up"])
+    assert (tmp_path / "char.json.bak").read_bytes() == old_bytes
+    ok(cli("check", "char.json", cwd=tmp_path))
+
+
+def test_update_over_unrelated_art_says_what_it_dropped_and_keeps_a_copy(tmp_path, art):
+    doc = rigged(tmp_path, art)
+    old_bytes = (tmp_path / "char.json").read_bytes()
+    (tmp_path / "char.json.bak").write_bytes(b"an older backup")
+    write_ora(art, [("sun", blob(80, 80, (250, 200, 0)), (20, 20)), ("sea", blob(400, 100, (0, 80, 200)), (10, 480))])
+    notes = ok(cli("init", art, "-o", "char.json", "--update", cwd=tmp_path))
+    text = "\n".join(notes)
+    assert f"{len(doc['pins'])} pin(s) removed with their layers" in text
+    assert "pose target(s) and key entries of removed pins dropped" in text
+    bak = [n for n in os.listdir(tmp_path) if n.startswith("char.json.") and n.endswith(".bak") and n != "char.json.bak"]
+    assert len(bak) == 1 and (tmp_path / bak[0]).read_bytes() == old_bytes
+    assert f"kept in {bak[0]}" in text
+    assert (tmp_path / "char.json.bak").read_bytes() == b"an older backup"
+
+
+# -- 4. half-written output ------------------------------------------------------------
+def test_a_write_that_fails_after_the_pngs_leaves_nothing(tmp_path):
+    art = tmp_path / "many.ora"
+    write_ora(art, [(f"part{i:02d}", blob(12, 12, (i * 4, 100, 50)), (5 + 14 * (i % 20), 5 + 14 * (i // 20)))
+                    for i in range(60)])
+    before = snapshot(str(tmp_path))
+    r = cli("init", art, "-o", "s.json", cwd=tmp_path, fsize=4096)  # each PNG fits; the scene does not
+    line = one_error_line(r)
+    assert "cannot write" in line
+    assert snapshot(str(tmp_path)) == before
+
+
+def test_a_failed_update_leaves_the_old_files_intact(tmp_path, art):
+    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    write_ora(art, character() + [(f"dot{i:02d}", blob(12, 12), (5 + 14 * i, 5)) for i in range(25)])
+    before = snapshot(str(tmp_path))
+    one_error_line(cli("init", art, "-o", "char.json", "--update", cwd=tmp_path, fsize=4096))
+    assert snapshot(str(tmp_path)) == before
+
+
+def test_a_full_disk_leaves_nothing(tmp_path):
+    m = Mount(tmp_path / "disk", size="400k")
+    try:
+        art = tmp_path / "disk" / "many.ora"
+        write_ora(art, [(f"part{i:02d}", blob(12, 12, (i * 4, 100, 50)), (5 + 14 * (i % 20), 5 + 14 * (i // 20)))
+                        for i in range(60)])
+        m.fill()
+        os.remove(tmp_path / "disk" / "filler")
+        with open(tmp_path / "disk" / "filler", "wb") as f:  # leave room for a few PNGs only
+            f.write(b"\0" * (os.statvfs(tmp_path / "disk").f_bavail * os.statvfs(tmp_path / "disk").f_frsize
+                             - 6 * 4096))
+        before = snapshot(str(tmp_path / "disk"))
+        one_error_line(cli("init", art, "-o", "s.json", cwd=tmp_path / "disk"))
+        assert snapshot(str(tmp_path / "disk")) == before
+    finally:
+        m.close()
+
+
+# -- 7. silently wrong ------------------------------------------------------------------
+def test_layers_too_small_to_mesh_are_left_out_and_the_scene_renders(tmp_path):
+    art = tmp_path / "a.ora"
+    write_ora(art, [("big", blob(40, 40), (10, 10)), ("dot", blob(1, 1), (60, 60)),
+                    ("pair", blob(2, 1), (70, 70)), ("line", blob(2, 30), (80, 10))], canvas=(100, 100))
+    notes = ok(cli("init", art, "-o", "s.json", cwd=tmp_path))
+    assert sum("too small to mesh" in n for n in notes) == 2
+    doc = json.loads((tmp_path / "s.json").read_text())
+    assert [L["name"] for L in doc["layers"]] == ["big", "line"]
+    ok(cli("check", "s.json", cwd=tmp_path))  # what render builds
+
+
+def test_only_layers_too_small_is_one_line(tmp_path):
+    art = tmp_path / "a.ora"
+    write_ora(art, [("dot", blob(1, 1), (60, 60))], canvas=(100, 100))
+    before = snapshot(str(tmp_path))
+    assert "too small to mesh" in one_error_line(cli("init", art, "-o", "s.json", cwd=tmp_path))
+    assert snapshot(str(tmp_path)) == before
+
+
+@pytest.mark.parametrize("kind", ["art", "picture"])
+def test_init_through_a_symlinked_scene_loads_by_both_paths(tmp_path, kind):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    if kind == "art":
+        src = tmp_path / "a" / "char.ora"
+        write_ora(src, character())
+    else:
+        src = tmp_path / "a" / "head.png"
+        src.write_bytes(png(parts()[5][2]))
+    os.symlink("../b/real.json", tmp_path / "a" / "link.json")
+    ok(cli("init", src, "-o", "a/link.json", cwd=tmp_path))
+    ok(cli("check", "a/link.json", cwd=tmp_path))
+    ok(cli("check", "b/real.json", cwd=tmp_path))
+
+
+# -- 8. valid names too long for a file ---------------------------------------------------
+def test_long_layer_names_import_with_short_stable_file_names(tmp_path):
+    arm, head = parts()[0][2], parts()[5][2]
+    layers = [("a" * 255, arm, (10, 200)),                      # Photoshop's longest name
+              ("a" * 254 + "b", arm, (200, 200)),               # the same beginning
+              ("é" * 5000, head, (100, 20)),                    # a long ORA name
+              ("/".join(f"g{i}" for i in range(200)) + "/leaf", head, (100, 300))]  # 200 groups deep
+    art = tmp_path / "long.ora"
+    write_ora(art, layers, canvas=(420, 600))
+    ok(cli("init", art, "-o", "s.json", cwd=tmp_path))
+    doc = json.loads((tmp_path / "s.json").read_text())
+    files = [L["image"] for L in doc["layers"]]
+    assert len(doc["layers"]) == 4 and len({f.lower() for f in files}) == 4
+    assert all(len(os.path.basename(f).encode()) <= 100 for f in files)
+    ok(cli("init", art, "-o", "s.json", "--update", cwd=tmp_path))
+    assert [L["image"] for L in json.loads((tmp_path / "s.json").read_text())["layers"]] == files  # stable
+    ok(cli("check", "s.json", cwd=tmp_path))
