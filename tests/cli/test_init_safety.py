@@ -309,3 +309,16 @@ def test_long_layer_names_import_with_short_stable_file_names(tmp_path):
     ok(cli("init", art, "-o", "s.json", "--update", cwd=tmp_path))
     assert [L["image"] for L in json.loads((tmp_path / "s.json").read_text())["layers"]] == files  # stable
     ok(cli("check", "s.json", cwd=tmp_path))
+
+
+# -- 4. the app's open path --------------------------------------------------------------
+def test_the_app_on_art_it_refuses_leaves_nothing(tmp_path):
+    art = tmp_path / "dot.ora"
+    write_ora(art, [("dot", blob(1, 1), (60, 60))], canvas=(100, 100))
+    before = snapshot(str(tmp_path))
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    r = subprocess.run([sys.executable, "-m", "puppet", "app", str(art)], capture_output=True, text=True,
+                       timeout=60, env=dict(env, PYTHONPATH=ROOT), cwd=str(tmp_path),
+                       preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_AS, (MEMORY, MEMORY)))
+    assert "too small to mesh" in one_error_line(r)  # the art is imported before the display is asked for
+    assert snapshot(str(tmp_path)) == before  # no dot.json, no dot-layers/
