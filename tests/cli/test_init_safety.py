@@ -221,8 +221,7 @@ def test_update_over_unrelated_art_says_what_it_dropped_and_keeps_a_copy(tmp_pat
 # -- 4. half-written output ------------------------------------------------------------
 def test_a_write_that_fails_after_the_pngs_leaves_nothing(tmp_path):
     art = tmp_path / "many.ora"
-    write_ora(art, [(f"part{i:02d}", blob(12, 12, (i * 4, 100, 50)), (5 + 14 * (i % 20), 5 + 14 * (i // 20)))
-                    for i in range(60)])
+    many(art)
     before = snapshot(str(tmp_path))
     r = cli("init", art, "-o", "s.json", cwd=tmp_path, fsize=4096)  # each PNG fits; the scene does not
     line = one_error_line(r)
@@ -230,28 +229,36 @@ def test_a_write_that_fails_after_the_pngs_leaves_nothing(tmp_path):
     assert snapshot(str(tmp_path)) == before
 
 
-def test_a_failed_update_leaves_the_old_files_intact(tmp_path, art):
-    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))
-    write_ora(art, character() + [(f"dot{i:02d}", blob(12, 12), (5 + 14 * i, 5)) for i in range(25)])
+def many(path, n=60, colour=(100, 50)) -> None:
+    """``n`` small one-colour layers (a PNG of about 100 bytes each, a scene of some kB)."""
+    write_ora(path, [(f"part{i:02d}", blob(12, 12, (i * 3, *colour)), (5 + 14 * (i % 20), 5 + 14 * (i // 20)))
+                     for i in range(n)])
+
+
+def test_a_failed_update_leaves_the_old_files_intact(tmp_path):
+    art = tmp_path / "many.ora"
+    many(art)
+    ok(cli("init", art, "-o", "s.json", cwd=tmp_path))
+    many(art, 65, colour=(20, 200))  # every layer's pixels changed, five more
     before = snapshot(str(tmp_path))
-    one_error_line(cli("init", art, "-o", "char.json", "--update", cwd=tmp_path, fsize=4096))
+    one_error_line(cli("init", art, "-o", "s.json", "--update", cwd=tmp_path, fsize=4096))
     assert snapshot(str(tmp_path)) == before
 
 
-def test_a_full_disk_leaves_nothing(tmp_path):
-    m = Mount(tmp_path / "disk", size="400k")
+def test_a_full_disk_after_the_pngs_leaves_nothing(tmp_path):
+    disk = tmp_path / "disk"
+    m = Mount(disk, size="1m")
     try:
-        art = tmp_path / "disk" / "many.ora"
-        write_ora(art, [(f"part{i:02d}", blob(12, 12, (i * 4, 100, 50)), (5 + 14 * (i % 20), 5 + 14 * (i // 20)))
-                        for i in range(60)])
+        art = disk / "many.ora"
+        many(art)
         m.fill()
-        os.remove(tmp_path / "disk" / "filler")
-        with open(tmp_path / "disk" / "filler", "wb") as f:  # leave room for a few PNGs only
-            f.write(b"\0" * (os.statvfs(tmp_path / "disk").f_bavail * os.statvfs(tmp_path / "disk").f_frsize
-                             - 6 * 4096))
-        before = snapshot(str(tmp_path / "disk"))
-        one_error_line(cli("init", art, "-o", "s.json", cwd=tmp_path / "disk"))
-        assert snapshot(str(tmp_path / "disk")) == before
+        os.remove(disk / "filler")
+        st = os.statvfs(disk)
+        with open(disk / "filler", "wb") as f:  # room for the 60 PNGs (a page each) and one page more
+            f.write(b"\0" * ((st.f_bavail - 61) * st.f_frsize))
+        before = snapshot(str(disk))
+        assert "No space left" in one_error_line(cli("init", art, "-o", "s.json", cwd=disk))
+        assert snapshot(str(disk)) == before
     finally:
         m.close()
 
