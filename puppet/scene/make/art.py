@@ -225,7 +225,7 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
         res.notes += small
         res.scene, res.folder = shown, os.path.relpath(folder)
         written = _write_pngs(art.layers, tmp, names)
-        _validate(doc, scene, mesh=True)
+        _validate(doc, scene, mesh=bool(doc.get("pins") or doc.get("links")))
         final = _final(doc, tmp, folder, scene)
         _write_manifest(tmp, folder, owned, written, names)
         after = []
@@ -309,14 +309,16 @@ def meshable(art: LayeredArt) -> tuple[LayeredArt, list[str]]:
 
 def _too_small(lay: ArtLayer) -> bool:
     """Whether the layer's alpha mask gives no triangle with the scene's default mesh
-    options (as :func:`puppet.scene.rig.build.mesh_layer` meshes it). Only small or thin
-    layers are tried; the build of the whole scene checks the rest."""
+    options, as :func:`puppet.scene.rig.build.mesh_layer` meshes it (what ``render``
+    refuses). A mask holding a solid 5x5 block always meshes; only the others (a few
+    pixels, thin lines, dust) are triangulated here."""
     mask = mask_of(lay)
-    h, w = mask.shape
-    if min(h, w) >= 8 and mask.sum() >= 256:
-        return False
     if not mask.any():
         return True
+    import cv2  # lazy: OpenCV, with numpy already loaded by the reader
+
+    if cv2.erode(mask.astype(np.uint8), np.ones((5, 5), np.uint8), borderValue=0).any():
+        return False
     opts = MeshOptions()
     try:
         mesh = triangulate_regions(mask_regions(mask, lay.offset), max_area=default_max_area(mask),
