@@ -146,6 +146,7 @@ def test_a_file_edited_since_the_import_needs_force(tmp_path, art):
     assert snapshot(str(tmp_path)) == before
 
 
+@pytest.mark.slow  # four runs of the CLI
 def test_update_never_replaces_a_file_the_scene_reads(tmp_path, art):
     ok(cli("init", art, "-o", "char.json", cwd=tmp_path))
     h, w = parts()[3][2].shape[:2]  # the body's size

@@ -231,7 +231,10 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
         after = []
         if old is not None:
             bak = backup_path(scene)
-            after.append(_copy_staged(scene, bak))
+            if _same_bytes(scene, scene + ".bak"):  # the copy an earlier update kept is this scene
+                bak = scene + ".bak"
+            else:
+                after.append(_copy_staged(scene, bak))
             res.notes.append(f"the scene as it was is kept in {os.path.relpath(bak)}")
         text = scene_text(final)
         after.append(Staged(scene, lambda t: _write(t, text), inputs=inputs))
@@ -426,6 +429,16 @@ def _write_manifest(tmp: str, folder: str, owned: dict, written: dict, names: di
         files[n] = {"layer": layer_of[n], "sha256": digest}
     text = json.dumps({"puppet-import": 1, "files": dict(sorted(files.items()))}, indent=1, ensure_ascii=False)
     _write(os.path.join(tmp, MANIFEST), text + "\n")
+
+
+def _same_bytes(a: str, b: str) -> bool:
+    """Whether two regular files (not links) hold the same bytes."""
+    try:
+        if os.path.islink(b) or not os.path.isfile(b) or os.path.getsize(a) != os.path.getsize(b):
+            return False
+        return _sha256_file(a) == _sha256_file(b)
+    except OSError:
+        return False
 
 
 def _copy_staged(scene: str, bak: str) -> Staged:

@@ -1,0 +1,53 @@
+"""Layers too small to mesh (issue 30, 7): the import's check agrees with the build that
+``render`` runs, on tiny, thin and dusty layers."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from puppet.errors import SceneError
+from puppet.imaging.layered import ArtLayer, LayeredArt
+from puppet.output import save_png
+from puppet.scene.document.core import Document
+from puppet.scene.make.art import _too_small, meshable
+
+
+def shapes():
+    rng = np.random.default_rng(7)
+    out = []
+    for w, h in [(1, 1), (2, 1), (2, 2), (3, 3), (2, 30), (1, 200), (3, 100), (4, 4), (5, 5), (8, 2)]:
+        a = np.zeros((h, w, 4), np.uint8)
+        a[..., 3] = 255
+        out.append((f"solid{w}x{h}", a))
+    for k in range(8):
+        a = np.zeros((40, 40, 4), np.uint8)
+        a[..., 3] = (rng.random((40, 40)) < rng.uniform(0.01, 0.3)) * 255
+        out.append((f"dust{k}", a))
+    a = np.zeros((50, 50, 4), np.uint8)
+    np.fill_diagonal(a[..., 3], 255)
+    out.append(("diagonal", a))
+    return out
+
+
+@pytest.mark.parametrize("name,rgba", shapes())
+def test_too_small_is_what_the_build_refuses(tmp_path, name, rgba):
+    save_png(str(tmp_path / "l.png"), rgba)
+    doc = {"puppet": 1, "canvas": [300, 300], "layers": [
+        {"name": name, "image": str(tmp_path / "l.png"), "offset": [5, 5], "mask": "alpha"}]}
+    try:
+        Document(doc, os.path.join(tmp_path, "s.json")).built  # noqa: B018
+        refused = False
+    except SceneError:
+        refused = True
+    assert _too_small(ArtLayer(name, rgba, (5, 5))) == refused
+
+
+def test_meshable_leaves_them_out_with_a_note_or_refuses_all():
+    big = np.full((20, 20, 4), 255, np.uint8)
+    dot = np.full((1, 1, 4), 255, np.uint8)
+    art, notes = meshable(LayeredArt("a.ora", (50, 50), [ArtLayer("big", big, (0, 0)), ArtLayer("dot", dot, (30, 30))]))
+    assert [lay.name for lay in art.layers] == ["big"] and notes == ["layer 'dot' (1x1 px) is too small to mesh: left out"]
+    with pytest.raises(SceneError, match="too small to mesh"):
+        meshable(LayeredArt("a.ora", (50, 50), [ArtLayer("dot", dot, (30, 30))]))
