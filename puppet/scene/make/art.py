@@ -22,6 +22,7 @@ import json
 import os
 import re
 import shutil
+import stat
 import time
 from dataclasses import dataclass, field
 
@@ -277,14 +278,13 @@ def read_manifest(folder: str, old: Document | None = None) -> dict[str, dict]:
     """What earlier imports wrote in the layers folder: file name -> ``{"layer": name,
     "sha256": hex}``. A folder without a manifest, when a scene made before manifests
     existed is updated, owns the layer images that scene takes from the folder."""
-    try:
-        with open(os.path.join(folder, MANIFEST), "rb") as f:
-            data = json.loads(f.read(1 << 24).decode("utf-8"))
-        files = data["files"]
-        return {n: {"layer": str(e["layer"]), "sha256": str(e["sha256"])} for n, e in files.items()
-                if isinstance(n, str) and _plain_name(n)}
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        pass
+    data = _manifest_data(os.path.join(folder, MANIFEST))
+    if data is not None:
+        try:
+            return {n: {"layer": str(e["layer"]), "sha256": str(e["sha256"])} for n, e in data["files"].items()
+                    if isinstance(n, str) and _plain_name(n)}
+        except (KeyError, TypeError, AttributeError):
+            pass
     owned = {}
     if old is not None and not os.path.lexists(os.path.join(folder, MANIFEST)):
         for L in old.to_dict().get("layers", []):
@@ -395,7 +395,7 @@ def _check_way(folder: str, files: list[str], owned: dict, *, force: bool) -> No
         if os.path.islink(path):
             why = "is a symbolic link"
         elif not os.path.isfile(path):
-            raise SceneError("is in the way of a layer image and is not a file; move it away", file=path)
+            raise SceneError("is in the way of a file the import writes and is not a file; move it away", file=path)
         elif name == MANIFEST:
             why = None if owned or _is_manifest(path) else "is not a manifest puppet wrote"
         elif name not in owned:
@@ -408,12 +408,22 @@ def _check_way(folder: str, files: list[str], owned: dict, *, force: bool) -> No
             raise SceneError(f"{why}; puppet will not replace it (give --force to replace it)", file=path)
 
 
-def _is_manifest(path: str) -> bool:
+def _manifest_data(path: str) -> dict | None:
+    """The manifest's JSON object, or None: missing, not a regular file (a link, a FIFO:
+    never opened), over 16 MiB or not a JSON object with ``files``."""
     try:
+        st = os.lstat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > 1 << 24:
+            return None
         with open(path, "rb") as f:
-            return isinstance(json.loads(f.read(1 << 24).decode("utf-8")).get("files"), dict)
-    except (OSError, ValueError, AttributeError):
-        return False
+            data = json.loads(f.read(1 << 24).decode("utf-8"))
+    except Exception:  # unreadable, not UTF-8, not JSON, nested past the recursion limit: not a manifest
+        return None
+    return data if isinstance(data, dict) and isinstance(data.get("files"), dict) else None
+
+
+def _is_manifest(path: str) -> bool:
+    return _manifest_data(path) is not None
 
 
 def _write_manifest(tmp: str, folder: str, owned: dict, written: dict, names: dict) -> None:
