@@ -191,11 +191,12 @@ def test_update_after_a_rename_keeps_the_rig_by_content_and_a_backup(tmp_path, a
     assert on_arm and on_legs
     write_ora(art, character(rename={"arm_front": "front arm", "legs/left": "pants/left",
                                      "legs/right": "pants/right"}))
-    notes = ok(cli("init", art, "-o", "char.json", "--update", cwd=tmp_path))
-    text = "\n".join(notes)
+    r = cli("init", art, "-o", "char.json", "--update", cwd=tmp_path)
+    text = "\n".join(ok(r))
     assert "layer 'arm_front' renamed to 'front arm' (matched by content)" in text
     assert "layer 'legs/left' renamed to 'pants/left' (matched by content)" in text
-    assert "removed" not in text.split("note:")[-1] or "0 removed" in text
+    assert "layer 'legs/right' renamed to 'pants/right' (matched by content)" in text
+    assert "no longer in the art" not in text and "7 replaced, 0 added, 0 removed" in r.stdout
     new = json.loads((tmp_path / "char.json").read_text())
     assert len(new["pins"]) == len(doc["pins"])
     assert sorted(p["name"] for p in new["pins"] if p["layer"] == "front arm") == on_arm
