@@ -214,7 +214,7 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
     if os.path.lexists(folder) and not os.path.isdir(folder):
         raise SceneError(f"{folder}: exists and is not a folder (the layer images go there)", file=shown)
     old = _old_scene(scene, shown) if update else None
-    owned = read_manifest(folder, old)
+    owned = read_manifest(folder, old if old is not None else _existing(scene))
     reads = _read_by(old, folder, owned)
     art = read_layered(art_file)
     art, small = meshable(art)
@@ -276,8 +276,9 @@ def backup_path(scene: str) -> str:
 
 def read_manifest(folder: str, old: Document | None = None) -> dict[str, dict]:
     """What earlier imports wrote in the layers folder: file name -> ``{"layer": name,
-    "sha256": hex}``. A folder without a manifest, when a scene made before manifests
-    existed is updated, owns the layer images that scene takes from the folder."""
+    "sha256": hex}``. Without a manifest, the layer images that ``old`` (the scene at the
+    output, made by an import before manifests existed: it names its art in ``app.art``)
+    takes from the folder are taken as written by that import."""
     data = _manifest_data(os.path.join(folder, MANIFEST))
     if data is not None:
         try:
@@ -286,8 +287,9 @@ def read_manifest(folder: str, old: Document | None = None) -> dict[str, dict]:
         except (KeyError, TypeError, AttributeError):
             pass
     owned = {}
-    if old is not None and not os.path.lexists(os.path.join(folder, MANIFEST)):
-        for L in old.to_dict().get("layers", []):
+    doc = old.to_dict() if old is not None else {}
+    if art_of(doc, old.file if old is not None else None) and not os.path.lexists(os.path.join(folder, MANIFEST)):
+        for L in doc.get("layers", []):  # only a scene an import made (it names its art) owns its images
             p = L.get("image")
             if isinstance(p, str) and os.path.dirname(p) == folder and os.path.isfile(p) and not os.path.islink(p):
                 owned[os.path.basename(p)] = {"layer": L["name"], "sha256": _sha256_file(p)}
@@ -335,6 +337,17 @@ def _old_scene(scene: str, shown: str) -> Document:
     if not os.path.exists(scene):
         raise SceneError("--update: there is no scene to update (leave out --update to make one)", file=shown)
     return Document.load(scene)
+
+
+def _existing(scene: str) -> Document | None:
+    """The scene already at the output, when it loads (an import made before manifests
+    existed, run again without ``--update``), else None."""
+    if not os.path.isfile(scene) or os.path.lexists(os.path.join(layers_folder(scene), MANIFEST)):
+        return None
+    try:
+        return Document.load(scene)
+    except Exception:  # any scene that does not load owns nothing
+        return None
 
 
 def _plain_name(name: str) -> bool:
