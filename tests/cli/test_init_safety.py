@@ -331,3 +331,17 @@ def test_the_app_on_art_it_refuses_leaves_nothing(tmp_path):
                        preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_AS, (MEMORY, MEMORY)))
     assert "too small to mesh" in one_error_line(r)  # the art is imported before the display is asked for
     assert snapshot(str(tmp_path)) == before  # no dot.json, no dot-layers/
+
+
+@pytest.mark.slow  # three runs of the CLI on the seven-part character
+def test_an_import_from_before_manifests_owns_its_images_a_hand_made_scene_none(tmp_path, art):
+    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    os.remove(tmp_path / "char-layers" / ".puppet-import.json")  # as an import before manifests left it
+    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))  # names its art (app.art): its images are its own
+    os.remove(tmp_path / "char-layers" / ".puppet-import.json")
+    doc = json.loads((tmp_path / "char.json").read_text())
+    del doc["app"]  # a scene written by hand over the same images
+    (tmp_path / "char.json").write_text(json.dumps(doc))
+    before = snapshot(str(tmp_path))
+    assert "--force" in one_error_line(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    assert snapshot(str(tmp_path)) == before
