@@ -229,17 +229,22 @@ def import_art(art_file: str, scene: str, *, pins: str = "none", links: str = "n
         _validate(doc, scene, mesh=bool(doc.get("pins") or doc.get("links")))
         final = _final(doc, tmp, folder, scene)
         _write_manifest(tmp, folder, owned, written, names)
-        after = []
-        if old is not None:
-            bak = backup_path(scene)
-            if _same_bytes(scene, scene + ".bak"):  # the copy an earlier update kept is this scene
-                bak = scene + ".bak"
-            else:
-                after.append(_copy_staged(scene, bak))
-            res.notes.append(f"the scene as it was is kept in {os.path.relpath(bak)}")
-        text = scene_text(final)
-        after.append(Staged(scene, lambda t: _write(t, text), inputs=inputs))
-        commit_into(folder, tmp, list(names.values()) + [MANIFEST], after)
+        after: list[Staged] = []
+        try:
+            if old is not None:
+                bak = backup_path(scene)
+                if _same_bytes(scene, scene + ".bak"):  # the copy an earlier update kept is this scene
+                    bak = scene + ".bak"
+                else:
+                    after.append(_copy_staged(scene, bak))
+                res.notes.append(f"the scene as it was is kept in {os.path.relpath(bak)}")
+            text = scene_text(final)
+            after.append(Staged(scene, lambda t: _write(t, text), inputs=inputs))
+            commit_into(folder, tmp, list(names.values()) + [MANIFEST], after)
+        except BaseException:
+            for s in after:  # staged but not committed (no-op for those commit_into dealt with)
+                s.discard()
+            raise
     except OSError as e:  # a full disk or a folder that went away while writing
         raise OutputError(folder, e.strerror or str(e)) from None
     finally:
