@@ -119,7 +119,7 @@ def number(el, key: str, path: str, where: str, *, default: float, lo: float, hi
         v = min(max(v, lo), hi)
     if not (math.isfinite(v) and lo <= v <= hi) or (whole and v != int(v)):
         kind = "a whole number" if whole else "a number"
-        raise ImageError(f"{where}: {key}={raw[:40]!r} is not {kind} from {lo:g} to {hi:g}", file=path)
+        raise ImageError(f"{where}: {key}={raw[:40]!r} is not {kind} from {lo:.12g} to {hi:.12g}", file=path)
     return v
 
 
