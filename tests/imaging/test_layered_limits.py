@@ -162,7 +162,7 @@ def test_kra_repeating_one_slow_tile_imports_in_seconds(tmp_path):
     art = deflated(kra(tmp_path, kra_layer("a", "t"), {"t": tiles(xy, slow_tile())}, w=1536, h=1536))
     r, took = init(tmp_path, art, 60)
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr[-2000:]
-    assert took < 6, took
+    assert took < 10, took  # decoded once a copy: 576 x 20 ms, over 11 s
     assert os.path.exists(tmp_path / "s-layers" / "a.png")
 
 
