@@ -5,7 +5,10 @@ stack.xml in UTF-16 with an entity) one error line through ``puppet init``: exit
 traceback, nothing written, every file as it was; each run bounded in time and memory."""
 from __future__ import annotations
 
+import io
 import os
+import random
+import re
 import resource
 import struct
 import subprocess
@@ -21,9 +24,10 @@ from puppet.errors import ImageError
 from puppet.imaging.layered import art as art_module
 from puppet.imaging.layered import kra as kra_module
 from puppet.imaging.layered import read_layered
+from tests import artfiles
 from tests.conftest import ROOT
 from tests.fstree import snapshot
-from tests.imaging.test_layered_zip import kra, kra_layer, lzf_compress, ora, png, solid
+from tests.imaging.test_layered_zip import kra, kra_layer, lzf_compress, ora, png, solid, write_kra
 
 MEMORY = 2 << 30  # the child's address space: a bomb decoded would need far more
 
@@ -278,3 +282,57 @@ def test_xml_in_an_unknown_encoding_is_one_line(tmp_path):
     with zipfile.ZipFile(art, "w") as z:
         z.writestr("stack.xml", b'<?xml version="1.0" encoding="no-such-codec"?><image w="2" h="2"/>')
     refused(tmp_path, art, "stack.xml: unknown XML encoding 'no-such-codec'")
+
+
+# -- a small campaign: damaged copies of a real ORA and KRA are read or refused in one line --
+_VALUES = ["1e400", "-inf", "inf", "nan", "1e300", "abc", "0.5", "-3", "", " ", "0x10", "٣", "255.0", "1e5",
+           "99999999999999999999999", "-1048577"]
+
+
+def _damaged(src: str, rnd) -> bytes:
+    """A copy of the zip ``src`` with attribute values, bytes, a member's end or the XML's
+    encoding changed."""
+    with zipfile.ZipFile(src) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    xml = "stack.xml" if "stack.xml" in members else "maindoc.xml"
+    kind = rnd.randrange(5)
+    if kind <= 1:
+        text = members[xml].decode()
+        for _ in range(rnd.randint(1, 3)):
+            m = rnd.choice(list(re.finditer(r'(\w[\w-]*)="([^"]*)"', text)))
+            text = text[:m.start(2)] + rnd.choice(_VALUES) + text[m.end(2):]
+        members[xml] = text.encode()
+    elif kind == 2:
+        name = rnd.choice(list(members))
+        b = bytearray(members[name])
+        for _ in range(rnd.randint(1, 20)):
+            if b:
+                b[rnd.randrange(len(b))] = rnd.randrange(256)
+        members[name] = bytes(b)
+    elif kind == 3:
+        name = rnd.choice(list(members))
+        members[name] = members[name][:rnd.randrange(len(members[name]) + 1)]
+    else:
+        members[xml] = members[xml].decode().encode(rnd.choice(["utf-16", "utf-16-be", "utf-32", "utf-8-sig"]))
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for n, d in members.items():
+            z.writestr(n, d)
+    return buf.getvalue()
+
+
+def test_damaged_ora_and_kra_files_are_read_or_one_line(tmp_path):
+    artfiles.write_ora(str(tmp_path / "base.ora"))
+    write_kra(str(tmp_path / "base.kra"))
+    rnd, outcomes = random.Random(1), {"read": 0, "refused": 0}
+    for i in range(50):  # before issue 30: 17 tracebacks in 300 such cases
+        src = tmp_path / rnd.choice(["base.ora", "base.kra"])
+        path = tmp_path / f"case{i}{src.suffix}"
+        path.write_bytes(_damaged(str(src), rnd))
+        try:
+            read_layered(str(path))
+            outcomes["read"] += 1
+        except ImageError as e:
+            assert "\n" not in str(e) and str(path) in str(e), str(e)
+            outcomes["refused"] += 1
+    assert outcomes["read"] and outcomes["refused"]
