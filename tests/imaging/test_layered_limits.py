@@ -336,3 +336,14 @@ def test_damaged_ora_and_kra_files_are_read_or_one_line(tmp_path):
             assert "\n" not in str(e) and str(path) in str(e), str(e)
             outcomes["refused"] += 1
     assert outcomes["read"] and outcomes["refused"]
+
+
+@pytest.mark.parametrize("kind", ["psd", "ora", "kra"])
+def test_every_reader_counts_its_layers_against_the_totals(tmp_path, monkeypatch, kind):
+    path = str(tmp_path / f"char.{kind}")
+    {"psd": artfiles.write_psd, "ora": artfiles.write_ora, "kra": write_kra}[kind](path)
+    read_layered(path)  # within the limits as they are
+    monkeypatch.setattr(art_module, "MAX_TOTAL_PIXELS", 300_000)
+    with pytest.raises(ImageError, match=r"layers of up to \d+x\d+ on a \d+x\d+ canvas = .* in all, more than the "
+                                         r"limit of 0.3 Mpx \(300000 pixels\)"):
+        read_layered(path)

@@ -88,6 +88,7 @@ class _Walk:
                 self.stack(el, full + "/", alpha, x, y)
             else:
                 self.layer(el, full, alpha, x, y)
+
     def layer(self, el, name: str, alpha: float, x: int, y: int) -> None:
         src = el.get("src")
         if not src:
