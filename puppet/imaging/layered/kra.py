@@ -29,6 +29,8 @@ from puppet.imaging.layered.zipped import coordinate, member, number, open_zip, 
 MAX_LZF_TOKENS = 8_000_000
 #: Decoded tiles kept for reuse (by their bytes), at most.
 _CACHE_TILES = 4096
+#: Bytes of tile files kept from sizing the layers to decoding them (not read twice).
+_KEEP_FILES = 256 << 20
 #: The document's largest side accepted in maindoc.xml (larger is refused by the image limits).
 _MAX_DOC = 1 << 30
 
@@ -127,10 +129,11 @@ class TileIndex:
 
 class Tiles:
     """Tiles decoded for one import: decoded tiles kept by their bytes (a tile repeated
-    is decoded once) and the work done, held to :data:`MAX_LZF_TOKENS`."""
+    is decoded once) and the work done, held to :data:`MAX_LZF_TOKENS`; ``files``: tile
+    files read while sizing the layers, kept for decoding (up to :data:`_KEEP_FILES`)."""
 
     def __init__(self, path: str):
-        self.path, self.cache, self.tokens = path, {}, 0
+        self.path, self.cache, self.tokens, self.files = path, {}, 0, {}
 
     def decode(self, data: bytes, index: TileIndex, offset: tuple[int, int], name: str):
         """The layer's pixels (h, w, 4) uint8 and the (x, y) of its top-left (``offset``:
@@ -218,8 +221,14 @@ class _Walk:
         self.unread = 0  # visible layers of a kind or colour space not read
 
     def tile_file(self, node, name: str) -> bytes:
-        limit = image_io.MAX_PIXELS * 6 + (16 << 20)
-        return member(self.zf, f"{self.doc}/layers/{node.get('filename')}", limit, self.path)
+        key = f"{self.doc}/layers/{node.get('filename')}"
+        kept = self.tiles.files
+        if key in kept:
+            return kept[key]
+        data = member(self.zf, key, image_io.MAX_PIXELS * 6 + (16 << 20), self.path)
+        if sum(map(len, kept.values())) + len(data) <= _KEEP_FILES:
+            kept[key] = data
+        return data
 
     def plan(self, el, canvas: tuple[int, int]) -> None:
         """Every paint layer read, sized from its tile list before any tile is decoded:
