@@ -51,11 +51,14 @@ def neighbours(skel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def thin(mask: np.ndarray) -> np.ndarray:
-    """(h, w) bool one-pixel-wide skeleton of a bool mask (Zhang-Suen thinning)."""
+    """(h, w) bool one-pixel-wide skeleton of a bool mask (Zhang-Suen thinning). The
+    mask is padded first: OpenCV's thinning never removes a pixel on the image's edge,
+    and a layer cropped to its pixels touches every edge (a full rectangle stayed whole,
+    every edge pixel an end point)."""
     import cv2
 
-    img = np.ascontiguousarray(mask.astype(np.uint8) * 255)
-    return cv2.ximgproc.thinning(img, thinningType=cv2.ximgproc.THINNING_ZHANGSUEN) > 0
+    img = np.pad(mask.astype(np.uint8) * 255, 1)
+    return cv2.ximgproc.thinning(img, thinningType=cv2.ximgproc.THINNING_ZHANGSUEN)[1:-1, 1:-1] > 0
 
 
 def _label8(a: np.ndarray) -> tuple[np.ndarray, int]:
@@ -199,19 +202,21 @@ def _component_candidates(comp: np.ndarray, dist: np.ndarray, margin: float) -> 
 
 def _merge(cands: list[tuple[str, np.ndarray, float]], spacing: float) -> list[tuple[str, np.ndarray, float]]:
     """Greedy: end points first, then joints by depth; drop a point closer than
-    ``spacing`` (or than a kept joint's radius) to a kept one."""
+    ``spacing`` (or than a kept joint's radius) to a kept one. Each point is compared
+    with every kept one at once (a blob can give hundreds of candidates)."""
     order = sorted(cands, key=lambda c: (c[0] != "end", -c[2]))
+    at = np.empty((len(order), 2))
+    reach = np.empty(len(order))  # a kept point's own reach: its radius when a joint
     kept: list[tuple[str, np.ndarray, float]] = []
     for c in order:
-        ok = True
-        for k in kept:
-            d = float(np.hypot(*(c[1] - k[1])))
-            reach = max(spacing, k[2] if k[0] == "joint" else 0.0, c[2] if c[0] == "joint" else 0.0)
-            if d < reach:
-                ok = False
-                break
-        if ok:
-            kept.append(c)
+        m = len(kept)
+        own = c[2] if c[0] == "joint" else 0.0
+        if m:
+            d = np.hypot(at[:m, 0] - c[1][0], at[:m, 1] - c[1][1])
+            if (d < np.maximum(np.maximum(reach[:m], own), spacing)).any():
+                continue
+        at[m], reach[m] = c[1], own
+        kept.append(c)
     return kept
 
 

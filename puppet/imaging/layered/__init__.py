@@ -10,7 +10,10 @@ and a note for each thing left out. Names: a layer inside groups is named
 
 Nothing here modifies the art file; every size is checked against
 :data:`puppet.imaging.io.MAX_SIDE` / :data:`~puppet.imaging.io.MAX_PIXELS` before its
-pixels are decoded, and zip members are read with bounded sizes.
+pixels are decoded, the whole import against the totals of :mod:`.art` (layers, pixels
+in all, KRA tile work; :class:`~.art.Totals`) from the headers before any layer is
+decoded, and zip members are read with bounded sizes. Every bad file is one
+:class:`~puppet.errors.ImageError` line.
 
 Modules: :mod:`.art` (the layer types and the helpers every reader shares), :mod:`.read`
 (the reader picked by suffix), one reader each in :mod:`.psd`, :mod:`.ora`, :mod:`.kra`,

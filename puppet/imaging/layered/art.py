@@ -15,6 +15,15 @@ from puppet.imaging import io as image_io  # the limits, read when used
 
 _TAG = re.compile(r"\s*\[(merge|ignore)\]\s*", re.IGNORECASE)
 
+#: Most layers read from one file: Photoshop's own limit (8000 layers per document).
+MAX_LAYERS = 8000
+#: Most pixels one import decodes: the canvas plus every layer read, each counted at the
+#: size its header gives (2 GiB as 8-bit RGBA; a 4000x4000 canvas with 32 full-size
+#: layers, or 8192x8192 with 7).
+MAX_TOTAL_PIXELS = 1 << 29
+#: Deepest nesting of groups read (a deeper file is refused in one line).
+MAX_DEPTH = 256
+
 
 @dataclass
 class ArtLayer:
@@ -68,6 +77,53 @@ def check_size(w: int, h: int, what: str, path: str) -> None:
     side, pixels = image_io.MAX_SIDE, image_io.MAX_PIXELS
     if w > side or h > side or w * h > pixels:
         raise ImageError(f"{what}: too large ({w}x{h}; at most {side} per side and {pixels} pixels)", file=path)
+
+
+def check_depth(depth: int, name: str, path: str) -> None:
+    """Refuse groups nested deeper than :data:`MAX_DEPTH` (``name``: the innermost)."""
+    if depth > MAX_DEPTH:
+        raise ImageError(f"groups nested more than {MAX_DEPTH} deep (at {name[:80]!r}...)", file=path)
+
+
+def _mpx(n: int) -> str:
+    return f"{n / 1e9:.1f} Gpx" if n >= 1e9 else f"{n / 1e6:.1f} Mpx"
+
+
+class Totals:
+    """What a reader is about to decode, counted from headers before any pixel of it is
+    decoded and held to :data:`MAX_LAYERS` and :data:`MAX_TOTAL_PIXELS` (the canvas
+    counts too): :meth:`add` each layer, then :meth:`check` before decoding. ``work``:
+    pixels of tiles to decode (a tiled format may list a tile more than once), held to
+    :data:`MAX_TOTAL_PIXELS` too."""
+
+    def __init__(self, path: str, canvas: tuple[int, int]):
+        self.path, self.canvas, self.work = path, canvas, 0
+        self.sizes: list[tuple[int, int]] = []
+
+    def add(self, w: int, h: int, what: str) -> None:
+        """One layer of ``w`` x ``h`` to decode (checked against the one-image limits)."""
+        check_size(w, h, what, self.path)
+        self.sizes.append((w, h))
+
+    @property
+    def pixels(self) -> int:
+        return self.canvas[0] * self.canvas[1] + sum(w * h for w, h in self.sizes)
+
+    def check(self) -> None:
+        """Refuse too many layers or pixels in all, in one line naming the limit."""
+        n, limit = len(self.sizes), MAX_TOTAL_PIXELS
+        if n > MAX_LAYERS:
+            raise ImageError(f"{n} layers, more than the limit of {MAX_LAYERS} layers", file=self.path)
+        if self.pixels > limit:
+            same = len(set(self.sizes)) == 1
+            big = max(self.sizes, key=lambda s: s[0] * s[1])
+            of = f"{big[0]}x{big[1]}" if same else f"up to {big[0]}x{big[1]}"
+            raise ImageError(f"{n} layers of {of} on a {self.canvas[0]}x{self.canvas[1]} canvas = "
+                             f"{_mpx(self.pixels)} in all, more than the limit of {_mpx(limit)} "
+                             f"({limit} pixels)", file=self.path)
+        if self.work > limit:
+            raise ImageError(f"tiles of {_mpx(self.work)} to decode in all, more than the limit of "
+                             f"{_mpx(limit)} ({limit} pixels)", file=self.path)
 
 
 def split_tags(name: str) -> tuple[str, set[str]]:

@@ -9,26 +9,14 @@ with a note.
 """
 from __future__ import annotations
 
-import numpy as np
-
 from puppet.errors import ImageError
-from puppet.imaging.layered.art import LayeredArt, check_size, cropped, flatten, scale_alpha, split_tags, unique
+from puppet.imaging.layered.art import (LayeredArt, Totals, check_depth, check_size, cropped, flatten, scale_alpha,
+                                        split_tags, unique)
 from puppet.imaging.layered.blend import add_blended, separable
-from puppet.imaging.layered.zipped import open_zip, png_member, xml_member
+from puppet.imaging.layered.zipped import coordinate, image_size, number, open_zip, png_member, xml_member
 
-def _float(el, key: str, default: float) -> float:
-    try:
-        v = float(el.get(key, default))
-    except ValueError:
-        return default
-    return v if np.isfinite(v) else default
-
-
-def _int(el, key: str) -> int:
-    try:
-        return int(float(el.get(key, 0)))
-    except ValueError:
-        return 0
+#: The document's largest side accepted in ``stack.xml`` (larger is refused by the image limits).
+_MAX_DOC = 1 << 30
 
 
 def read_ora(path: str) -> LayeredArt:
@@ -37,14 +25,42 @@ def read_ora(path: str) -> LayeredArt:
         root = xml_member(zf, "stack.xml", path)
         if root.tag != "image":
             raise ImageError("stack.xml: the root element is not <image>", file=path)
-        w, h = _int(root, "w"), _int(root, "h")
+        w, h = (int(number(root, k, path, "stack.xml: <image>", default=0, lo=0, hi=_MAX_DOC, whole=True))
+                for k in ("w", "h"))
         check_size(w, h, "document", path)
         art = LayeredArt(path, (w, h))
         stack = root.find("stack")
         if stack is None:
             raise ImageError("stack.xml: no <stack>", file=path)
+        totals = Totals(path, (w, h))
+        for el, name in _read(stack, "", path):  # every size from the PNG headers before any pixel
+            totals.add(*image_size(zf, el.get("src"), path), f"layer {name[:80]!r}")
+        totals.check()
         _Walk(zf, art, path).stack(stack, "", 1.0, 0, 0)
     return art
+
+
+def _shown(el, prefix: str):
+    """``(full name, tags)`` of a layer or group that is read; None when it is skipped
+    (ignored or hidden)."""
+    name, tags = split_tags(el.get("name") or el.get("src") or el.tag)
+    if "ignore" in tags or el.get("visibility", "visible") == "hidden":
+        return None
+    return prefix + name, tags
+
+
+def _read(stack, prefix: str, path: str, depth: int = 1):
+    """``(element, full name)`` of every ``<layer>`` with pixels that is read (groups
+    nested deeper than :data:`~puppet.imaging.layered.art.MAX_DEPTH` refused)."""
+    for el in stack:
+        shown = el.tag in ("layer", "stack") and _shown(el, prefix)
+        if not shown:
+            continue
+        if el.tag == "stack":
+            check_depth(depth, shown[0], path)
+            yield from _read(el, shown[0] + "/", path, depth + 1)
+        elif el.get("src"):
+            yield el, shown[0]
 
 
 class _Walk:
@@ -62,8 +78,10 @@ class _Walk:
             if el.get("visibility", "visible") == "hidden":
                 self.art.hidden.append(full)
                 continue
-            alpha = opacity * min(max(_float(el, "opacity", 1.0), 0.0), 1.0)
-            x, y = dx + _int(el, "x"), dy + _int(el, "y")
+            where = f"stack.xml: {el.tag} {full[:80]!r}"
+            alpha = opacity * number(el, "opacity", self.path, where, default=1.0, lo=0.0, hi=1.0, clamp=True)
+            x = dx + coordinate(el, "x", self.path, where)
+            y = dy + coordinate(el, "y", self.path, where)
             if el.tag == "stack" and "merge" in tags:
                 self.merged(el, full, alpha, x, y)
             elif el.tag == "stack":

@@ -28,8 +28,8 @@ import numpy as np
 from puppet.errors import ImageError
 from puppet.imaging import io as image_io  # the limits, read when used
 from puppet.imaging.layered.adjust import adjustment_function, bake_adjustment
-from puppet.imaging.layered.art import (ArtLayer, LayeredArt, apply_mask, check_size, cropped, scale_alpha,
-                                        split_tags, to_rgba, to_uint8, unique, why)
+from puppet.imaging.layered.art import (ArtLayer, LayeredArt, Totals, apply_mask, check_depth, check_size, cropped,
+                                        scale_alpha, split_tags, to_rgba, to_uint8, unique, why)
 from puppet.imaging.layered.blend import bake_down, bake_onto
 
 #: Largest PSD/PSB file read: psd-tools reads a whole file into memory (a document within
@@ -88,6 +88,7 @@ def _read_psd(path: str) -> LayeredArt:
     art = LayeredArt(path, (w, h))
     reader = _Reader(art, path, psd)
     try:
+        _totals(psd, path, (w, h))
         reader.group(psd, "", 1.0)
     except ImageError:
         raise
@@ -107,6 +108,26 @@ def _open(path: str, max_alloc: int):
         raise ImageError("too large to read", file=path) from None
     except Exception as e:  # truncated or damaged: psd-tools raises many kinds
         raise ImageError(f"corrupt or truncated PSD ({why(e)})", file=path) from None
+
+
+def _totals(psd, path: str, canvas: tuple[int, int]) -> None:
+    """Every visible layer's box from the layer records, held to the totals before any
+    pixel is decoded (:class:`~puppet.imaging.layered.art.Totals`); groups nested too
+    deep refused."""
+    totals, todo = Totals(path, canvas), [(psd, 1)]
+    while todo:  # iterative: the depth is checked, never recursed into
+        group, depth = todo.pop()
+        for layer in group:
+            if not layer.visible:
+                continue
+            if layer.is_group():
+                check_depth(depth, layer.name, path)
+                todo.append((layer, depth + 1))
+                continue
+            x0, y0, x1, y1 = layer.bbox
+            if x1 > x0 and y1 > y0:
+                totals.add(x1 - x0, y1 - y0, f"layer {layer.name[:80]!r}")
+    totals.check()
 
 
 def _flat(psd, path: str, art: LayeredArt, reader) -> list[ArtLayer]:

@@ -39,7 +39,8 @@ from puppet.scene.format.inputs import input_files
 from puppet.scene.format.load import read_json
 from puppet.scene.format.model import MeshOptions
 from puppet.scene.format.write import map_paths, relative_to, scene_text
-from puppet.scene.make.auto_links import propose_links
+from puppet.scene.make import auto_links  # RIG_SECONDS, read when used
+from puppet.scene.make.auto_links import Deadline, propose_links
 from puppet.scene.make.merge import merge
 from puppet.scene.rig.build import default_max_area
 
@@ -492,13 +493,30 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
         doc = merge(old.to_dict(), art, entries, res)
     doc["app"] = dict(doc.get("app") or {}, art=os.path.abspath(art.path))  # what "Reload art" re-imports
     pinned = {p["layer"] for p in doc.get("pins", [])}
+    budget = auto_links.RIG_SECONDS  # the automatic rig's time: half for pins when links follow
+    told = []
     if pins == "auto":
-        new = [p for lay in art.layers if lay.name not in pinned for p in layer_pins(lay, max_pins)]
+        todo = [lay for lay in art.layers if lay.name not in pinned]
+        deadline, new, done = Deadline(budget / 2 if links == "auto" else budget), [], 0
+        for lay in todo:
+            if deadline.passed():
+                break
+            new += layer_pins(lay, max_pins)
+            done += 1
         doc["pins"] = doc.get("pins", []) + new
+        budget = budget - deadline.seconds + deadline.left()
+        told.append((deadline.hit, f"pins for {done} of {len(todo)} layers"
+                     + (" (--update with --pins auto pins the rest)" if deadline.hit else "")))
     if links == "auto":
         linked = {frozenset(k["layers"]) for k in doc.get("links", [])}
-        found = propose_links(art.layers, skip=linked, canvas=art.size)
+        deadline = Deadline(budget)
+        found = propose_links(art.layers, skip=linked, canvas=art.size, deadline=deadline)
         doc["links"] = doc.get("links", []) + found
+        told.append((deadline.hit, f"{len(found)} link(s), for the largest overlaps only" if deadline.hit
+                     else f"{len(found)} link(s)"))
+    if any(hit for hit, _ in told):
+        res.notes.append(f"automatic rig stopped after {auto_links.RIG_SECONDS:g} s: "
+                         + ", ".join(what for _, what in told))
     res.pins, res.links = len(doc.get("pins", [])), len(doc.get("links", []))
     return doc, res
 

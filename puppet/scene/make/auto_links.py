@@ -12,8 +12,15 @@ first, and a pair already joined through other links gets none (Kruskal's maximu
 spanning tree), so an arm links to the body, not also to the head it touches. Layers
 covering nearly the whole canvas (a backdrop) get no links, and neither do overlaps
 thinner than a few pixels.
+
+Work: the pairs whose boxes overlap are found by a sweep over x (not every pair), their
+overlaps counted, and the costly segment is computed largest overlap first only for pairs
+the tree does not join yet. A :class:`Deadline` stops the work where it is (the largest
+overlaps have their links by then).
 """
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
@@ -23,28 +30,90 @@ from puppet.imaging.layered import ArtLayer
 MIN_DEPTH = 3.0
 #: Longest half-segment, in pixels.
 MAX_HALF = 12.0
+#: Seconds the automatic rig of one import (pins, then links) may take.
+RIG_SECONDS = 30.0
+#: An overlap narrower than this is nowhere MIN_DEPTH deep (a pixel's depth is at most
+#: half the width, rounded up).
+_THIN = int(2 * MIN_DEPTH - 1)
 
 
-def propose_links(layers: list[ArtLayer], *, skip=(), canvas: tuple[int, int]) -> list[dict]:
+class Deadline:
+    """A time limit for work that can stop part way: :meth:`passed` is True (and stays
+    so, with ``hit`` set) once ``seconds`` have gone by since it was made."""
+
+    def __init__(self, seconds: float):
+        self.seconds, self.end, self.hit = seconds, time.monotonic() + seconds, False
+
+    def left(self) -> float:
+        """Seconds left (0 when passed)."""
+        return max(self.end - time.monotonic(), 0.0)
+
+    def passed(self) -> bool:
+        self.hit = self.hit or time.monotonic() > self.end
+        return self.hit
+
+
+def propose_links(layers: list[ArtLayer], *, skip=(), canvas: tuple[int, int],
+                  deadline: Deadline | None = None) -> list[dict]:
     """One link ``{"layers": [A, B], "segments": [[p, q]]}`` per overlapping pair (A
-    behind B) not in ``skip`` (a set of frozensets of two names)."""
+    behind B) not in ``skip`` (a set of frozensets of two names) that the tree keeps.
+    When ``deadline`` passes, the links found so far (largest overlaps first)."""
     W, H = canvas
     usable = [lay for lay in layers if _area(lay.bounds) < 0.9 * W * H]
-    found = []  # (overlap area, order, link)
-    for i, a in enumerate(usable):
-        for j, b in enumerate(usable[i + 1:], i + 1):
-            if frozenset((a.name, b.name)) in skip:
-                continue
-            hit = link_segment(a, b)
-            if hit is not None:
-                found.append((hit[2], i * len(usable) + j, {"layers": [a.name, b.name], "segments": [hit[0]]}))
+    late = deadline.passed if deadline is not None else (lambda: False)
+    index = {lay.name: k for k, lay in enumerate(usable)}
+    skipped = {tuple(sorted(index[n] for n in pair)) for pair in skip if len(pair) == 2 and pair <= index.keys()}
+    masks = [lay.rgba[..., 3] > 0 for lay in usable]
+    boxes = [lay.bounds for lay in usable]
+    found = []  # (overlap area, order, i, j)
+    for n, (i, j) in enumerate(_box_pairs(boxes)):
+        if n % 256 == 0 and late():
+            break
+        if (i, j) in skipped:
+            continue
+        area = _overlap(boxes[i], masks[i], boxes[j], masks[j])
+        if area >= 16:
+            found.append((area, i * len(usable) + j, i, j))
     root = {lay.name: lay.name for lay in usable}
     for pair in skip:
         _join(root, *pair)
-
-    kept = [(order, link) for area, order, link in sorted(found, key=lambda t: (-t[0], t[1]))
-            if _join(root, *link["layers"])]
+    kept = []
+    for _, order, i, j in sorted(found, key=lambda t: (-t[0], t[1])):
+        a, b = usable[i], usable[j]
+        if _find(root, a.name) == _find(root, b.name):
+            continue  # joined through other links already: no segment needed
+        if late():
+            break
+        hit = link_segment(a, b)
+        if hit is not None:
+            _join(root, a.name, b.name)
+            kept.append((order, {"layers": [a.name, b.name], "segments": [hit[0]]}))
     return [link for _, link in sorted(kept, key=lambda t: t[0])]
+
+
+def _box_pairs(boxes: list[tuple[int, int, int, int]]):
+    """(i, j), i < j, of the boxes (x0, y0, x1, y1) that overlap: a sweep over x."""
+    order = sorted(range(len(boxes)), key=lambda k: boxes[k][0])
+    active: list[int] = []
+    for k in order:
+        x0, y0, x1, y1 = boxes[k]
+        active = [a for a in active if boxes[a][2] > x0]
+        for a in active:
+            if boxes[a][1] < y1 and boxes[a][3] > y0:
+                yield (a, k) if a < k else (k, a)
+        active.append(k)
+
+
+def _overlap(a, ma: np.ndarray, b, mb: np.ndarray) -> int:
+    """How many pixels two layers (boxes ``a``, ``b``, masks ``ma``, ``mb``) both cover;
+    0 when the overlap is too thin anywhere to be :data:`MIN_DEPTH` deep."""
+    ax0, ay0, ax1, ay1 = a
+    bx0, by0, bx1, by1 = b
+    x0, y0 = ax0 if ax0 > bx0 else bx0, ay0 if ay0 > by0 else by0
+    x1, y1 = ax1 if ax1 < bx1 else bx1, ay1 if ay1 < by1 else by1
+    if x1 - x0 < _THIN or y1 - y0 < _THIN:
+        return 0
+    return int(np.count_nonzero(ma[y0 - ay0:y1 - ay0, x0 - ax0:x1 - ax0] & mb[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0]))
 
 
 def _find(root: dict, x: str) -> str:

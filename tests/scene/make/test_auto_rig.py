@@ -1,0 +1,124 @@
+"""Issue 30, the automatic rig (``--pins auto --links auto``): fast where all pairs were
+tried, and a deadline that stops it with a note, the import going on with what was done."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+import zipfile
+
+import cv2
+import numpy as np
+import pytest
+
+from puppet.imaging.layered import ArtLayer
+from puppet.imaging.skeleton import auto_pins
+from puppet.scene.make import auto_links
+from puppet.scene.make.art import import_art
+from puppet.scene.make.auto_links import Deadline, link_segment, propose_links
+from tests.conftest import ROOT
+from tests.imaging.test_layered_zip import png
+
+
+def blob(name, w, h, x, y):
+    a = np.zeros((h, w, 4), np.uint8)
+    cv2.ellipse(a, (w // 2, h // 2), (w // 2, h // 2), 0, 0, 360, (200, 100, 50, 255), -1)
+    return ArtLayer(name, a, (x, y))
+
+
+def every_pair(layers, *, skip=(), canvas):
+    """The links as first written: every pair tried, the tree taken largest overlap first."""
+    W, H = canvas
+    usable = [lay for lay in layers if (lay.bounds[2] - lay.bounds[0]) * (lay.bounds[3] - lay.bounds[1]) < 0.9 * W * H]
+    found = []
+    for i, a in enumerate(usable):
+        for j, b in enumerate(usable[i + 1:], i + 1):
+            if frozenset((a.name, b.name)) in skip:
+                continue
+            hit = link_segment(a, b)
+            if hit is not None:
+                found.append((hit[2], i * len(usable) + j, {"layers": [a.name, b.name], "segments": [hit[0]]}))
+    root = {lay.name: lay.name for lay in usable}
+
+    def find(x):
+        while root.setdefault(x, x) != x:
+            x = root[x]
+        return x
+
+    def join(a, b):
+        ra, rb = find(a), find(b)
+        root[ra] = rb
+        return ra != rb
+    for pair in skip:
+        join(*pair)
+    kept = [(o, k) for _, o, k in sorted(found, key=lambda t: (-t[0], t[1])) if join(*k["layers"])]
+    return [k for _, k in sorted(kept, key=lambda t: t[0])]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_sweep_finds_the_links_every_pair_finds(seed):
+    rng = np.random.default_rng(seed)
+    layers = [blob(f"l{k}", *(int(v) for v in rng.integers(6, 70, 2)), *(int(v) for v in rng.integers(0, 150, 2)))
+              for k in range(int(rng.integers(2, 30)))]
+    skip = {frozenset(("l0", "l1"))} if seed % 2 else set()
+    assert propose_links(layers, skip=skip, canvas=(300, 300)) == every_pair(layers, skip=skip, canvas=(300, 300))
+
+
+def test_2000_layers_apart_are_linked_in_well_under_a_second():
+    a = np.zeros((12, 12, 4), np.uint8)
+    a[..., 3] = 255
+    layers = [ArtLayer(f"l{i}", a, ((i % 45) * 20, (i // 45) * 20)) for i in range(2000)]
+    t = time.monotonic()
+    assert propose_links(layers, canvas=(1000, 1000)) == []
+    assert time.monotonic() - t < 1.5  # every pair: 7.7 s
+
+
+def test_a_passed_deadline_stops_the_links():
+    layers = [blob(f"l{k}", 40, 40, 5 * k, 0) for k in range(30)]
+    assert len(propose_links(layers, canvas=(1000, 1000))) == 29
+    late = Deadline(0)
+    assert propose_links(layers, canvas=(1000, 1000), deadline=late) == [] and late.hit
+
+
+def test_a_layer_touching_its_edges_is_thinned_like_any_other():
+    # OpenCV's thinning keeps every pixel on the image's edge: a full 16x16 layer gave
+    # hundreds of end points (and took 30 ms to merge), a bar no ends at its middle
+    assert [(p.kind, p.at) for p in auto_pins(np.ones((16, 16), bool))] == [("centre", (7.5, 7.5))]
+    pins = auto_pins(np.ones((16, 60), bool))
+    assert [p.kind for p in pins] == ["end", "end"] and all(p.at[1] == 7.5 for p in pins)
+
+
+def many_layers_ora(path, n, spread):
+    rng = np.random.default_rng(0)
+    xml = "".join(f'<layer name="l{i}" src="l.png" x="{int(x)}" y="{int(y)}"/>'
+                  for i, (x, y) in enumerate(rng.integers(0, spread, (n, 2))))
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("stack.xml", f'<image w="640" h="640"><stack>{xml}</stack></image>')
+        z.writestr("l.png", png((200, 100, 50), (16, 16)))
+    return str(path)
+
+
+def test_the_deadline_stops_the_rig_with_a_note_and_the_import_goes_on(tmp_path, monkeypatch):
+    monkeypatch.setattr(auto_links, "RIG_SECONDS", 0.0)
+    art = many_layers_ora(tmp_path / "a.ora", 12, 100)
+    res = import_art(art, str(tmp_path / "s.json"), pins="auto", links="auto")
+    assert res.note_lines("a.ora")[-1] == ("puppet: note: a.ora: automatic rig stopped after 0 s: pins for 0 of "
+                                           "12 layers (--update with --pins auto pins the rest), 0 link(s), "
+                                           "for the largest overlaps only")
+    doc = json.loads((tmp_path / "s.json").read_text())
+    assert len(doc["layers"]) == 12 and not doc.get("pins") and not doc.get("links")
+
+
+@pytest.mark.slow
+def test_2000_small_layers_with_the_automatic_rig_through_the_cli(tmp_path):
+    art = many_layers_ora(tmp_path / "many.ora", 2000, 600)
+    t = time.monotonic()
+    r = subprocess.run([sys.executable, "-m", "puppet", "init", art, "-o", str(tmp_path / "s.json"),
+                        "--pins", "auto", "--links", "auto"], capture_output=True, text=True, timeout=400,
+                       cwd=ROOT, env=dict(os.environ, PYTHONPATH=ROOT))
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr[-2000:]
+    doc = json.loads((tmp_path / "s.json").read_text())
+    assert len(doc["layers"]) == 2000 and doc["pins"] and doc["links"]
+    assert time.monotonic() - t < 300
