@@ -30,7 +30,7 @@ import numpy as np
 from puppet.anim import pipeline
 from puppet.anim.gif import GifStream, palette_from_sample, quantize
 from puppet.anim.sheet import SheetWriter, atlas_text, write_png
-from puppet.output import write_text
+from puppet.output import Staged
 
 #: zlib level of PNG frames in a folder, written with the "Up" filter
 #: (:func:`puppet.anim.sheet.write_png`): 11 ms of CPU per 1280x720 T-rex frame against
@@ -73,6 +73,18 @@ def stream(sink: "Sink", frames, **run) -> int:
         raise
     sink.close()
     return count
+
+
+def stage_bytes(staged: list, path: str, data: bytes, inputs=()) -> None:
+    """Write ``data`` in full beside ``path`` (a file whose name puppet picks: an atlas, a
+    page image) and append it to ``staged``, to be committed with the output
+    (:func:`puppet.output.commit_all`). Never through a link: a symlink at ``path`` is
+    refused (``follow=False``), as is an input of the scene or a folder there."""
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as f:
+            f.write(data)
+    staged.append(Staged(path, write, inputs=inputs, follow=False))
 
 
 class Sink:
@@ -215,11 +227,13 @@ def apng_sink(tmp: str, size, fps: float) -> AVSink:
 
 class SheetSink(Sink):
     """A sprite sheet PNG (see :mod:`puppet.anim.sheet`); with ``atlas`` = (atlas path,
-    sheet path, fps, inputs) its JSON atlas is written (atomically) when the sheet is done."""
+    sheet path, fps, inputs) its JSON atlas is written when the sheet is done: staged
+    into ``staged`` (committed with the sheet by the export), or, without it, put in
+    place at once; never through a link."""
 
-    def __init__(self, fp, lay, atlas: tuple | None = None):
+    def __init__(self, fp, lay, atlas: tuple | None = None, staged: list | None = None):
         super().__init__()
-        self.writer, self.lay, self.atlas = SheetWriter(fp, lay), lay, atlas
+        self.writer, self.lay, self.atlas, self.staged = SheetWriter(fp, lay), lay, atlas, staged
 
     def add(self, rgba: np.ndarray) -> None:
         self.writer.add(rgba)
@@ -229,4 +243,7 @@ class SheetSink(Sink):
         self.writer.close()
         if self.atlas is not None:
             path, sheet, fps, inputs = self.atlas
-            write_text(path, atlas_text(self.lay, os.path.basename(sheet), fps), inputs=inputs)
+            staged = [] if self.staged is None else self.staged
+            stage_bytes(staged, path, atlas_text(self.lay, os.path.basename(sheet), fps).encode("utf-8"), inputs)
+            if self.staged is None:
+                staged[0].commit()

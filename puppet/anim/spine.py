@@ -34,17 +34,19 @@ from __future__ import annotations
 
 import base64
 import hashlib
+import io
 import json
 import os
 import re
 
 import numpy as np
 
+from puppet.anim.sheet import write_png
 from puppet.anim.sidefiles import spine_side
-from puppet.anim.sinks import Sink
+from puppet.anim.sinks import Sink, stage_bytes
 from puppet.errors import SceneError
 from puppet.geom.mesh import boundary_edges, edges
-from puppet.output import save_png, write_text
+from puppet.output import check_file
 
 SPINE_VERSION = "4.2.0"
 #: Largest atlas page side; more pages are made when the layers do not fit in one.
@@ -53,6 +55,8 @@ PAGE_SIDE = 4096
 PAD = 2
 #: Decimals of vertices and offsets (0.005 px at most off).
 DECIMALS = 2
+#: zlib level of the atlas pages.
+PNG_LEVEL = 6
 
 
 def page_path(path: str, k: int) -> str:
@@ -188,6 +192,8 @@ class SpineSink(Sink):
             self.place = pack([(c.shape[1], c.shape[0]) for c in crops], side=PAGE_SIDE)
         except ValueError as e:  # before any frame is solved
             raise SceneError(f"-o {job.output!r}: {e}; Spine atlas pages are at most {PAGE_SIDE} px") from None
+        for k in range(1 + max((p for p, _, _ in self.place), default=0)):  # before any frame is solved
+            check_file(page_path(job.output, k), inputs=job.inputs, follow=False)
         self.poses = {name: self._pose(scene.layers(pose=name)) for name in scene.data.poses}
 
     def _pose(self, layers) -> tuple[list[np.ndarray], list[int]]:
@@ -293,10 +299,12 @@ class SpineSink(Sink):
                 ch, cw = crops[j].shape[:2]
                 sheet[y:y + ch, x:x + cw] = crops[j]
             path = page_path(out, k)
-            save_png(path, sheet, inputs=self.job.inputs)
+            png = io.BytesIO()
+            write_png(png, sheet, PNG_LEVEL)
+            stage_bytes(self.job.staged, path, png.getvalue(), self.job.inputs)
             lines += [os.path.basename(path), f"\tsize: {w}, {h}", "\tfilter: Linear, Linear", "\tpma: false"]
             for j in mine:
                 _, x, y = place[j]
                 lines += [self.regions[j], f"\tbounds: {x}, {y}, {crops[j].shape[1]}, {crops[j].shape[0]}"]
             lines.append("")
-        write_text(spine_side(out)[0], "\n".join(lines), inputs=self.job.inputs)
+        stage_bytes(self.job.staged, spine_side(out)[0], "\n".join(lines).encode("utf-8"), self.job.inputs)
