@@ -181,6 +181,11 @@ def _spine(job: Job):
     return SpineSink(job)
 
 
+def _spine_prepare(job: Job, draw) -> None:
+    from puppet.anim.spine import check_size  # lazy: format registry
+    check_size(job)
+
+
 def _glb(job: Job):
     from puppet.anim.gltf import GltfSink  # lazy: format registry
     return GltfSink(job)
@@ -202,7 +207,7 @@ FORMATS: tuple[Format, ...] = (
     Format("html", ".html", "web player (one self-contained HTML file, WebGL2)", True, _html,
            pixels=False, options=frozenset({"size", "background"})),
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
-           pixels=False, also=(".json",), options=frozenset(), side=spine_side),
+           pixels=False, also=(".json",), options=frozenset(), side=spine_side, prepare=_spine_prepare),
     Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
            pixels=False, options=frozenset(), prepare=_glb_prepare),
 )

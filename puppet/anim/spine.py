@@ -28,7 +28,9 @@ the draw order follows each layer's mean depth), holes and separate pieces of on
 vertices follow as ordinary vertices; the triangles still draw them), the background.
 
 Memory: the deform keys of every frame are held until the JSON is written (as the file
-holds them): frames x vertices x 8 bytes.
+holds them): frames x vertices x 8 bytes as float32, and each key's JSON text (the
+file's text is never made as one string); frames x vertices x 2 is bounded by
+:data:`puppet.anim.sinks.MAX_HELD`, refused before any frame is solved.
 """
 from __future__ import annotations
 
@@ -38,12 +40,13 @@ import io
 import json
 import os
 import re
+import uuid
 
 import numpy as np
 
 from puppet.anim.sheet import write_png
 from puppet.anim.sidefiles import spine_side
-from puppet.anim.sinks import Sink, stage_bytes
+from puppet.anim.sinks import Sink, check_held, stage_bytes
 from puppet.errors import SceneError
 from puppet.geom.mesh import boundary_edges, edges
 from puppet.output import check_file
@@ -63,6 +66,12 @@ def page_path(path: str, k: int) -> str:
     """Atlas page ``k`` beside ``NAME.json``: ``NAME.png``, ``NAME_2.png``, ..."""
     stem = spine_side(path)[1][:-4]
     return f"{stem}.png" if k == 0 else f"{stem}_{k + 1}.png"
+
+
+def check_size(job, draw=None) -> None:
+    """The format's ``prepare``: refuse more frames x vertices than
+    :data:`puppet.anim.sinks.MAX_HELD` allows, before anything is solved."""
+    check_held(job, 2, "a Spine file")
 
 
 def to_spine(xy: np.ndarray, canvas) -> np.ndarray:
@@ -162,6 +171,32 @@ def _r(a: np.ndarray) -> list[float]:
     return [float(v) for v in np.round(np.asarray(a, np.float64).reshape(-1), DECIMALS)]
 
 
+class _Held:
+    """Deform timelines as JSON text, kept apart from the document: in the document each
+    is a marker string, which :meth:`parts` swaps for the timeline's text (the text of the
+    whole file is never made as one string)."""
+
+    def __init__(self):
+        self.token = f"puppet-timeline-{uuid.uuid4().hex}-"
+        self.timelines: list[list[str]] = []
+
+    def add(self, keys: list[str]) -> str:
+        self.timelines.append(keys)
+        return f"{self.token}{len(self.timelines) - 1}"
+
+    def parts(self, text: str):
+        """The pieces of the document ``text`` (JSON) with every marker replaced, in order."""
+        for k, piece in enumerate(re.split(f'"{re.escape(self.token)}(\\d+)"', text)):
+            if k % 2 == 0:
+                yield piece
+            else:
+                keys = self.timelines[int(piece)]
+                yield "["
+                for j, key in enumerate(keys):
+                    yield key if j == 0 else "," + key
+                yield "]"
+
+
 class SpineSink(Sink):
     """Collects each frame's deform offsets and draw order; writes the JSON (to
     ``job.tmp``), the atlas and its pages when closed."""
@@ -205,11 +240,15 @@ class SpineSink(Sink):
         offs, order = self._pose(layers)
         for k, o in enumerate(offs):
             self.keys[k].append(o)
+        if self.orders and order == self.orders[-1]:
+            order = self.orders[-1]  # one list for a run of frames in the same order
         self.orders.append(order)
         self.frames += 1
 
     # -- writing -------------------------------------------------------------------
-    def _animation(self, keys: list[list[np.ndarray]], orders: list[list[int]]) -> dict:
+    def _animation(self, keys: list[list[np.ndarray]], orders: list[list[int]], held: "_Held") -> dict:
+        """One animation; each deform timeline is JSON text kept in ``held`` (a key's text
+        at a time: no float objects for every frame), its place in the dict a marker."""
         fps = self.job.fps
         slot_names = [self.names[i] for i in self.slots]
         deform: dict = {}
@@ -223,8 +262,8 @@ class SpineSink(Sink):
                 key: dict = {"time": round(f / fps, 6)}
                 if np.any(np.abs(off) >= 0.5 * 10.0 ** -DECIMALS):
                     key["vertices"] = _r(off)
-                timeline.append(key)
-            deform[self.names[i]] = {region: {"deform": timeline}}
+                timeline.append(json.dumps(key, separators=(",", ":")))
+            deform[self.names[i]] = {region: {"deform": held.add(timeline)}}
         anim: dict = {}
         if deform:
             anim["attachments"] = {"default": deform}
@@ -262,9 +301,10 @@ class SpineSink(Sink):
 
     def close(self) -> None:
         images = [im.drawn for im in self.job.scene.built.images]
-        anims = {"animation": self._animation(self.keys, self.orders)}
+        held = _Held()
+        anims = {"animation": self._animation(self.keys, self.orders, held)}
         for name, (offs, order) in self.poses.items():
-            anims[name if name not in anims else f"pose_{name}"] = self._animation([[o] for o in offs], [order])
+            anims[name if name not in anims else f"pose_{name}"] = self._animation([[o] for o in offs], [order], held)
         allxy = np.concatenate([s for s in self.setup if len(s)]) if any(len(s) for s in self.setup) \
             else np.zeros((1, 2))
         lo, hi = allxy.min(axis=0), allxy.max(axis=0)
@@ -275,13 +315,20 @@ class SpineSink(Sink):
             "skins": [self._skin(images)],
             "animations": anims,
         }
-        text = json.dumps(body, separators=(",", ":"))  # one shot: the C encoder (json.dump is pure Python)
-        digest = base64.b64encode(hashlib.sha1(text.encode()).digest())[:11].decode("ascii")
+        text = json.dumps(body, separators=(",", ":"))  # the C encoder (json.dump is pure Python)
+        sha = hashlib.sha1()
+        for part in held.parts(text):
+            sha.update(part.encode())
+        digest = base64.b64encode(sha.digest())[:11].decode("ascii")
         skeleton = {"hash": digest, "spine": SPINE_VERSION, "x": round(float(lo[0]), 2), "y": round(float(lo[1]), 2),
                     "width": round(float(hi[0] - lo[0]), 2), "height": round(float(hi[1] - lo[1]), 2),
                     "fps": self.job.fps, "images": "./", "audio": ""}
         with open(self.job.tmp, "w", encoding="utf-8") as f:
-            f.write('{"skeleton":' + json.dumps(skeleton, separators=(",", ":")) + "," + text[1:])
+            f.write('{"skeleton":' + json.dumps(skeleton, separators=(",", ":")) + ",")
+            parts = held.parts(text)
+            f.write(next(parts)[1:])
+            for part in parts:
+                f.write(part)
         self._write_atlas(images)
 
     def _write_atlas(self, images) -> None:
