@@ -137,11 +137,11 @@ def pack(sizes: list[tuple[int, int]], side: int = PAGE_SIDE, pad: int = PAD) ->
 
 
 def region_names(names: list[str]) -> list[str]:
-    """Atlas region names: no colon or line break (the atlas is ``key: value`` lines),
-    no outer spaces, unique."""
+    """Atlas region names: no colon or line break (the atlas is ``key: value`` lines), no
+    lone surrogate (the atlas is UTF-8 text), no outer spaces, unique."""
     out, used = [], set()
     for name in names:
-        base = re.sub(r"[:\r\n]+", "_", name).strip() or "layer"
+        base = re.sub("[:\r\n\ud800-\udfff]+", "_", name).strip() or "layer"
         cand, k = base, 2
         while cand in used:
             cand, k = f"{base}_{k}", k + 1

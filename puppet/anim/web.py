@@ -117,6 +117,15 @@ def script_code(text: str) -> str:
     return text
 
 
+def _utf8(name: str) -> str:
+    """A file name as text the page can hold: bytes that are not UTF-8 (kept by Python as
+    lone surrogates) become U+FFFD."""
+    try:
+        return name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    except UnicodeEncodeError:
+        return name.encode("utf-8", "replace").decode("utf-8")
+
+
 def fill(template: str, values: dict[str, str]) -> str:
     """Replace every ``{{name}}`` of ``template`` in one pass: a value is never read again
     for fields (a scene named ``{{meta}}.json`` stays its name)."""
@@ -151,7 +160,7 @@ class HtmlSink(Sink):
         meta = {"puppet": 1, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,
                 "start": job.start, "count": job.count, "vertices": base, "quant": list(self.quant),
                 "depthStep": self.depth_step, "background": clear, "layers": entries}
-        title = html.escape(os.path.basename(scene.file or "puppet"))
+        title = html.escape(_utf8(os.path.basename(scene.file or "puppet")))
         page = resources.files("puppet.anim").joinpath("player.html").read_text("utf-8")
         head, self.tail = page.split("{{frames}}")
         w, h = job.size

@@ -131,7 +131,8 @@ def test_a_glb_with_too_many_vertices_for_its_frames_is_refused_through_the_api(
 
 
 # -- the web player's page -----------------------------------------------------------
-NAMES = ["<!--<script>", "</script><b>bold</b>", "\"'&amp;", "a\u2028b\u2029c", "{{meta}}", "</SCRIPT ", "]]>"]
+NAMES = ["<!--<script>", "</script><b>bold</b>", "\"'&amp;", "a\u2028b\u2029c", "{{meta}}", "</SCRIPT ", "]]>",
+         "lone \ud800"]
 SCENE_NAME = "{{meta}}<title>&.json"
 
 
@@ -158,12 +159,19 @@ class _Page(HTMLParser):
             self.title += data
 
 
-@pytest.fixture
-def named_page(tmp_path):
+def named_scene(tmp_path, name: str | bytes = SCENE_NAME) -> str:
+    """The bar scene with a layer for each of :data:`NAMES`, saved as ``name``."""
     scene = json.load(open(make_bar(tmp_path / "s", seconds=1.0)))
     scene["layers"] += [{"name": n, "image": "bar.png"} for n in NAMES]
-    path = tmp_path / "s" / SCENE_NAME
-    path.write_text(json.dumps(scene))
+    path = os.path.join(os.fsencode(tmp_path / "s"), os.fsencode(name))
+    with open(path, "w") as f:
+        json.dump(scene, f)
+    return os.fsdecode(path)
+
+
+@pytest.fixture
+def named_page(tmp_path):
+    path = named_scene(tmp_path)
     out = tmp_path / "named.html"
     r = cli("animate", path, "-o", out, timeout=60)
     assert r.returncode == 0 and r.stderr == "", r.stderr
@@ -193,3 +201,18 @@ def test_the_player_starts_in_a_browser_whatever_the_names(named_page):
     body = re.search(r"<body[^>]*>", dom)
     assert body and 'data-ready="1"' in body.group(0), dom[-2000:]
     assert f"<title>{html.escape(SCENE_NAME, quote=False)}</title>" in dom
+
+
+@pytest.mark.parametrize("out", ["o.html", "o.spine.json"])
+def test_names_that_are_not_utf8_export(tmp_path, out):
+    path = named_scene(tmp_path, b"bytes \xff.json")  # a file name that is not UTF-8, a lone surrogate layer
+    r = cli("animate", path, "-o", tmp_path / out, timeout=60)
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    if out == "o.html":
+        page = _Page()
+        page.feed((tmp_path / out).read_text(encoding="utf-8"))
+        assert page.title == "bytes \ufffd.json"
+    else:
+        regions = [ln for ln in (tmp_path / "o.spine.atlas").read_text(encoding="utf-8").split("\n")
+                   if ln and not ln.startswith("\t") and not ln.endswith(".png")]
+        assert len(regions) == 1 + len(NAMES) and "lone _" in regions
