@@ -47,7 +47,7 @@ def check_count(job, draw=None) -> None:
     if job.count > MAX_FRAMES:
         raise SceneError(f"-o {job.output!r}: a .glb holds at most {MAX_FRAMES} frames ({job.count} asked; "
                          "its morph weights grow with frames squared): lower --fps or shorten it with --from/--to")
-    check_held(job, 3, "a .glb")
+    check_held(job, 3, 120, "a .glb")
 
 
 def to_gltf(xy: np.ndarray, depth: np.ndarray, canvas) -> np.ndarray:

@@ -45,10 +45,12 @@ WEBM_OPTIONS = {"crf": "30", "b": "0", "cpu-used": "4", "row-mt": "1", "deadline
 GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
 #: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
 GIF_SAMPLE_CACHE = 64 << 20
-#: Most numbers (frames x vertices x numbers a vertex) an export that holds every frame
-#: until its file is written (Spine, glTF) may take; refused up front above it. Measured
-#: on a 298-vertex bar, 4001 frames: Spine ~7 bytes a number (float32 offsets and their
-#: JSON text), glTF ~16 (float32 targets and the binary chunk): about 0.3 and 0.6 GB here.
+#: Most numbers an export that holds every frame until its file is written (Spine, glTF)
+#: may take: frames x (vertices x numbers a vertex + layers x the cost of a layer's key,
+#: counted in numbers); refused up front above it. Measured (tracemalloc): Spine 17
+#: bytes a number (float32 offsets, their JSON text, one layer's text joined), glTF 13
+#: (float32 targets, the binary chunk) and ~1.5 kB per layer and frame (its accessor):
+#: about 0.7 and 0.5 GB at the limit.
 MAX_HELD = 40_000_000
 
 
@@ -81,25 +83,28 @@ def stream(sink: "Sink", frames, **run) -> int:
     return count
 
 
-def check_held(job, per_vertex: int, what: str) -> None:
+def check_held(job, per_vertex: int, per_layer: int, what: str) -> None:
     """Refuse, before any frame is solved, an export that would hold more than
-    :data:`MAX_HELD` numbers: ``job.count`` frames x the scene's vertices x ``per_vertex``.
+    :data:`MAX_HELD` numbers: ``job.count`` frames x (the scene's vertices x
+    ``per_vertex`` + its layers x ``per_layer``).
 
     ``what`` names the format in the message (``"a Spine file"``).
 
     Raises
     ------
     SceneError
-        One line with the frames, the vertices, the product and the limit.
+        One line with the frames, the vertices and layers, the product and the limit.
     """
-    vertices = sum(len(r.rest) for r in job.scene.layers(pose="rest"))
-    held = job.count * vertices * per_vertex
+    rest = job.scene.layers(pose="rest")
+    vertices = sum(len(r.rest) for r in rest)
+    held = job.count * (vertices * per_vertex + len(rest) * per_layer)
     if held > MAX_HELD:
         seconds = (job.count - 1) / job.fps
         raise SceneError(f"-o {job.output!r}: {seconds:g} s at {job.fps:g} fps ({job.count} frames) x {vertices} "
-                         f"vertices x {per_vertex} = {held:.2g} numbers, more than the {MAX_HELD:.2g} that "
-                         f"{what} may hold (it keeps every frame until it is written); export fewer frames "
-                         "(--fps, --from/--to) or use .html, which streams")
+                         f"vertices in {len(rest)} layer{'s' if len(rest) != 1 else ''} would hold {held:.2g} numbers "
+                         f"({per_vertex} a vertex and {per_layer} a layer each frame), more than the {MAX_HELD:.2g} "
+                         f"that {what} may hold until it is written; export fewer frames (--fps, --from/--to) "
+                         "or use .html, which streams")
 
 
 def stage_bytes(staged: list, path: str, data: bytes, inputs=()) -> None:

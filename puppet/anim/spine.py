@@ -71,7 +71,7 @@ def page_path(path: str, k: int) -> str:
 def check_size(job, draw=None) -> None:
     """The format's ``prepare``: refuse more frames x vertices than
     :data:`puppet.anim.sinks.MAX_HELD` allows, before anything is solved."""
-    check_held(job, 2, "a Spine file")
+    check_held(job, 2, 4, "a Spine file")
 
 
 def to_spine(xy: np.ndarray, canvas) -> np.ndarray:
@@ -178,10 +178,11 @@ class _Held:
 
     def __init__(self):
         self.token = f"puppet-timeline-{uuid.uuid4().hex}-"
-        self.timelines: list[list[str]] = []
+        self.timelines: list[str] = []
 
     def add(self, keys: list[str]) -> str:
-        self.timelines.append(keys)
+        """Keep the timeline of these keys (JSON texts) as one string; its marker."""
+        self.timelines.append("[" + ",".join(keys) + "]")
         return f"{self.token}{len(self.timelines) - 1}"
 
     def parts(self, text: str):
@@ -190,11 +191,23 @@ class _Held:
             if k % 2 == 0:
                 yield piece
             else:
-                keys = self.timelines[int(piece)]
-                yield "["
-                for j, key in enumerate(keys):
-                    yield key if j == 0 else "," + key
-                yield "]"
+                yield self.timelines[int(piece)]
+
+
+class _Offsets:
+    """Deform offsets, one float32 (vertices, 2) array a frame for every layer together
+    (no array object per layer and frame); :meth:`layer` gives one layer's frames."""
+
+    def __init__(self, starts: list[int]):
+        self.starts = starts  # layer i is rows starts[i]:starts[i + 1]
+        self.frames: list[np.ndarray] = []
+
+    def append(self, offs: list[np.ndarray]) -> None:
+        self.frames.append(np.concatenate(offs) if offs else np.zeros((0, 2), np.float32))
+
+    def layer(self, i: int) -> list[np.ndarray]:
+        a, b = self.starts[i], self.starts[i + 1]
+        return [f[a:b] for f in self.frames]
 
 
 class SpineSink(Sink):
@@ -220,7 +233,7 @@ class SpineSink(Sink):
         self.rest_xy = [np.asarray(r.rest, np.float64) for r in rest]
         self.triangles = [np.asarray(r.triangles, np.int64).reshape(-1, 3) for r in rest]
         self.setup = [to_spine(xy[p], self.canvas) for xy, p in zip(self.rest_xy, self.perm)]
-        self.keys: list[list[np.ndarray]] = [[] for _ in rest]
+        self.keys = _Offsets(np.concatenate([[0], np.cumsum([len(r.rest) for r in rest])]).astype(int).tolist())
         self.orders: list[list[int]] = []
         crops = [scene.built.images[i].drawn[0] for i in self.slots]
         try:
@@ -238,22 +251,21 @@ class SpineSink(Sink):
 
     def add(self, layers) -> None:
         offs, order = self._pose(layers)
-        for k, o in enumerate(offs):
-            self.keys[k].append(o)
+        self.keys.append(offs)
         if self.orders and order == self.orders[-1]:
             order = self.orders[-1]  # one list for a run of frames in the same order
         self.orders.append(order)
         self.frames += 1
 
     # -- writing -------------------------------------------------------------------
-    def _animation(self, keys: list[list[np.ndarray]], orders: list[list[int]], held: "_Held") -> dict:
-        """One animation; each deform timeline is JSON text kept in ``held`` (a key's text
+    def _animation(self, keys: _Offsets, orders: list[list[int]], held: _Held) -> dict:
+        """One animation; each deform timeline is JSON text kept in ``held`` (made a key
         at a time: no float objects for every frame), its place in the dict a marker."""
         fps = self.job.fps
         slot_names = [self.names[i] for i in self.slots]
         deform: dict = {}
         for i in self.slots:
-            frames = keys[i]
+            frames = keys.layer(i)
             if not any(np.any(np.abs(f) >= 0.5 * 10.0 ** -DECIMALS) for f in frames):
                 continue  # never moves: no timeline
             region = self.regions[self.slot_of[i]]
@@ -304,7 +316,9 @@ class SpineSink(Sink):
         held = _Held()
         anims = {"animation": self._animation(self.keys, self.orders, held)}
         for name, (offs, order) in self.poses.items():
-            anims[name if name not in anims else f"pose_{name}"] = self._animation([[o] for o in offs], [order], held)
+            pose = _Offsets(self.keys.starts)
+            pose.append(offs)
+            anims[name if name not in anims else f"pose_{name}"] = self._animation(pose, [order], held)
         allxy = np.concatenate([s for s in self.setup if len(s)]) if any(len(s) for s in self.setup) \
             else np.zeros((1, 2))
         lo, hi = allxy.min(axis=0), allxy.max(axis=0)
