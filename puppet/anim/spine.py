@@ -28,9 +28,10 @@ the draw order follows each layer's mean depth), holes and separate pieces of on
 vertices follow as ordinary vertices; the triangles still draw them), the background.
 
 Memory: the deform keys of every frame are held until the JSON is written (as the file
-holds them): frames x vertices x 8 bytes as float32, and each key's JSON text (the
-file's text is never made as one string); frames x vertices x 2 is bounded by
-:data:`puppet.anim.sinks.MAX_HELD`, refused before any frame is solved.
+holds them): frames x vertices x 8 bytes as float32 (one array a frame), then each
+layer's timeline as JSON text (the file's text is never made as one string); frames x
+(vertices x 2 + layers x 4) is bounded by :data:`puppet.anim.sinks.MAX_HELD`, refused
+before any frame is solved.
 """
 from __future__ import annotations
 

@@ -7,6 +7,7 @@ the web player's page. Every refusal: exit 2, one stderr line, no traceback, eve
 byte-identical and nothing left behind."""
 from __future__ import annotations
 
+import errno
 import html
 import json
 import os
@@ -19,6 +20,7 @@ from html.parser import HTMLParser
 
 import pytest
 
+from puppet import output
 from puppet.anim import sinks
 from puppet.anim.export import animate_to
 from puppet.api import load_scene
@@ -86,6 +88,31 @@ def test_a_later_atlas_page_that_is_a_link_is_refused_before_solving(tmp_path, m
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "t.spine_2.png: cannot write: is a symbolic link" in err, err
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("fails", ["staging the atlas", "renaming the JSON"])
+def test_the_output_and_its_side_files_are_committed_together(tmp_path, monkeypatch, fails):
+    """A failure after the page is staged (the atlas hits a full disk) or after the side
+    files are renamed (the JSON's rename fails) leaves none of the three files."""
+    scene = load_scene(make_bar(tmp_path / "s", seconds=1.0))
+    out = tmp_path / "o.spine.json"
+    real_init, real_commit = output.Staged.__init__, output.Staged.commit
+
+    def init(self, path, write, **kw):
+        if fails == "staging the atlas" and path.endswith(".atlas"):
+            raise output.OutputError(path, os.strerror(errno.ENOSPC))
+        real_init(self, path, write, **kw)
+
+    def commit(self):
+        if fails == "renaming the JSON" and self.path == str(out):
+            raise output.OutputError(self.path, os.strerror(errno.EIO))
+        real_commit(self)
+    monkeypatch.setattr(output.Staged, "__init__", init)
+    monkeypatch.setattr(output.Staged, "commit", commit)
+    before = snapshot(tmp_path)
+    with pytest.raises(output.OutputError, match="No space left|Input/output error"):
+        animate_to(scene, str(out))
+    assert snapshot(tmp_path) == before  # no page, no atlas, no JSON, no temporary
 
 
 # -- the output's kind against what is at the path -----------------------------------
