@@ -27,6 +27,7 @@ from puppet.api import load_scene
 from puppet.errors import SceneError
 from tests.cli.outputs_helpers import cli, make_bar, one_error_line, snapshot
 from tests.conftest import ROOT
+from tests.video.video_helpers import video_scene, write_folder_clip, write_scene
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
@@ -124,6 +125,17 @@ def test_an_existing_folder_at_a_file_output_is_refused(tmp_path, bar, name):
     before = snapshot(tmp_path)
     line = one_error_line(cli("animate", bar, "-o", tmp_path / path, *more, "--to", "0.2", timeout=60))
     assert line == f"puppet: error: {tmp_path / path}: cannot write: is a folder"
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("name", ["out.mp4", "out.webm"])
+def test_puppet_video_refuses_an_existing_folder_at_a_video_output(tmp_path, name):
+    write_folder_clip(tmp_path / "clip", n=2)
+    scene = write_scene(tmp_path, video_scene("clip"))
+    (tmp_path / name).mkdir()
+    before = snapshot(tmp_path)
+    line = one_error_line(cli("video", scene, "--pose", "wave", "-o", tmp_path / name, timeout=60))
+    assert line == f"puppet: error: {tmp_path / name}: cannot write: is a folder"
     assert snapshot(tmp_path) == before
 
 
