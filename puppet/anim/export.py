@@ -21,7 +21,7 @@ from puppet.anim import formats, pipeline, sinks
 from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (docs/api.md names export.parse_background)
 from puppet.anim.solver import ProcessSolver
 from puppet.errors import SceneError
-from puppet.output import atomic_write, check_file, check_folder, write_folder
+from puppet.output import Staged, check_file, check_folder, commit_all, write_folder
 from puppet.scene.format.inputs import input_files
 from puppet.scene.time import timeline
 
@@ -107,8 +107,8 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     formats.check_options(fmt, size=size, wireframe=wireframe, background=background)
     inputs = input_files(scene.data)
     (check_folder if fmt.folder else check_file)(output, inputs=inputs)
-    for path in fmt.side(output):
-        check_file(path, inputs=inputs)
+    for path in fmt.side(output):  # names puppet picks: never through a link
+        check_file(path, inputs=inputs, follow=False)
     rate = float(fps or anim.fps)
     if not MIN_FPS <= rate <= MAX_FPS:
         raise SceneError(f"{rate:g} fps is outside {MIN_FPS:g}..{MAX_FPS:g}; give --fps",
@@ -160,7 +160,13 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
 
         def write(tmp: str) -> None:
             written[0] = fill(tmp)
-        atomic_write(output, write, inputs=inputs)
+        try:  # the output and the files its sink staged beside it (side files first)
+            main = Staged(output, write, inputs=inputs)
+        except BaseException:
+            for side in job.staged:
+                side.discard()
+            raise
+        commit_all([*job.staged, main])
         return written[0]
     finally:
         if bar is not None:

@@ -37,6 +37,9 @@ class Job:
     alpha : the frames may hold transparency; background : what the frames are drawn over.
     scene : the scene (mesh formats read its layers' images); inputs : files never overwritten.
     extra : format-specific state set by ``prepare`` (a GIF's palette, a sheet's layout).
+    staged : files beside the output whose names puppet picks (an atlas, a page image),
+        written in full by the sink (never through a link, see
+        :func:`puppet.anim.sinks.stage_bytes`) and committed together with the output.
     """
 
     output: str
@@ -50,6 +53,7 @@ class Job:
     inputs: tuple = ()
     tmp: str = ""
     extra: dict = field(default_factory=dict)
+    staged: list = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -151,7 +155,8 @@ def _gif_prepare(job: Job, draw) -> None:
 
 def _sheet(fp, job: Job):
     from puppet.anim.sinks import SheetSink  # lazy: format registry
-    return SheetSink(fp, job.extra["layout"], atlas=(sheet_atlas(job.output), job.output, job.fps, job.inputs))
+    return SheetSink(fp, job.extra["layout"], atlas=(sheet_atlas(job.output), job.output, job.fps, job.inputs),
+                     staged=job.staged)
 
 
 def _sheet_prepare(job: Job, draw) -> None:
@@ -176,6 +181,11 @@ def _spine(job: Job):
     return SpineSink(job)
 
 
+def _spine_prepare(job: Job, draw) -> None:
+    from puppet.anim.spine import check_size  # lazy: format registry
+    check_size(job)
+
+
 def _glb(job: Job):
     from puppet.anim.gltf import GltfSink  # lazy: format registry
     return GltfSink(job)
@@ -197,7 +207,7 @@ FORMATS: tuple[Format, ...] = (
     Format("html", ".html", "web player (one self-contained HTML file, WebGL2)", True, _html,
            pixels=False, options=frozenset({"size", "background"})),
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
-           pixels=False, also=(".json",), options=frozenset(), side=spine_side),
+           pixels=False, also=(".json",), options=frozenset(), side=spine_side, prepare=_spine_prepare),
     Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
            pixels=False, options=frozenset(), prepare=_glb_prepare),
 )
@@ -223,28 +233,38 @@ def _by_suffix(path: str) -> Format | None:
 
 
 def find(path: str, kind: str | None = None) -> Format:
-    """The format of ``path`` (a trailing slash or an existing folder is a folder), or
-    the format named ``kind`` when given (then the path must end in its suffix or one of
-    its ``also`` suffixes).
+    """The format of ``path``, or the format named ``kind`` when given (then the path
+    must end in its suffix or one of its ``also`` suffixes).
+
+    The path's form decides, never what happens to exist there: a known ending picks its
+    format (an existing folder at ``out.html`` stays an HTML output, which the output
+    checker then refuses as a folder, rather than being filled with frames); a frame
+    folder is a path ending in ``/``, or an existing folder whose name has no known
+    ending (``--format dir`` names one explicitly).
 
     Raises
     ------
     SceneError
         One line naming the path and the endings accepted.
     """
+    slash = path.endswith(("/", os.sep))
     if kind is not None:
         fmt = BY_KIND.get(kind)
         if fmt is None:
             raise SceneError(f"--format {kind!r}: choose one of {', '.join(BY_KIND)}")
-        folder = path.endswith(("/", os.sep)) or os.path.isdir(path)
-        ok = folder if fmt.folder else (not folder and path.lower().endswith((fmt.suffix, *fmt.also)))
+        if fmt.folder:
+            ok = slash or os.path.isdir(path)
+        else:
+            ok = not slash and path.lower().endswith((fmt.suffix, *fmt.also))
         if not ok:
             ends = " or ".join(("a folder (ending in /)",) if fmt.folder else (fmt.suffix, *fmt.also))
             raise SceneError(f"-o {path!r}: --format {kind} writes {ends}")
         return fmt
-    if path.endswith(("/", os.sep)) or os.path.isdir(path):
+    if slash:
         return BY_KIND["dir"]
     fmt = _by_suffix(path)
+    if fmt is None and os.path.isdir(path):
+        return BY_KIND["dir"]
     if fmt is None:
         ends = ", ".join(f.suffix for f in FORMATS if not f.folder)
         raise SceneError(f"-o {path!r}: give a folder (ending in /) or a file ending in {ends} "

@@ -31,7 +31,7 @@ import struct
 
 import numpy as np
 
-from puppet.anim.sinks import Sink
+from puppet.anim.sinks import Sink, check_held
 from puppet.errors import SceneError
 
 #: Most frames a .glb export takes (its weights grow with frames squared).
@@ -41,10 +41,13 @@ _ARRAY, _ELEMENTS = 34962, 34963
 
 
 def check_count(job, draw=None) -> None:
-    """Refuse more than :data:`MAX_FRAMES` frames (the format's ``prepare``: before anything is solved)."""
+    """Refuse more than :data:`MAX_FRAMES` frames, and more frames x vertices than
+    :data:`puppet.anim.sinks.MAX_HELD` allows (the format's ``prepare``: before anything
+    is solved)."""
     if job.count > MAX_FRAMES:
         raise SceneError(f"-o {job.output!r}: a .glb holds at most {MAX_FRAMES} frames ({job.count} asked; "
                          "its morph weights grow with frames squared): lower --fps or shorten it with --from/--to")
+    check_held(job, 3, 120, "a .glb")
 
 
 def to_gltf(xy: np.ndarray, depth: np.ndarray, canvas) -> np.ndarray:

@@ -30,7 +30,8 @@ import numpy as np
 from puppet.anim import pipeline
 from puppet.anim.gif import GifStream, palette_from_sample, quantize
 from puppet.anim.sheet import SheetWriter, atlas_text, write_png
-from puppet.output import write_text
+from puppet.errors import SceneError
+from puppet.output import Staged
 
 #: zlib level of PNG frames in a folder, written with the "Up" filter
 #: (:func:`puppet.anim.sheet.write_png`): 11 ms of CPU per 1280x720 T-rex frame against
@@ -44,6 +45,13 @@ WEBM_OPTIONS = {"crf": "30", "b": "0", "cpu-used": "4", "row-mt": "1", "deadline
 GIF_SAMPLE_FRAMES, GIF_SAMPLE_PIXELS = 16, 1 << 20
 #: Sample frames kept (not drawn twice) while their RGBA bytes stay under this.
 GIF_SAMPLE_CACHE = 64 << 20
+#: Most numbers an export that holds every frame until its file is written (Spine, glTF)
+#: may take: frames x (vertices x numbers a vertex + layers x the cost of a layer's key,
+#: counted in numbers); refused up front above it. Measured (tracemalloc): Spine 17
+#: bytes a number (float32 offsets, their JSON text, one layer's text joined), glTF 13
+#: (float32 targets, the binary chunk) and ~1.5 kB per layer and frame (its accessor):
+#: about 0.7 and 0.5 GB at the limit.
+MAX_HELD = 40_000_000
 
 
 def flatten(rgba: np.ndarray, over=(255, 255, 255)) -> np.ndarray:
@@ -73,6 +81,42 @@ def stream(sink: "Sink", frames, **run) -> int:
         raise
     sink.close()
     return count
+
+
+def check_held(job, per_vertex: int, per_layer: int, what: str) -> None:
+    """Refuse, before any frame is solved, an export that would hold more than
+    :data:`MAX_HELD` numbers: ``job.count`` frames x (the scene's vertices x
+    ``per_vertex`` + its layers x ``per_layer``).
+
+    ``what`` names the format in the message (``"a Spine file"``).
+
+    Raises
+    ------
+    SceneError
+        One line with the frames, the vertices and layers, the product and the limit.
+    """
+    rest = job.scene.layers(pose="rest")
+    vertices = sum(len(r.rest) for r in rest)
+    held = job.count * (vertices * per_vertex + len(rest) * per_layer)
+    if held > MAX_HELD:
+        seconds = (job.count - 1) / job.fps
+        raise SceneError(f"-o {job.output!r}: {seconds:g} s at {job.fps:g} fps ({job.count} frames) x {vertices} "
+                         f"vertices in {len(rest)} layer{'s' if len(rest) != 1 else ''} would hold {held:.2g} numbers "
+                         f"({per_vertex} a vertex and {per_layer} a layer each frame), more than the {MAX_HELD:.2g} "
+                         f"that {what} may hold until it is written; export fewer frames (--fps, --from/--to) "
+                         "or use .html, which streams")
+
+
+def stage_bytes(staged: list, path: str, data: bytes, inputs=()) -> None:
+    """Write ``data`` in full beside ``path`` (a file whose name puppet picks: an atlas, a
+    page image) and append it to ``staged``, to be committed with the output
+    (:func:`puppet.output.commit_all`). Never through a link: a symlink at ``path`` is
+    refused (``follow=False``), as is an input of the scene or a folder there."""
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as f:
+            f.write(data)
+    staged.append(Staged(path, write, inputs=inputs, follow=False))
 
 
 class Sink:
@@ -215,11 +259,13 @@ def apng_sink(tmp: str, size, fps: float) -> AVSink:
 
 class SheetSink(Sink):
     """A sprite sheet PNG (see :mod:`puppet.anim.sheet`); with ``atlas`` = (atlas path,
-    sheet path, fps, inputs) its JSON atlas is written (atomically) when the sheet is done."""
+    sheet path, fps, inputs) its JSON atlas is written when the sheet is done: staged
+    into ``staged`` (committed with the sheet by the export), or, without it, put in
+    place at once; never through a link."""
 
-    def __init__(self, fp, lay, atlas: tuple | None = None):
+    def __init__(self, fp, lay, atlas: tuple | None = None, staged: list | None = None):
         super().__init__()
-        self.writer, self.lay, self.atlas = SheetWriter(fp, lay), lay, atlas
+        self.writer, self.lay, self.atlas, self.staged = SheetWriter(fp, lay), lay, atlas, staged
 
     def add(self, rgba: np.ndarray) -> None:
         self.writer.add(rgba)
@@ -229,4 +275,7 @@ class SheetSink(Sink):
         self.writer.close()
         if self.atlas is not None:
             path, sheet, fps, inputs = self.atlas
-            write_text(path, atlas_text(self.lay, os.path.basename(sheet), fps), inputs=inputs)
+            staged = [] if self.staged is None else self.staged
+            stage_bytes(staged, path, atlas_text(self.lay, os.path.basename(sheet), fps).encode("utf-8"), inputs)
+            if self.staged is None:
+                staged[0].commit()

@@ -28,23 +28,29 @@ the draw order follows each layer's mean depth), holes and separate pieces of on
 vertices follow as ordinary vertices; the triangles still draw them), the background.
 
 Memory: the deform keys of every frame are held until the JSON is written (as the file
-holds them): frames x vertices x 8 bytes.
+holds them): frames x vertices x 8 bytes as float32 (one array a frame), then each
+layer's timeline as JSON text (the file's text is never made as one string); frames x
+(vertices x 2 + layers x 4) is bounded by :data:`puppet.anim.sinks.MAX_HELD`, refused
+before any frame is solved.
 """
 from __future__ import annotations
 
 import base64
 import hashlib
+import io
 import json
 import os
 import re
+import uuid
 
 import numpy as np
 
+from puppet.anim.sheet import write_png
 from puppet.anim.sidefiles import spine_side
-from puppet.anim.sinks import Sink
+from puppet.anim.sinks import Sink, check_held, stage_bytes
 from puppet.errors import SceneError
 from puppet.geom.mesh import boundary_edges, edges
-from puppet.output import save_png, write_text
+from puppet.output import check_file
 
 SPINE_VERSION = "4.2.0"
 #: Largest atlas page side; more pages are made when the layers do not fit in one.
@@ -53,12 +59,20 @@ PAGE_SIDE = 4096
 PAD = 2
 #: Decimals of vertices and offsets (0.005 px at most off).
 DECIMALS = 2
+#: zlib level of the atlas pages.
+PNG_LEVEL = 6
 
 
 def page_path(path: str, k: int) -> str:
     """Atlas page ``k`` beside ``NAME.json``: ``NAME.png``, ``NAME_2.png``, ..."""
     stem = spine_side(path)[1][:-4]
     return f"{stem}.png" if k == 0 else f"{stem}_{k + 1}.png"
+
+
+def check_size(job, draw=None) -> None:
+    """The format's ``prepare``: refuse more frames x vertices than
+    :data:`puppet.anim.sinks.MAX_HELD` allows, before anything is solved."""
+    check_held(job, 2, 4, "a Spine file")
 
 
 def to_spine(xy: np.ndarray, canvas) -> np.ndarray:
@@ -124,11 +138,11 @@ def pack(sizes: list[tuple[int, int]], side: int = PAGE_SIDE, pad: int = PAD) ->
 
 
 def region_names(names: list[str]) -> list[str]:
-    """Atlas region names: no colon or line break (the atlas is ``key: value`` lines),
-    no outer spaces, unique."""
+    """Atlas region names: no colon or line break (the atlas is ``key: value`` lines), no
+    lone surrogate (the atlas is UTF-8 text), no outer spaces, unique."""
     out, used = [], set()
     for name in names:
-        base = re.sub(r"[:\r\n]+", "_", name).strip() or "layer"
+        base = re.sub("[:\r\n\ud800-\udfff]+", "_", name).strip() or "layer"
         cand, k = base, 2
         while cand in used:
             cand, k = f"{base}_{k}", k + 1
@@ -158,6 +172,45 @@ def _r(a: np.ndarray) -> list[float]:
     return [float(v) for v in np.round(np.asarray(a, np.float64).reshape(-1), DECIMALS)]
 
 
+class _Held:
+    """Deform timelines as JSON text, kept apart from the document: in the document each
+    is a marker string, which :meth:`parts` swaps for the timeline's text (the text of the
+    whole file is never made as one string)."""
+
+    def __init__(self):
+        self.token = f"puppet-timeline-{uuid.uuid4().hex}-"
+        self.timelines: list[str] = []
+
+    def add(self, keys: list[str]) -> str:
+        """Keep the timeline of these keys (JSON texts) as one string; its marker."""
+        self.timelines.append("[" + ",".join(keys) + "]")
+        return f"{self.token}{len(self.timelines) - 1}"
+
+    def parts(self, text: str):
+        """The pieces of the document ``text`` (JSON) with every marker replaced, in order."""
+        for k, piece in enumerate(re.split(f'"{re.escape(self.token)}(\\d+)"', text)):
+            if k % 2 == 0:
+                yield piece
+            else:
+                yield self.timelines[int(piece)]
+
+
+class _Offsets:
+    """Deform offsets, one float32 (vertices, 2) array a frame for every layer together
+    (no array object per layer and frame); :meth:`layer` gives one layer's frames."""
+
+    def __init__(self, starts: list[int]):
+        self.starts = starts  # layer i is rows starts[i]:starts[i + 1]
+        self.frames: list[np.ndarray] = []
+
+    def append(self, offs: list[np.ndarray]) -> None:
+        self.frames.append(np.concatenate(offs) if offs else np.zeros((0, 2), np.float32))
+
+    def layer(self, i: int) -> list[np.ndarray]:
+        a, b = self.starts[i], self.starts[i + 1]
+        return [f[a:b] for f in self.frames]
+
+
 class SpineSink(Sink):
     """Collects each frame's deform offsets and draw order; writes the JSON (to
     ``job.tmp``), the atlas and its pages when closed."""
@@ -181,13 +234,15 @@ class SpineSink(Sink):
         self.rest_xy = [np.asarray(r.rest, np.float64) for r in rest]
         self.triangles = [np.asarray(r.triangles, np.int64).reshape(-1, 3) for r in rest]
         self.setup = [to_spine(xy[p], self.canvas) for xy, p in zip(self.rest_xy, self.perm)]
-        self.keys: list[list[np.ndarray]] = [[] for _ in rest]
+        self.keys = _Offsets(np.concatenate([[0], np.cumsum([len(r.rest) for r in rest])]).astype(int).tolist())
         self.orders: list[list[int]] = []
         crops = [scene.built.images[i].drawn[0] for i in self.slots]
         try:
             self.place = pack([(c.shape[1], c.shape[0]) for c in crops], side=PAGE_SIDE)
         except ValueError as e:  # before any frame is solved
             raise SceneError(f"-o {job.output!r}: {e}; Spine atlas pages are at most {PAGE_SIDE} px") from None
+        for k in range(1 + max((p for p, _, _ in self.place), default=0)):  # before any frame is solved
+            check_file(page_path(job.output, k), inputs=job.inputs, follow=False)
         self.poses = {name: self._pose(scene.layers(pose=name)) for name in scene.data.poses}
 
     def _pose(self, layers) -> tuple[list[np.ndarray], list[int]]:
@@ -197,18 +252,21 @@ class SpineSink(Sink):
 
     def add(self, layers) -> None:
         offs, order = self._pose(layers)
-        for k, o in enumerate(offs):
-            self.keys[k].append(o)
+        self.keys.append(offs)
+        if self.orders and order == self.orders[-1]:
+            order = self.orders[-1]  # one list for a run of frames in the same order
         self.orders.append(order)
         self.frames += 1
 
     # -- writing -------------------------------------------------------------------
-    def _animation(self, keys: list[list[np.ndarray]], orders: list[list[int]]) -> dict:
+    def _animation(self, keys: _Offsets, orders: list[list[int]], held: _Held) -> dict:
+        """One animation; each deform timeline is JSON text kept in ``held`` (made a key
+        at a time: no float objects for every frame), its place in the dict a marker."""
         fps = self.job.fps
         slot_names = [self.names[i] for i in self.slots]
         deform: dict = {}
         for i in self.slots:
-            frames = keys[i]
+            frames = keys.layer(i)
             if not any(np.any(np.abs(f) >= 0.5 * 10.0 ** -DECIMALS) for f in frames):
                 continue  # never moves: no timeline
             region = self.regions[self.slot_of[i]]
@@ -217,8 +275,8 @@ class SpineSink(Sink):
                 key: dict = {"time": round(f / fps, 6)}
                 if np.any(np.abs(off) >= 0.5 * 10.0 ** -DECIMALS):
                     key["vertices"] = _r(off)
-                timeline.append(key)
-            deform[self.names[i]] = {region: {"deform": timeline}}
+                timeline.append(json.dumps(key, separators=(",", ":")))
+            deform[self.names[i]] = {region: {"deform": held.add(timeline)}}
         anim: dict = {}
         if deform:
             anim["attachments"] = {"default": deform}
@@ -256,9 +314,12 @@ class SpineSink(Sink):
 
     def close(self) -> None:
         images = [im.drawn for im in self.job.scene.built.images]
-        anims = {"animation": self._animation(self.keys, self.orders)}
+        held = _Held()
+        anims = {"animation": self._animation(self.keys, self.orders, held)}
         for name, (offs, order) in self.poses.items():
-            anims[name if name not in anims else f"pose_{name}"] = self._animation([[o] for o in offs], [order])
+            pose = _Offsets(self.keys.starts)
+            pose.append(offs)
+            anims[name if name not in anims else f"pose_{name}"] = self._animation(pose, [order], held)
         allxy = np.concatenate([s for s in self.setup if len(s)]) if any(len(s) for s in self.setup) \
             else np.zeros((1, 2))
         lo, hi = allxy.min(axis=0), allxy.max(axis=0)
@@ -269,13 +330,20 @@ class SpineSink(Sink):
             "skins": [self._skin(images)],
             "animations": anims,
         }
-        text = json.dumps(body, separators=(",", ":"))  # one shot: the C encoder (json.dump is pure Python)
-        digest = base64.b64encode(hashlib.sha1(text.encode()).digest())[:11].decode("ascii")
+        text = json.dumps(body, separators=(",", ":"))  # the C encoder (json.dump is pure Python)
+        sha = hashlib.sha1()
+        for part in held.parts(text):
+            sha.update(part.encode())
+        digest = base64.b64encode(sha.digest())[:11].decode("ascii")
         skeleton = {"hash": digest, "spine": SPINE_VERSION, "x": round(float(lo[0]), 2), "y": round(float(lo[1]), 2),
                     "width": round(float(hi[0] - lo[0]), 2), "height": round(float(hi[1] - lo[1]), 2),
                     "fps": self.job.fps, "images": "./", "audio": ""}
         with open(self.job.tmp, "w", encoding="utf-8") as f:
-            f.write('{"skeleton":' + json.dumps(skeleton, separators=(",", ":")) + "," + text[1:])
+            f.write('{"skeleton":' + json.dumps(skeleton, separators=(",", ":")) + ",")
+            parts = held.parts(text)
+            f.write(next(parts)[1:])
+            for part in parts:
+                f.write(part)
         self._write_atlas(images)
 
     def _write_atlas(self, images) -> None:
@@ -293,10 +361,12 @@ class SpineSink(Sink):
                 ch, cw = crops[j].shape[:2]
                 sheet[y:y + ch, x:x + cw] = crops[j]
             path = page_path(out, k)
-            save_png(path, sheet, inputs=self.job.inputs)
+            png = io.BytesIO()
+            write_png(png, sheet, PNG_LEVEL)
+            stage_bytes(self.job.staged, path, png.getvalue(), self.job.inputs)
             lines += [os.path.basename(path), f"\tsize: {w}, {h}", "\tfilter: Linear, Linear", "\tpma: false"]
             for j in mine:
                 _, x, y = place[j]
                 lines += [self.regions[j], f"\tbounds: {x}, {y}, {crops[j].shape[1]}, {crops[j].shape[0]}"]
             lines.append("")
-        write_text(spine_side(out)[0], "\n".join(lines), inputs=self.job.inputs)
+        stage_bytes(self.job.staged, spine_side(out)[0], "\n".join(lines).encode("utf-8"), self.job.inputs)

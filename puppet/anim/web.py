@@ -25,6 +25,7 @@ import io
 import json
 import math
 import os
+import re
 from importlib import resources
 
 import numpy as np
@@ -90,6 +91,47 @@ def layer_entry(result, image: np.ndarray, offset, base: int) -> dict:
             "triangles": _b64(np.concatenate([drawn, edges]).reshape(-1), "<u4")}
 
 
+#: What JSON inside a ``<script>`` element must not hold as it is: ``<`` (no ``</script>``,
+#: ``<!--`` or ``<script`` can start there), ``>`` and ``&`` (for good measure), and the
+#: line separators that older JavaScript parsers end a string at.
+_SCRIPT_JSON = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\u2028", "\u2029": "\\u2029"}
+_FIELD = re.compile(r"\{\{(\w+)\}\}")
+
+
+def script_json(value) -> str:
+    """``value`` as JSON that is safe as the text of a ``<script>`` element: the
+    characters of :data:`_SCRIPT_JSON` as ``\\uXXXX`` escapes (the same value to a JSON
+    parser), so no layer name can end the element or switch the HTML parser into its
+    escaped script states (``<!--<script>``)."""
+    text = json.dumps(value, separators=(",", ":"))
+    return re.sub("[<>&\u2028\u2029]", lambda m: _SCRIPT_JSON[m.group(0)], text)
+
+
+def script_code(text: str) -> str:
+    """Program text (the player) for a ``<script>`` element: it must not hold ``</script``,
+    ``<script`` or ``<!--``, which would end the element or change how HTML reads it
+    (it is puppet's own file: a ValueError, not a user error)."""
+    found = re.search(r"</?script|<!--", text, re.IGNORECASE)
+    if found:
+        raise ValueError(f"the player holds {found.group(0)!r}, which cannot appear inside <script>")
+    return text
+
+
+def _utf8(name: str) -> str:
+    """A file name as text the page can hold: bytes that are not UTF-8 (kept by Python as
+    lone surrogates) become U+FFFD."""
+    try:
+        return name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    except UnicodeEncodeError:
+        return name.encode("utf-8", "replace").decode("utf-8")
+
+
+def fill(template: str, values: dict[str, str]) -> str:
+    """Replace every ``{{name}}`` of ``template`` in one pass: a value is never read again
+    for fields (a scene named ``{{meta}}.json`` stays its name)."""
+    return _FIELD.sub(lambda m: values[m.group(1)], template)
+
+
 def _background(bg) -> tuple[list[float], str]:
     """(clear colour, straight RGBA 0..1; CSS background of the canvas)."""
     if isinstance(bg, np.ndarray) and bg.ndim == 3:
@@ -118,13 +160,12 @@ class HtmlSink(Sink):
         meta = {"puppet": 1, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,
                 "start": job.start, "count": job.count, "vertices": base, "quant": list(self.quant),
                 "depthStep": self.depth_step, "background": clear, "layers": entries}
-        title = html.escape(os.path.basename(scene.file or "puppet"))
+        title = html.escape(_utf8(os.path.basename(scene.file or "puppet")))
         page = resources.files("puppet.anim").joinpath("player.html").read_text("utf-8")
         head, self.tail = page.split("{{frames}}")
         w, h = job.size
-        self.fp.write(head.replace("{{title}}", title).replace("{{width}}", str(w))
-                      .replace("{{height}}", str(h)).replace("{{canvas_css}}", css)
-                      .replace("{{meta}}", json.dumps(meta, separators=(",", ":")).replace("</", "<\\/")))
+        self.fp.write(fill(head, {"title": title, "width": str(int(w)), "height": str(int(h)), "canvas_css": css,
+                                  "meta": script_json(meta)}))
 
     def add(self, layers) -> None:
         if self.quant is None:
@@ -138,7 +179,7 @@ class HtmlSink(Sink):
             if self.quant is None:
                 raise ValueError("no frames")
             script = resources.files("puppet.anim").joinpath("player.js").read_text("utf-8")
-            self.fp.write(self.tail.replace("{{player}}", script.replace("</", "<\\/")))
+            self.fp.write(fill(self.tail, {"player": script_code(script)}))
         finally:
             self.fp.close()
 

@@ -27,10 +27,15 @@ CODECS = {
 
 
 def output_kind(path: str) -> str:
-    """``dir``, ``mp4`` or ``webm`` from ``-o`` (a trailing slash or an existing folder is a folder)."""
-    if path.endswith(("/", os.sep)) or os.path.isdir(path):
+    """``dir``, ``mp4`` or ``webm`` from ``-o``: the path's form decides, as for
+    ``puppet animate`` (:func:`puppet.anim.formats.find`): a trailing slash, or an existing
+    folder without a known ending, is a frame folder; an existing folder at ``out.mp4``
+    stays an .mp4 output (refused by the output checker as a folder)."""
+    if path.endswith(("/", os.sep)):
         return "dir"
     ext = os.path.splitext(path)[1].lower()
+    if ext not in KINDS and os.path.isdir(path):
+        return "dir"
     if ext not in KINDS:
         raise SceneError(f"-o {path!r}: give an .mp4 or .webm file, or a folder (ending in /)")
     return KINDS[ext]

@@ -3,6 +3,7 @@ real browser (headless Chromium, WebGL2 through SwiftShader) each tested frame m
 ``puppet render --time`` (< 2 % of pixels off by more than 40 grey levels)."""
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from puppet.anim.web import Q, encode_frame, quantisation
+from puppet.anim.web import Q, encode_frame, fill, quantisation, script_code, script_json
 from puppet.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -55,6 +56,26 @@ def test_codes_clamp_far_outside_the_canvas():
     layers = [SimpleNamespace(deformed=np.array([[1e6, -1e6]]), depth=np.array([1e9]))]
     q = np.frombuffer(encode_frame(layers, quant, dstep), "<i2")
     assert q.tolist() == [Q, -Q, Q]
+
+
+def test_script_json_holds_no_markup_and_reads_back():
+    value = {"names": ["<!--<script>", "</script>", "a&b>c", "\u2028\u2029", "</SCRIPT"]}
+    text = script_json(value)
+    assert not re.search(r"[<>&\u2028\u2029]", text)
+    assert json.loads(text) == value
+
+
+def test_the_player_holds_nothing_that_ends_its_script():
+    from importlib import resources
+
+    script_code(resources.files("puppet.anim").joinpath("player.js").read_text("utf-8"))  # raises if it does
+    for bad in ("a = '</script>'", "x <!-- y", "s = '<SCRIPT>'"):
+        with pytest.raises(ValueError):
+            script_code(bad)
+
+
+def test_fill_reads_the_template_once():
+    assert fill("<title>{{title}}</title>{{meta}}", {"title": "{{meta}}", "meta": "M"}) == "<title>{{meta}}</title>M"
 
 
 CHARACTER = os.path.join(ROOT, "assets", "scenes", "character.json")
