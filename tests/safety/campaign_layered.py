@@ -1045,6 +1045,9 @@ except SceneError as e:
 def _cap(cap=MEMORY_CAP):
     resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
     os.setsid()
+    # a campaign started in the background (``... &``) has SIGINT ignored, and a child would
+    # inherit that: Python then installs no KeyboardInterrupt handler and the SIGINT cases test nothing
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def child_env(d):
@@ -1159,8 +1162,16 @@ def main() -> int:
             return 0
         # the slow ones first, so that two workers end together
         order = sorted(cases, key=lambda c: c.section not in ("5",))
+        done = []
+
+        def one(c):
+            r = run_case(c, template, args.timeout)
+            done.append(r)
+            if len(done) % 50 == 0:
+                print(f"... {len(done)}/{len(order)} cases, {time.monotonic() - t0:.0f} s", file=sys.stderr, flush=True)
+            return r
         with ThreadPoolExecutor(args.j) as pool:
-            results = list(pool.map(lambda c: run_case(c, template, args.timeout), order))
+            results = list(pool.map(one, order))
     finally:
         shutil.rmtree(template, ignore_errors=True)
     return report(results, time.monotonic() - t0, args.v)
@@ -1189,7 +1200,11 @@ def report(results, seconds, verbose) -> int:
     count = {k: sum(bool(r[k]) for r in results) for k in CATEGORIES}
     per = Counter(r["section"] for r in results if r["bad"])
     total = Counter(r["section"] for r in results)
-    print("\nper section (bad/cases): " + ", ".join(f"{s}: {per[s]}/{total[s]}" for s in sections if total[s]))
+    print("\nper section (bad/cases; categories):")
+    for sec in sections:
+        if total[sec]:
+            cats = Counter(k for r in results if r["section"] == sec for k in CATEGORIES if r[k])
+            print(f"  {sec:>4}: {per[sec]}/{total[sec]}  " + " ".join(f"{k} {cats[k]}" for k in CATEGORIES if cats[k]))
     setup = sum(bool(r.get("setup_error")) for r in results)
     print(f"cases {n} in {seconds:.0f} s, bad {sum(bool(r['bad']) for r in results)}"
           + (f", setup errors {setup}" if setup else ""))
