@@ -475,9 +475,11 @@ def section3(facts) -> list[Case]:
         ]
     cases.append(Case("app open: ART.json beside renamed art (an update)", "3",
                       script=APP.format(art="out/char.psd"),
-                      setup=[copy("in/char.psd", "out/char.psd"), app_open("out/char.psd"), copy("in/renamed.psd", "out/char.psd")],
+                      setup=[copy("in/char.psd", "out/char.psd"), app_open("out/char.psd"), copy("out/char.json", "char-before.json"),
+                             copy("in/renamed.psd", "out/char.psd")],
                       outputs=("out/char.json*", "out/char-layers", "out/char-layers/*", "out/char*.json"),
-                      checks=[backup_kept("out/char.json")], renders=("out/char.json",)))
+                      checks=[backup_kept("out/char.json"), pins_kept("out/char.json", "char-before.json")],
+                      renders=("out/char.json",)))
     return cases
 
 
