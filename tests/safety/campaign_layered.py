@@ -520,6 +520,11 @@ def section4(facts) -> list[Case]:
                           setup=[mkdir("out/ro"), copy(f"in/char.{fmt}", f"out/ro/char.{fmt}"),
                                  lambda d: subprocess.run(["mount", "--bind", "-o", "ro", os.path.join(d, "out/ro"),
                                                            os.path.join(d, "out/ro")], check=True, capture_output=True)]))
+    for fmt in ("psd", "ora", "kra"):  # the import succeeds, the scene it wrote is then refused by the load
+        cases.append(Case(f"app open: a {fmt} of 1x1 and 1x40 px layers only (imported, then refused)", "4",
+                          script=APP.format(art=f"out/tiny.{fmt}"), setup=[data(f"out/tiny.{fmt}", lambda p: write_art(
+                              p, [("tiny", None, solid(1, 1), (60, 60)), ("thin", None, solid(1, 40), (10, 10))], (100, 100)))],
+                          outputs=("out/tiny.json", "out/tiny-layers", "out/tiny-layers/*"), renders=("out/tiny.json",)))
     cases.append(Case("app open: a psd whose ART-layers/ is a file", "4", script=APP.format(art="out/char.psd"),
                       setup=[copy("in/char.psd", "out/char.psd"), write("out/char-layers", "x")]))
     return cases
