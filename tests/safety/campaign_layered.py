@@ -61,7 +61,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 sys.path.insert(0, ROOT)
 from tests import artfiles  # noqa: E402
 from tests.fstree import snapshot  # noqa: E402
-from tests.imaging.test_layered_zip import lzf_compress, tile_file, write_kra  # noqa: E402
+from tests.imaging.test_layered_zip import lzf_compress, tile_file  # noqa: E402
 from tests.safety.campaign_files import fifo, link, unmount_under, write  # noqa: E402
 
 MEMORY_CAP = 4 << 30  # bytes of address space per case (the machine has 23 GB and 2 cores)
