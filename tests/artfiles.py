@@ -117,3 +117,50 @@ def write_ora(path: str, recolour: str | None = None, *, extra: dict | None = No
         z.writestr("stack.xml", "\n".join(xml))
         for k, v in members.items():
             z.writestr(k, v, compress_type=zipfile.ZIP_DEFLATED)
+
+
+# -- any layer list, for the attack campaigns (tests/safety/campaign_layered.py) ----------------------
+def write_psd_layers(path: str, items, canvas=CANVAS, *, version: int = 1, hidden=()) -> None:
+    """A PSD (``version=2``: PSB) of ``items`` = (name, group or None, rgba, (x, y)) back to
+    front; layers named in ``hidden`` are saved hidden."""
+    from PIL import Image
+    from psd_tools import PSDImage
+
+    psd = PSDImage.new("RGBA", tuple(canvas), color=(0, 0, 0, 0))
+    psd._record.header.version = version
+    groups = {}
+    for name, group, rgba, (x, y) in items:
+        if group is not None and group not in groups:
+            groups[group] = psd.create_group(name=group)
+        layer = groups.get(group, psd).create_pixel_layer(Image.fromarray(rgba), name=name, top=y, left=x)
+        if name in hidden:
+            layer.visible = False
+    psd.save(path)
+
+
+def png_bytes(rgba: np.ndarray) -> bytes:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(rgba).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def write_ora_layers(path: str, items, canvas=CANVAS, *, extra: dict | None = None) -> None:
+    """An OpenRaster file of ``items`` = (name, group or None, rgba, (x, y)) back to front
+    (one PNG member per layer, names escaped in the XML); ``extra``: more members."""
+    from xml.sax.saxutils import quoteattr
+
+    members = {}
+
+    def leaf(k, name, rgba, x, y):
+        members[f"data/layer{k}.png"] = png_bytes(rgba)
+        return f'<layer name={quoteattr(name)} src="data/layer{k}.png" x="{x}" y="{y}"/>'
+    xml = [f'<?xml version="1.0" encoding="UTF-8"?><image version="0.0.3" w="{canvas[0]}" h="{canvas[1]}"><stack>']
+    xml += tree_xml(items, lambda g: f"<stack name={quoteattr(g)}>", "</stack>", leaf)
+    xml.append("</stack></image>")
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr(zipfile.ZipInfo("mimetype"), "image/openraster")
+        z.writestr("stack.xml", "\n".join(xml))
+        for k, v in dict(members, **(extra or {})).items():
+            z.writestr(k, v, compress_type=zipfile.ZIP_DEFLATED)
