@@ -25,7 +25,8 @@ from puppet.scene.document.edits import Edits
 from puppet.scene.document.files import PendingFiles
 from puppet.scene.document.history import Event, Events, History, Step
 from puppet.scene.document.key_edits import KeyEdits
-from puppet.scene.drag.session import DragSession
+from puppet.scene.drag.session import DragSession, drag_solver
+from puppet.scene.format import args as ck
 from puppet.scene.format.extensions import UNDERLAY_DEFAULTS
 from puppet.scene.format.inputs import input_files
 from puppet.scene.format.load import Ctx, _pose, parse_scene, read_json
@@ -59,6 +60,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         self._set(doc, "rest", build=False)
 
     @classmethod
+    @ck.checked(path=ck.path)
     def load(cls, path: str):
         """Read and validate a scene file (raises SceneError)."""
         path = os.path.abspath(path)
@@ -69,6 +71,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         return cls(raw, path)
 
     @classmethod
+    @ck.checked(image=ck.path, layer=ck.text, scene_file=ck.optional(ck.path))
     def from_image(cls, image: str, *, layer: str = "layer1", scene_file: str | None = None):
         """A new one-layer scene over a picture: the picture is the scene's ``source``
         (the template that layers take pixels from) and the first layer takes all of it
@@ -120,6 +123,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         return True
 
     @contextlib.contextmanager
+    @ck.checked(label=ck.text)
     def block(self, label: str):
         """Record every edit made inside as one undo step (a whole drag, a paste)."""
         self.history.open((self._doc, self._active), label)
@@ -207,12 +211,14 @@ class Document(Edits, KeyEdits, DeformEdits):
     def pose_names(self) -> list[str]:
         return ["rest"] + list(self.data.poses)
 
+    @ck.checked(pose=ck.pose_like, where=ck.text)
     def parse_pose(self, pose: dict, where: str = "pose") -> dict[str, Target]:
         """An ad-hoc pose (same form as a pose in the file) checked like one."""
         d = self.data
         names = {L.name: L.index for L in d.layers}
         return _pose(Ctx(self.file), pose, where, {p.name: i for i, p in enumerate(d.pins)}, d.layers, names)
 
+    @ck.checked(pose=ck.pose_like, time=ck.optional(ck.TIME))
     def state(self, pose: PoseLike = None, time: float | None = None) -> ev.PinState:
         """Pin targets for a pose (a name, an ad-hoc dict, or None for the active pose) or a time."""
         if pose is not None and time is not None:
@@ -249,6 +255,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             return ev.rest_state(self.data, self.built.exterior)
         return ev.pose_state(self.data, self.built.exterior, self.data.poses[pose])
 
+    @ck.checked(pose=ck.pose_like, time=ck.optional(ck.TIME))
     def layers(self, pose: PoseLike = None, time: float | None = None) -> list[LayerResult]:
         """Deformed meshes and depths of every layer in a pose or at a time (the
         animation's in-between: see :mod:`puppet.scene.time.inbetween`)."""
@@ -257,6 +264,8 @@ class Document(Edits, KeyEdits, DeformEdits):
             return layers_at(self.rig, self.built, self.tracks(), time)
         return self.rig.evaluate(self.built, self.state(pose, time))
 
+    @ck.checked(names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag, iterations=ck.ITERATIONS,
+                solver=ck.optional(drag_solver))
     def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4, solver=None):
         """Start a drag of pins ``names`` (one name or a list): in the active pose, keyed
         at ``time``, or a recording from ``time``; previews solved in ``solver`` (a
@@ -264,6 +273,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         :class:`puppet.scene.drag.session.DragSession`)."""
         return DragSession(self, names, time, record=record, iterations=iterations, solver=solver)
 
+    @ck.checked(pose=ck.pose_like, time=ck.optional(ck.TIME))
     def mesh(self, pose: PoseLike = None, time: float | None = None) -> dict:
         """The meshes as data, as ``puppet mesh`` writes them."""
         res = self.layers(pose, time)
@@ -319,10 +329,12 @@ class Document(Edits, KeyEdits, DeformEdits):
         return notes + list(self.built.notes)
 
     # -- files -------------------------------------------------------------------
+    @ck.checked(folder=ck.path)
     def to_json(self, folder: str) -> dict:
         """The scene JSON as it is now, with every file path relative to ``folder``."""
         return map_paths(self.to_dict(), relative_to(folder))
 
+    @ck.checked(path=ck.path, copy=ck.flag, follow=ck.flag)
     def save(self, path: str, *, copy: bool = False, follow: bool = True) -> None:
         """Write the scene as it is now, atomically; file paths inside are written relative
         to the new location, so the saved scene loads and renders the same pixels.
@@ -348,6 +360,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         if moved and not copy:  # from now on the scene reads the saved copies (same pixels, same keys)
             self._set(doc, self._active)
 
+    @ck.checked(folder=ck.path)
     def adopt_files(self, folder: str) -> None:
         """Own again the pixels this scene reads from ``folder`` (an autosave's
         ``NAME.autosave.files/``), so that saving writes them into ``SCENE.files/``."""
@@ -358,6 +371,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         if mine:
             self._set(map_paths(self._doc, lambda p: mine.get(p, p)), self._active)
 
+    @ck.checked(path=ck.path, pose=ck.pose_like, time=ck.optional(ck.TIME))
     def write_mesh(self, path: str, pose: PoseLike = None, time: float | None = None) -> None:
         """Write :meth:`mesh` as JSON (``puppet mesh``), through :mod:`puppet.output`."""
         text = json.dumps(self.mesh(pose, time), separators=(",", ":"))
