@@ -96,6 +96,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             self._built = self.rig.build(self._data)
         return self._built
 
+    @ck.checked()
     def to_dict(self) -> dict:
         """The scene JSON as it is now (paths absolute), a copy."""
         return json.loads(json.dumps(self._doc))
@@ -132,6 +133,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         finally:
             self.history.close((self._doc, self._active))
 
+    @ck.checked()
     def undo(self) -> bool:
         """Go back one step; False when there is nothing to undo."""
         if not self.history.can_undo():
@@ -142,6 +144,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         self.events.emit(Event("undo", level="mesh", label=step.label))
         return True
 
+    @ck.checked()
     def redo(self) -> bool:
         """Redo the last undone step; False when there is nothing to redo."""
         if not self.history.can_redo():
@@ -153,6 +156,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         return True
 
     # -- drawing facts -----------------------------------------------------------
+    @ck.checked()
     def background(self):
         """The background: an RGBA colour tuple, or the background image (read once per file)."""
         bg = self.data.background
@@ -169,6 +173,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             return None
         return {**UNDERLAY_DEFAULTS, **u}
 
+    @ck.checked()
     def underlay_image(self):
         """The underlay picture as (h, w, 4) uint8 RGBA (read once per file), or None."""
         u = self.underlay
@@ -208,6 +213,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         """The pose that :meth:`layers` and ``render()`` show with no argument."""
         return self._active
 
+    @ck.checked()
     def pose_names(self) -> list[str]:
         return ["rest"] + list(self.data.poses)
 
@@ -241,6 +247,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             raise SceneError(f"time must be a number >= 0, got {time}", file=self.file)
         return float(time)
 
+    @ck.checked()
     def tracks(self) -> Tracks:
         """The animation's keys as per-pin tracks (built once per version of the scene)."""
         built = self.built
@@ -290,6 +297,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         } for r in res]
         return out
 
+    @ck.checked()
     def summary(self) -> str:
         """A few lines on the scene: layers, groups, vertices, triangles, and what is not applied yet."""
         built, d = self.built, self.data
@@ -313,6 +321,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         lines += [f"  note: {n}" for n in self.not_applied()]
         return "\n".join(lines)
 
+    @ck.checked()
     def not_applied(self) -> list[str]:
         """Things the scene asks for that this version accepts but does not apply."""
         d = self.data

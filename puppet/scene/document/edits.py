@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+
 from puppet.errors import SceneError
 from puppet.imaging.io import load_rgba
 from puppet.scene.document.files import mask_rgba
@@ -227,7 +229,8 @@ class Edits:
     def set_layer_pixels(self, name: str, rgba) -> bool:
         """A layer's own pixels ((h, w, 4) uint8, placed at its offset): a repainted or
         cloned layer. Kept as a PNG until :meth:`save` writes it beside the scene."""
-        path = self.pending.add(rgba, name)
+        self._layer(self._doc, name)  # an unknown layer is refused before a PNG is written
+        path = self.pending.add(rgba if rgba.dtype == np.uint8 else np.rint(rgba), name)
 
         def m(doc):
             self._layer(doc, name)["image"] = path
@@ -362,7 +365,8 @@ class Edits:
             raise self._fail(f"no pin or exterior point named {pin!r}")
 
     # app-only settings ----------------------------------------------------------------
-    @ck.checked(image=ck.optional(ck.path), opacity=ck.number(0, 1), offset=ck.point, scale=ck.number(1e-3, 1e3, lo_open=True))
+    @ck.checked(image=ck.optional(ck.path), opacity=ck.number(0, 1), offset=ck.point,
+                scale=ck.number(1e-3, 1e3, lo_open=True))
     def set_underlay(self, image: str | None, *, opacity: float = 0.5, offset=(0.0, 0.0), scale: float = 1.0) -> bool:
         """The reference picture drawn under the canvas by the app (None removes it);
         stored under the scene's ``app`` key, which render ignores."""
@@ -409,8 +413,9 @@ def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
             raise SceneError(f"a layer has no field {k!r} (fields: {', '.join(known)})")
         if v is None and not keep_none:
             continue
-        if k == "offset" and v is not None:
-            v = _xy(v)
+        if k == "offset" and isinstance(v, list) and len(v) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+            v = _xy(v)  # numbers as floats; anything else is reported by the validation, with its path
         if k in ("mask", "stiffness") and isinstance(v, dict) and isinstance(v.get("file"), str):
             v = dict(v, file=os.path.abspath(v["file"]))
         out[k] = v

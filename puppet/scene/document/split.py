@@ -64,7 +64,7 @@ def region_mask(region, canvas: tuple[int, int], offset, shape: tuple[int, int],
 
 
 def _short(v) -> str:
-    text = repr(v)
+    text = " ".join(repr(v).split())  # one line: an array's repr has several
     return text if len(text) <= 60 else text[:57] + "..."
 
 

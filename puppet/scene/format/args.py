@@ -71,7 +71,12 @@ def describe(v: Any) -> str:
         return f"an array of shape {v.shape} and type {v.dtype}"
     if isinstance(v, str):
         return f"the string {short(v)}"
-    return short(v)
+    try:
+        text = repr(v)
+    except Exception:  # noqa: BLE001 (a user's object whose repr fails is still named)
+        text = f"a {type(v).__name__}"
+    text = " ".join(text.split()) if "\n" in text else text  # one line: an array's repr has several
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def checked(**checks: Check):
