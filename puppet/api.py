@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from puppet.errors import SceneError
 from puppet.render.layers import DrawLayer
 from puppet.scene.document.core import Document, PoseLike
 from puppet.scene.drag.session import DragSession, drag_solver, drag_targets
@@ -41,6 +42,7 @@ class Scene(Document):
         self._compositor = None
         self._own_compositor = False
         self._reduced_rest: dict[str, tuple] = {}  # layer -> (rest, shrunk image, rest scaled to it)
+        self._drawable: set[tuple[int, int]] = set()  # frame sizes this machine's GL was found to draw
 
     @property
     def compositor(self):
@@ -82,12 +84,30 @@ class Scene(Document):
                 for r, im in zip(layers, self.built.images)]
         if reduce > 1:
             draw = [self._reduced(L, k, reduce) for L, k in zip(draw, self.built.image_keys)]
+        self._check_drawable(size or self.canvas)
         if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
             names = [L.name for L in self.data.layers]
             self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
         return self.compositor.render(draw, self.canvas, size=size,
                                       background=self.background() if background is None else background,
                                       wireframe=wireframe)
+
+    def _check_drawable(self, size: tuple[int, int]) -> None:
+        """Refuse, in one line, a frame size that this machine's OpenGL cannot draw (found
+        once per size; only with the scene's own compositor: a shared one's context is
+        its owner's to check)."""
+        size = (int(size[0]), int(size[1]))
+        if size in self._drawable:
+            return
+        comp = self.compositor
+        if self._own_compositor:
+            from puppet.render.context import output_size_problem  # lazy: moderngl, only once a scene draws
+
+            problem = output_size_problem(comp.ctx, size)
+            if problem:
+                raise SceneError(f"draw: a frame of {size[0]}x{size[1]} pixels cannot be drawn: {problem}",
+                                 file=self.file)
+        self._drawable.add(size)
 
     def _reduced(self, L, image_key: str, reduce: int):
         """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled

@@ -214,7 +214,8 @@ def _hostile_call(obj, folder, name, args, kwargs, data, scene=None):
         scene.history.redo_stack.clear()
 
 
-HOSTILE_SETTINGS = settings(max_examples=40, deadline=None, database=None,
+#: PUPPET_API_ARGS_EXAMPLES=500 for a longer search
+HOSTILE_SETTINGS = settings(max_examples=int(os.environ.get("PUPPET_API_ARGS_EXAMPLES", "40")), deadline=None, database=None,
                             suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
@@ -324,3 +325,18 @@ def test_drawing_drag_methods_check_first(scene, folder, name, data):
         d.cancel()
         while scene.undo():
             pass
+
+
+@pytest.mark.gl
+def test_a_size_this_machines_gl_cannot_draw_is_refused_in_one_line(folder, monkeypatch):
+    import puppet.render.context as context
+
+    s = puppet.load_scene(str(folder / "scene.json"))
+    try:
+        monkeypatch.setattr(context, "max_output_size", lambda ctx: 64)
+        with pytest.raises(SceneError, match=re.escape("draw: a frame of 100x40 pixels cannot be drawn: this machine's "
+                                                       "OpenGL draws at most 64x64")):
+            s.render(size=(100, 40))
+        assert s.render(size=(64, 32)).shape == (32, 64, 4)
+    finally:
+        s.close()
