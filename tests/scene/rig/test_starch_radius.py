@@ -1,6 +1,7 @@
 """A starch pin's radius: every value the format allows (0 < radius <= 1e4) gives a
 sensible stiffening and no warning (issue 30, case 9: 1e-300 printed numpy's
-RuntimeWarning and a source line), through the API and through the command line."""
+RuntimeWarning and a source line), through the API and through the command line; and
+other tiny or huge values the format allows warn nothing either."""
 from __future__ import annotations
 
 import os
@@ -14,8 +15,22 @@ import pytest
 from puppet.scene.document.core import Document
 from puppet.scene.rig.stiffness import _reach
 from tests.conftest import bar_image, bar_scene
+from tests.scene.document.test_edits import three_bars
 
 RADII = [1e-300, 5e-324, 1e-160, 1e-3, 1.0, 40.0, 1e4]
+
+#: other extreme values the format allows (each gave, or could give, a numpy warning)
+EXTREMES = {
+    "exterior beta 1e-300": lambda s: s["layers"][0].update(exterior={"beta": 1e-300}),
+    "deformer alpha 1e-300": lambda s: s.update(deformer={"alpha": 1e-300}),
+    "mls alpha 1e-300": lambda s: s.update(deformer={"alpha": 1e-300, "method": "mls"}),
+    "link strength 1e-300": lambda s: s["links"][0].update(strength=1e-300),
+    "fps 1e-300": lambda s: s["animation"].update(fps=1e-300),
+    "key time 5e-324": lambda s: s["animation"]["keys"][1].update(time=5e-324),
+    "target 5e-324": lambda s: s["poses"]["up"].update(a2=[1e-300, 5e-324]),
+    "min_angle 1e-300": lambda s: s["layers"][0].update(mesh={"min_angle": 1e-300}),
+    "angle 3600": lambda s: s["poses"]["up"].update(c1={"to": [150, 55], "angle": 3600}),
+}
 
 
 def starch_scene(radius: float) -> dict:
@@ -44,6 +59,19 @@ def test_the_bump_is_the_formula_and_a_tiny_radius_stiffens_only_the_pin():
     with np.errstate(all="raise"):
         tiny = (1 - _reach(V, (0.0, 0.0), 1e-300) ** 2) ** 2
     np.testing.assert_array_equal(tiny, [1.0, 0.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("name", sorted(EXTREMES))
+def test_extreme_values_the_format_allows_warn_nothing(make_scene, name):
+    scene = three_bars()
+    EXTREMES[name](scene)
+    path = make_scene(scene, {"bar.png": bar_image()})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        doc = Document.load(path)
+        for layers in (doc.layers("up"), doc.layers(time=0.5), doc.layers(time=doc.duration())):
+            assert all(np.isfinite(r.deformed).all() for r in layers)
+        doc.summary()
 
 
 def _cli(*args, cwd):
