@@ -147,6 +147,7 @@ class Drag(DragSession):
     :data:`PREVIEW_PIXELS` pixels; the released frame is full size.
     """
 
+    @ck.checked("Drag", size=ck.optional(ck.size))
     def __init__(self, scene: Scene, names, time=None, *, record=False, iterations=4, size=None, solver=None):
         super().__init__(scene, names, time, record=record, iterations=iterations, solver=solver)
         self.size = size

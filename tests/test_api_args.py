@@ -13,6 +13,7 @@ import pathlib
 import re
 import subprocess
 import sys
+import types
 
 import numpy as np
 import pytest
@@ -241,6 +242,17 @@ def test_hostile_drag_arguments(scene, folder, name, data):
         d.cancel()
         while scene.undo():
             pass
+
+
+@HOSTILE_SETTINGS
+@given(data=st.data())
+def test_hostile_arguments_to_make_a_drag(scene, folder, data):
+    """``DragSession(doc, names, ...)`` and ``Drag(scene, ...)`` made directly check theirs too."""
+    makers = types.SimpleNamespace(DragSession=DragSession, Drag=Drag)
+    name = data.draw(st.sampled_from(["DragSession", "Drag"]))
+    kwargs = {"time": None, "record": False, "iterations": 4, "solver": None}
+    _hostile_call(makers, folder, name, (scene, "a1"), dict(kwargs, size=(50, 40)) if name == "Drag" else kwargs,
+                  data, scene=scene)
 
 
 @pytest.mark.parametrize("name", ["load", "from_image"])

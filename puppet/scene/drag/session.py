@@ -57,6 +57,13 @@ def drag_solver(v, a: ck.Arg):
     return v
 
 
+def _document(v, a: ck.Arg):
+    """A drag's document: anything with a scene's ``data``, ``built`` and ``events``."""
+    if not all(hasattr(v, k) for k in ("data", "built", "events", "file")):
+        raise a.fail("be a scene (puppet.api.Scene or a Document)", v)
+    return v
+
+
 def drag_targets(v, a: ck.Arg):
     """Where to put the dragged pins: ``(x, y)`` or ``{name: (x, y)}``."""
     if isinstance(v, Mapping):
@@ -90,6 +97,8 @@ class DragSession:
         ARAP iterations per preview frame, warm-started from the previous frame.
     """
 
+    @ck.checked("DragSession", doc=_document, names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag,
+                iterations=ck.ITERATIONS, solver=ck.optional(drag_solver))
     def __init__(self, doc, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
                  solver=None):
         names = [names] if isinstance(names, str) else list(names)

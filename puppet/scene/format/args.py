@@ -54,15 +54,21 @@ class Arg:
     def fail(self, must: str, got: Any = None, *, show: bool = True) -> SceneError:
         """``METHOD: NAME must MUST, got GOT``, naming the owner's scene file."""
         tail = f", got {describe(got)}" if show else ""
-        return SceneError(f"{self.method}: {self.name} must {must}{tail}", file=_file_of(self.owner))
+        return SceneError(f"{self.method}: {self.name} must {must}{tail}", file=_file_of(self.owner, self.args))
 
 
 Check = Callable[[Any, Arg], Any]
 
 
-def _file_of(owner) -> str | None:
-    doc = getattr(owner, "doc", owner)  # a drag session names its document's file
-    return getattr(doc, "file", None)
+def _file_of(owner, args: Mapping | None = None) -> str | None:
+    """The scene file to name: the owner's, a drag session's document's, or (a drag
+    session being made) that of its ``doc`` or ``scene`` argument."""
+    args = args or {}
+    for doc in (getattr(owner, "doc", None), args.get("doc"), args.get("scene"), owner):
+        file = getattr(doc, "file", None)
+        if isinstance(file, str):
+            return file
+    return None
 
 
 def describe(v: Any) -> str:
@@ -79,11 +85,13 @@ def describe(v: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def checked(**checks: Check):
+def checked(_name: str | None = None, /, **checks: Check):
     """Decorate a method: each named argument is passed through its check (in the order
     given) before the method runs; a call that does not fit the signature is a
-    SceneError too. The wrapper carries ``__checks__`` (the names checked)."""
+    SceneError too. ``_name`` names the method in messages (default: its own name; a
+    class for its ``__init__``). The wrapper carries ``__checks__`` (the names checked)."""
     def wrap(fn):
+        name = _name or fn.__name__
         sig = inspect.signature(fn)
         unknown = set(checks) - set(sig.parameters)
         if unknown:
@@ -94,11 +102,11 @@ def checked(**checks: Check):
             try:
                 bound = sig.bind(self, *args, **kwargs)
             except TypeError as e:
-                raise SceneError(f"{fn.__name__}: {e}", file=_file_of(self)) from None
+                raise SceneError(f"{name}: {e}", file=_file_of(self)) from None
             values = bound.arguments
-            for name, check in checks.items():
-                if name in values:
-                    values[name] = check(values[name], Arg(self, fn.__name__, name, values))
+            for arg, check in checks.items():
+                if arg in values:
+                    values[arg] = check(values[arg], Arg(self, name, arg, values))
             return fn(*bound.args, **bound.kwargs)
         method.__checks__ = tuple(checks)
         return method
