@@ -89,6 +89,17 @@ def test_the_command_line_prints_nothing_on_stderr(make_scene, tmp_path):
     assert r.stderr == ""
 
 
+
+def test_the_command_line_prints_nothing_for_the_other_extremes(make_scene, tmp_path):
+    scene = three_bars()
+    for name in ("exterior beta 1e-300", "deformer alpha 1e-300", "link strength 1e-300", "fps 1e-300"):
+        EXTREMES[name](scene)
+    path = make_scene(scene, {"bar.png": bar_image()})
+    for args in (["mesh", path, "--time", "0.5", "-o", str(tmp_path / "m.json")], ["check", path]):
+        r = _cli(*args, cwd=tmp_path)
+        assert (r.returncode, r.stderr) == (0, "")
+
+
 @pytest.mark.gl
 def test_render_prints_nothing_on_stderr(make_scene, tmp_path):
     path = make_scene(starch_scene(1e-300), {"bar.png": bar_image()})
