@@ -90,6 +90,7 @@ def test_the_command_line_prints_nothing_on_stderr(make_scene, tmp_path):
 
 
 
+@pytest.mark.slow  # four commands
 def test_the_command_line_prints_nothing_for_the_other_extremes(make_scene, tmp_path):
     scene = three_bars()
     for name in ("exterior beta 1e-300", "deformer alpha 1e-300", "link strength 1e-300", "fps 1e-300"):
