@@ -352,3 +352,17 @@ def test_a_size_this_machines_gl_cannot_draw_is_refused_in_one_line(folder, monk
         assert s.render(size=(64, 32)).shape == (32, 64, 4)
     finally:
         s.close()
+
+
+@pytest.mark.parametrize("call", [
+    lambda s: s.set_layer_pixels("a", np.zeros((40, 120, 4), np.uint8)),  # all transparent: selects nothing
+    lambda s: s.set_mask_pixels("a", np.zeros((40, 120), bool)),
+    lambda s: s.split_layer("a", [[0, 0], [5, 0], [5, 5], [0, 5]], "part"),
+], ids=["layer pixels", "mask pixels", "split"])
+def test_a_refused_pixels_edit_leaves_no_png_behind(scene, folder, call):
+    before = scene.to_dict()
+    pending = snapshot(scene.pending.folder)
+    with pytest.raises(SceneError):
+        call(scene)
+    assert scene.to_dict() == before
+    assert snapshot(scene.pending.folder) == pending

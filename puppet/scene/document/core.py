@@ -376,9 +376,10 @@ class Document(Edits, KeyEdits, DeformEdits):
         folder = os.path.realpath(folder)
         used: set[str] = set()
         map_paths(self._doc, lambda p: used.add(p) or p)
-        mine = {p: self.pending.adopt(p) for p in used if os.path.dirname(os.path.realpath(p)) == folder}
-        if mine:
-            self._set(map_paths(self._doc, lambda p: mine.get(p, p)), self._active)
+        with self.pending.staged():  # copies are removed again when the scene refuses them
+            mine = {p: self.pending.adopt(p) for p in used if os.path.dirname(os.path.realpath(p)) == folder}
+            if mine:
+                self._set(map_paths(self._doc, lambda p: mine.get(p, p)), self._active)
 
     @ck.checked(path=ck.path, pose=ck.pose_like, time=ck.optional(ck.TIME))
     def write_mesh(self, path: str, pose: PoseLike = None, time: float | None = None) -> None:

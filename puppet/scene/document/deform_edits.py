@@ -33,8 +33,9 @@ class DeformEdits:
         None, or all zero, removes it. Kept as a PNG until :meth:`save` writes it."""
         if grey is None or not np.any(np.asarray(grey) > 0):
             return self.set_layer(name, stiffness=None)
-        path = self.pending.add(stiffness_rgba(grey), f"{name}-stiffness")
-        return self.set_layer(name, stiffness={"file": path})
+        with self.pending.staged():  # a refused stiffness leaves no PNG behind
+            path = self.pending.add(stiffness_rgba(grey), f"{name}-stiffness")
+            return self.set_layer(name, stiffness={"file": path})
 
     @ck.checked(name=ck.text, radius=ck.optional(ck.number(0, 1e4, lo_open=True)))
     def set_pin_radius(self, name: str, radius: float | None) -> bool:

@@ -223,18 +223,19 @@ class Edits:
         """A layer's mask as pixels: ``mask`` (h, w) bool in the layer image's grid (the
         source's for a layer without its own image). Kept as a PNG until :meth:`save`
         writes it beside the scene (``mask: {"file": ...}``)."""
-        return self.set_mask(name, {"file": self.pending.add(mask_rgba(mask), f"{name}-mask")})
+        with self.pending.staged():  # a refused mask leaves no PNG behind
+            return self.set_mask(name, {"file": self.pending.add(mask_rgba(mask), f"{name}-mask")})
 
     @ck.checked(name=ck.text, rgba=ck.pixels("layer pixels", 4))
     def set_layer_pixels(self, name: str, rgba) -> bool:
         """A layer's own pixels ((h, w, 4) uint8, placed at its offset): a repainted or
         cloned layer. Kept as a PNG until :meth:`save` writes it beside the scene."""
         self._layer(self._doc, name)  # an unknown layer is refused before a PNG is written
-        path = self.pending.add(rgba if rgba.dtype == np.uint8 else np.rint(rgba), name)
-
         def m(doc):
             self._layer(doc, name)["image"] = path
-        return self._edit(Event("layer", name, "mesh", f"paint layer {name}"), m)
+        with self.pending.staged():  # refused pixels (e.g. all transparent) leave no PNG behind
+            path = self.pending.add(rgba if rgba.dtype == np.uint8 else np.rint(rgba), name)
+            return self._edit(Event("layer", name, "mesh", f"paint layer {name}"), m)
 
     @ck.checked(layer=ck.text, region=ck.anything, name=ck.text, cut=ck.flag)
     def split_layer(self, layer: str, region, name: str, *, cut: bool = True) -> bool:
@@ -242,7 +243,8 @@ class Edits:
         ``region`` (a polygon, list of [x, y] canvas points, or an (H, W) bool mask of the
         canvas) become a new layer ``name`` in front of it; a cut takes them out of
         ``layer``, refilling it where the part covered its body (:mod:`puppet.scene.document.split`)."""
-        return split_layer(self, layer, region, name, cut)
+        with self.pending.staged():  # a refused split leaves none of its PNGs behind
+            return split_layer(self, layer, region, name, cut)
 
     # links --------------------------------------------------------------------------
     @ck.checked(a=ck.text, b=ck.text, segment=ck.points(2, 2))
