@@ -166,10 +166,11 @@ def test_every_public_method_checks_its_arguments(folder):
             fn = getattr(fn, "__func__", fn)  # classmethods
             if name == "block":
                 fn = fn.__wrapped__  # contextmanager over the checked generator
-            assert hasattr(fn, "__checks__"), f"{cls.__name__}.{name} is not wrapped by puppet.scene.format.args.checked"
+            assert hasattr(fn, "__checks__"), f"{cls.__name__}.{name} is not wrapped by args.checked"
             assert name in known, f"{cls.__name__}.{name} has no call in this test"
             params = [p for p in inspect.signature(fn).parameters if p not in ("self", "cls")]
-            assert set(params) <= set(fn.__checks__), f"{cls.__name__}.{name}: {set(params) - set(fn.__checks__)} unchecked"
+            unchecked = set(params) - set(fn.__checks__)
+            assert not unchecked, f"{cls.__name__}.{name}: {unchecked} unchecked"
     assert issubclass(Drag, DragSession)
 
 
@@ -216,7 +217,8 @@ def _hostile_call(obj, folder, name, args, kwargs, data, scene=None):
 
 
 #: PUPPET_API_ARGS_EXAMPLES=500 for a longer search
-HOSTILE_SETTINGS = settings(max_examples=int(os.environ.get("PUPPET_API_ARGS_EXAMPLES", "40")), deadline=None, database=None,
+HOSTILE_SETTINGS = settings(max_examples=int(os.environ.get("PUPPET_API_ARGS_EXAMPLES", "40")), deadline=None,
+                            database=None,
                             suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
