@@ -56,6 +56,9 @@ class Scene(Document):
 
     @compositor.setter
     def compositor(self, value) -> None:
+        if not all(callable(getattr(value, k, None)) for k in ("render", "retain", "release")):
+            raise SceneError(f"compositor must be a puppet.render.compositor.Compositor, got {ck.describe(value)}",
+                             file=self.file)
         self._compositor = value
         self._own_compositor = False
 

@@ -368,3 +368,10 @@ def test_a_refused_pixels_edit_leaves_no_png_behind(scene, folder, call):
         call(scene)
     assert scene.to_dict() == before
     assert snapshot(scene.pending.folder) == pending
+
+
+@pytest.mark.parametrize("value", [None, 5, "gl", object()])
+def test_a_compositor_that_is_not_one_is_refused(scene, value):
+    with pytest.raises(SceneError, match="compositor must be a puppet.render.compositor.Compositor"):
+        scene.compositor = value
+    assert scene._compositor is None or scene._compositor is not value
