@@ -35,7 +35,7 @@ import numpy as np
 
 from puppet.errors import SceneError
 from puppet.imaging.io import MAX_PIXELS, MAX_SIDE
-from puppet.scene.format.reader import MAX_DEPTH
+from puppet.scene.format.reader import MAX_DEPTH, MAX_INT
 from puppet.scene.format.schema import MAX_COORD, short
 
 #: Largest value of an iteration count (the format's ``deformer.iterations``).
@@ -296,6 +296,8 @@ def plain(v, a: Arg):
             return bool(x)
         if _is_real(x):
             if isinstance(x, numbers.Integral):
+                if abs(int(x)) > MAX_INT:  # as the file reader: every integer exact as a float
+                    raise a.fail("hold whole numbers within +-2^53 only", x)
                 return int(x)
             try:
                 f = float(x)
