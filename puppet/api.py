@@ -6,17 +6,28 @@ import dataclasses
 
 import numpy as np
 
+from puppet.errors import SceneError
 from puppet.render.layers import DrawLayer
 from puppet.scene.document.core import Document, PoseLike
-from puppet.scene.drag.session import DragSession
+from puppet.scene.drag.session import DragSession, drag_solver, drag_targets
+from puppet.scene.format import args as ck
 from puppet.scene.rig.build import reduced_rgba
 from puppet.scene.rig.cache import fingerprint
+from puppet.scene.rig.core import LayerResult
 
 #: Largest preview frame of a drag, pixels (a 4000x4000 picture previews at 640x640, about
 #: what a 1280x800 window shows of it; compositing time grows with the pixels drawn).
 PREVIEW_PIXELS = 640 * 640
 #: Suffix of the compositor keys of a preview's shrunk layer images.
 PREVIEW_KEY = "@preview"
+
+
+def posed_layers(v, a: ck.Arg) -> list[LayerResult]:
+    """:meth:`Scene.draw_layers`' layers: one posed :class:`LayerResult` per layer of the scene."""
+    n = len(a.owner.data.layers)
+    if not isinstance(v, (list, tuple)) or len(v) != n or not all(isinstance(r, LayerResult) for r in v):
+        raise a.fail(f"be the scene's {n} posed layers (LayerResults, as layers() gives them)", v)
+    return list(v)
 
 
 class Scene(Document):
@@ -31,6 +42,7 @@ class Scene(Document):
         self._compositor = None
         self._own_compositor = False
         self._reduced_rest: dict[str, tuple] = {}  # layer -> (rest, shrunk image, rest scaled to it)
+        self._drawable: set[tuple[int, int]] = set()  # frame sizes this machine's GL was found to draw
 
     @property
     def compositor(self):
@@ -44,9 +56,13 @@ class Scene(Document):
 
     @compositor.setter
     def compositor(self, value) -> None:
+        if not all(callable(getattr(value, k, None)) for k in ("render", "retain", "release")):
+            raise SceneError(f"compositor must be a puppet.render.compositor.Compositor, got {ck.describe(value)}",
+                             file=self.file)
         self._compositor = value
         self._own_compositor = False
 
+    @ck.checked(pose=ck.pose_like, time=ck.optional(ck.TIME), size=ck.optional(ck.size), wireframe=ck.flag)
     def render(self, pose: PoseLike = None, time: float | None = None, *, size: tuple[int, int] | None = None,
                wireframe: bool = False) -> np.ndarray:
         """Draw a pose: a name, an ad-hoc dict of pin targets (same form as a pose in the
@@ -58,6 +74,8 @@ class Scene(Document):
         """
         return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
 
+    @ck.checked(layers=posed_layers, size=ck.optional(ck.size), wireframe=ck.flag,
+                background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE))
     def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None,
                     reduce: int = 1) -> np.ndarray:
         """Composite already posed layers (:meth:`layers` results) into an RGBA array, over
@@ -69,12 +87,30 @@ class Scene(Document):
                 for r, im in zip(layers, self.built.images)]
         if reduce > 1:
             draw = [self._reduced(L, k, reduce) for L, k in zip(draw, self.built.image_keys)]
+        self._check_drawable(size or self.canvas)
         if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
             names = [L.name for L in self.data.layers]
             self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
         return self.compositor.render(draw, self.canvas, size=size,
                                       background=self.background() if background is None else background,
                                       wireframe=wireframe)
+
+    def _check_drawable(self, size: tuple[int, int]) -> None:
+        """Refuse, in one line, a frame size that this machine's OpenGL cannot draw (found
+        once per size; only with the scene's own compositor: a shared one's context is
+        its owner's to check)."""
+        size = (int(size[0]), int(size[1]))
+        if size in self._drawable:
+            return
+        comp = self.compositor
+        if self._own_compositor:
+            from puppet.render.context import output_size_problem  # lazy: moderngl, only once a scene draws
+
+            problem = output_size_problem(comp.ctx, size)
+            if problem:
+                raise SceneError(f"draw: a frame of {size[0]}x{size[1]} pixels cannot be drawn: {problem}",
+                                 file=self.file)
+        self._drawable.add(size)
 
     def _reduced(self, L, image_key: str, reduce: int):
         """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled
@@ -89,6 +125,8 @@ class Scene(Document):
             self._reduced_rest[L.key] = seen
         return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2])
 
+    @ck.checked(names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag, iterations=ck.ITERATIONS,
+                size=ck.optional(ck.size), solver=ck.optional(drag_solver))
     def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
              size: tuple[int, int] | None = None, solver=None) -> "Drag":
         """Start dragging pins ``names`` (one name or a list) in the active pose, keyed at
@@ -96,6 +134,7 @@ class Scene(Document):
         :class:`~puppet.scene.drag.process.DragProcess`) when given (see :class:`Drag`)."""
         return Drag(self, names, time, record=record, iterations=iterations, size=size, solver=solver)
 
+    @ck.checked()
     def close(self) -> None:
         """Release the scene's compositor (and its GL context), if it made one."""
         if self._compositor is not None and self._own_compositor:
@@ -111,18 +150,21 @@ class Drag(DragSession):
     :data:`PREVIEW_PIXELS` pixels; the released frame is full size.
     """
 
+    @ck.checked("Drag", size=ck.optional(ck.size))
     def __init__(self, scene: Scene, names, time=None, *, record=False, iterations=4, size=None, solver=None):
         super().__init__(scene, names, time, record=record, iterations=iterations, solver=solver)
         self.size = size
         self.preview_size = preview_size(size or scene.canvas)
         self.reduce = max(1, int(scene.canvas[0] / self.preview_size[0]))
 
+    @ck.checked(targets=drag_targets, time=ck.optional(ck.TIME))
     def move(self, targets, time: float | None = None) -> np.ndarray:
         """Move the pins (``(x, y)`` for a one-pin drag, else ``{name: (x, y)}``); returns a
         preview frame (h, w, 4) uint8 of :attr:`preview_size`, drawn from layer images
         shrunk to about that scale when the canvas is two or more times bigger."""
         return self.doc.draw_layers(self.move_layers(targets, time), size=self.preview_size, reduce=self.reduce)
 
+    @ck.checked(keys=ck.optional(ck.timed_tables))
     def release(self, keys=None) -> np.ndarray:
         """End the drag (:meth:`commit`) and return the exact frame: equal to
         ``scene.render(size=size)`` for a pose drag, ``scene.render(time=time, size=size)``

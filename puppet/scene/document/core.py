@@ -25,7 +25,8 @@ from puppet.scene.document.edits import Edits
 from puppet.scene.document.files import PendingFiles
 from puppet.scene.document.history import Event, Events, History, Step
 from puppet.scene.document.key_edits import KeyEdits
-from puppet.scene.drag.session import DragSession
+from puppet.scene.drag.session import DragSession, drag_solver
+from puppet.scene.format import args as ck
 from puppet.scene.format.extensions import UNDERLAY_DEFAULTS
 from puppet.scene.format.inputs import input_files
 from puppet.scene.format.load import Ctx, _pose, parse_scene, read_json
@@ -59,6 +60,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         self._set(doc, "rest", build=False)
 
     @classmethod
+    @ck.checked(path=ck.path)
     def load(cls, path: str):
         """Read and validate a scene file (raises SceneError)."""
         path = os.path.abspath(path)
@@ -69,6 +71,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         return cls(raw, path)
 
     @classmethod
+    @ck.checked(image=ck.path, layer=ck.text, scene_file=ck.optional(ck.path))
     def from_image(cls, image: str, *, layer: str = "layer1", scene_file: str | None = None):
         """A new one-layer scene over a picture: the picture is the scene's ``source``
         (the template that layers take pixels from) and the first layer takes all of it
@@ -93,6 +96,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             self._built = self.rig.build(self._data)
         return self._built
 
+    @ck.checked()
     def to_dict(self) -> dict:
         """The scene JSON as it is now (paths absolute), a copy."""
         return json.loads(json.dumps(self._doc))
@@ -120,6 +124,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         return True
 
     @contextlib.contextmanager
+    @ck.checked(label=ck.text)
     def block(self, label: str):
         """Record every edit made inside as one undo step (a whole drag, a paste)."""
         self.history.open((self._doc, self._active), label)
@@ -128,6 +133,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         finally:
             self.history.close((self._doc, self._active))
 
+    @ck.checked()
     def undo(self) -> bool:
         """Go back one step; False when there is nothing to undo."""
         if not self.history.can_undo():
@@ -138,6 +144,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         self.events.emit(Event("undo", level="mesh", label=step.label))
         return True
 
+    @ck.checked()
     def redo(self) -> bool:
         """Redo the last undone step; False when there is nothing to redo."""
         if not self.history.can_redo():
@@ -149,6 +156,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         return True
 
     # -- drawing facts -----------------------------------------------------------
+    @ck.checked()
     def background(self):
         """The background: an RGBA colour tuple, or the background image (read once per file)."""
         bg = self.data.background
@@ -165,6 +173,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             return None
         return {**UNDERLAY_DEFAULTS, **u}
 
+    @ck.checked()
     def underlay_image(self):
         """The underlay picture as (h, w, 4) uint8 RGBA (read once per file), or None."""
         u = self.underlay
@@ -204,15 +213,18 @@ class Document(Edits, KeyEdits, DeformEdits):
         """The pose that :meth:`layers` and ``render()`` show with no argument."""
         return self._active
 
+    @ck.checked()
     def pose_names(self) -> list[str]:
         return ["rest"] + list(self.data.poses)
 
+    @ck.checked(pose=ck.pose_like, where=ck.text)
     def parse_pose(self, pose: dict, where: str = "pose") -> dict[str, Target]:
         """An ad-hoc pose (same form as a pose in the file) checked like one."""
         d = self.data
         names = {L.name: L.index for L in d.layers}
         return _pose(Ctx(self.file), pose, where, {p.name: i for i, p in enumerate(d.pins)}, d.layers, names)
 
+    @ck.checked(pose=ck.pose_like, time=ck.optional(ck.TIME))
     def state(self, pose: PoseLike = None, time: float | None = None) -> ev.PinState:
         """Pin targets for a pose (a name, an ad-hoc dict, or None for the active pose) or a time."""
         if pose is not None and time is not None:
@@ -235,6 +247,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             raise SceneError(f"time must be a number >= 0, got {time}", file=self.file)
         return float(time)
 
+    @ck.checked()
     def tracks(self) -> Tracks:
         """The animation's keys as per-pin tracks (built once per version of the scene)."""
         built = self.built
@@ -249,6 +262,7 @@ class Document(Edits, KeyEdits, DeformEdits):
             return ev.rest_state(self.data, self.built.exterior)
         return ev.pose_state(self.data, self.built.exterior, self.data.poses[pose])
 
+    @ck.checked(pose=ck.pose_like, time=ck.optional(ck.TIME))
     def layers(self, pose: PoseLike = None, time: float | None = None) -> list[LayerResult]:
         """Deformed meshes and depths of every layer in a pose or at a time (the
         animation's in-between: see :mod:`puppet.scene.time.inbetween`)."""
@@ -257,6 +271,8 @@ class Document(Edits, KeyEdits, DeformEdits):
             return layers_at(self.rig, self.built, self.tracks(), time)
         return self.rig.evaluate(self.built, self.state(pose, time))
 
+    @ck.checked(names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag, iterations=ck.ITERATIONS,
+                solver=ck.optional(drag_solver))
     def drag(self, names, time: float | None = None, *, record: bool = False, iterations: int = 4, solver=None):
         """Start a drag of pins ``names`` (one name or a list): in the active pose, keyed
         at ``time``, or a recording from ``time``; previews solved in ``solver`` (a
@@ -264,6 +280,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         :class:`puppet.scene.drag.session.DragSession`)."""
         return DragSession(self, names, time, record=record, iterations=iterations, solver=solver)
 
+    @ck.checked(pose=ck.pose_like, time=ck.optional(ck.TIME))
     def mesh(self, pose: PoseLike = None, time: float | None = None) -> dict:
         """The meshes as data, as ``puppet mesh`` writes them."""
         res = self.layers(pose, time)
@@ -280,6 +297,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         } for r in res]
         return out
 
+    @ck.checked()
     def summary(self) -> str:
         """A few lines on the scene: layers, groups, vertices, triangles, and what is not applied yet."""
         built, d = self.built, self.data
@@ -303,6 +321,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         lines += [f"  note: {n}" for n in self.not_applied()]
         return "\n".join(lines)
 
+    @ck.checked()
     def not_applied(self) -> list[str]:
         """Things the scene asks for that this version accepts but does not apply."""
         d = self.data
@@ -319,10 +338,12 @@ class Document(Edits, KeyEdits, DeformEdits):
         return notes + list(self.built.notes)
 
     # -- files -------------------------------------------------------------------
+    @ck.checked(folder=ck.path)
     def to_json(self, folder: str) -> dict:
         """The scene JSON as it is now, with every file path relative to ``folder``."""
         return map_paths(self.to_dict(), relative_to(folder))
 
+    @ck.checked(path=ck.path, copy=ck.flag, follow=ck.flag)
     def save(self, path: str, *, copy: bool = False, follow: bool = True) -> None:
         """Write the scene as it is now, atomically; file paths inside are written relative
         to the new location, so the saved scene loads and renders the same pixels.
@@ -348,16 +369,19 @@ class Document(Edits, KeyEdits, DeformEdits):
         if moved and not copy:  # from now on the scene reads the saved copies (same pixels, same keys)
             self._set(doc, self._active)
 
+    @ck.checked(folder=ck.path)
     def adopt_files(self, folder: str) -> None:
         """Own again the pixels this scene reads from ``folder`` (an autosave's
         ``NAME.autosave.files/``), so that saving writes them into ``SCENE.files/``."""
         folder = os.path.realpath(folder)
         used: set[str] = set()
         map_paths(self._doc, lambda p: used.add(p) or p)
-        mine = {p: self.pending.adopt(p) for p in used if os.path.dirname(os.path.realpath(p)) == folder}
-        if mine:
-            self._set(map_paths(self._doc, lambda p: mine.get(p, p)), self._active)
+        with self.pending.staged():  # copies are removed again when the scene refuses them
+            mine = {p: self.pending.adopt(p) for p in used if os.path.dirname(os.path.realpath(p)) == folder}
+            if mine:
+                self._set(map_paths(self._doc, lambda p: mine.get(p, p)), self._active)
 
+    @ck.checked(path=ck.path, pose=ck.pose_like, time=ck.optional(ck.TIME))
     def write_mesh(self, path: str, pose: PoseLike = None, time: float | None = None) -> None:
         """Write :meth:`mesh` as JSON (``puppet mesh``), through :mod:`puppet.output`."""
         text = json.dumps(self.mesh(pose, time), separators=(",", ":"))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.scene.document.history import Event
+from puppet.scene.format import args as ck
 
 
 def _xy(p) -> list[float]:
@@ -26,14 +27,17 @@ def stiffness_rgba(grey: np.ndarray) -> np.ndarray:
 class DeformEdits:
     """Edit methods for stiffness, starch pins and hinge / patch links (a mixin)."""
 
+    @ck.checked(name=ck.text, grey=ck.optional(ck.layer_grid(ck.pixels("stiffness grey levels", lo=0, hi=255))))
     def set_stiffness_pixels(self, name: str, grey) -> bool:
         """Layer ``name``'s painted stiffness: ``grey`` (h, w) 0..255 in its image's grid;
         None, or all zero, removes it. Kept as a PNG until :meth:`save` writes it."""
         if grey is None or not np.any(np.asarray(grey) > 0):
             return self.set_layer(name, stiffness=None)
-        path = self.pending.add(stiffness_rgba(grey), f"{name}-stiffness")
-        return self.set_layer(name, stiffness={"file": path})
+        with self.pending.staged():  # a refused stiffness leaves no PNG behind
+            path = self.pending.add(stiffness_rgba(grey), f"{name}-stiffness")
+            return self.set_layer(name, stiffness={"file": path})
 
+    @ck.checked(name=ck.text, radius=ck.optional(ck.number(0, 1e4, lo_open=True)))
     def set_pin_radius(self, name: str, radius: float | None) -> bool:
         """A starch pin's reach in px (None: the default)."""
         def m(doc):
@@ -55,6 +59,7 @@ class DeformEdits:
         links.append(k)
         return k
 
+    @ck.checked(a=ck.text, b=ck.text, at=ck.point)
     def add_link_point(self, a: str, b: str, at) -> bool:
         """A hinge between layers ``a`` and ``b`` at canvas point ``at``: they share a
         vertex there and can turn about it (``links[i].points``)."""
@@ -62,6 +67,7 @@ class DeformEdits:
             self._link_of(doc, a, b, True).setdefault("points", []).append(_xy(at))
         return self._edit(Event("link", f"{a}+{b}", "mesh", f"hinge {a} and {b}"), m)
 
+    @ck.checked(a=ck.text, b=ck.text, polygon=ck.points(3))
     def add_link_polygon(self, a: str, b: str, polygon) -> bool:
         """A shared patch (``polygon``: [[x, y], ...], at least 3 points) between layers
         ``a`` and ``b`` that moves as one (``links[i].polygons``)."""
@@ -71,6 +77,7 @@ class DeformEdits:
             self._link_of(doc, a, b, True).setdefault("polygons", []).append(poly)
         return self._edit(Event("link", f"{a}+{b}", "mesh", f"patch {a} and {b}"), m)
 
+    @ck.checked(a=ck.text, b=ck.text, strength=ck.number(0, 1))
     def set_link_strength(self, a: str, b: str, strength: float) -> bool:
         """The coupling across the link between ``a`` and ``b``, 0..1 (1: the default)."""
         def m(doc):

@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+
 from puppet.errors import SceneError
 from puppet.imaging.io import load_rgba
 from puppet.scene.document.files import mask_rgba
 from puppet.scene.document.history import Event
 from puppet.scene.document.split import split_layer
+from puppet.scene.format import args as ck
 from puppet.scene.format.extensions import underlay_json
 from puppet.scene.format.load import EXTERIOR_NAME
 
@@ -60,6 +63,7 @@ class Edits:
         return doc["poses"][name], None
 
     # pins ---------------------------------------------------------------------------
+    @ck.checked(name=ck.text, layer=ck.text, at=ck.point, depth=ck.COORD, kind=ck.text)
     def add_pin(self, name: str, layer: str, at, *, depth: float = 0.0, kind: str = "interior") -> bool:
         """A new pin on ``layer`` at canvas point ``at`` (rest position)."""
         def m(doc):
@@ -74,6 +78,7 @@ class Edits:
             doc.setdefault("pins", []).append(pin)
         return self._edit(Event("pin", name, "precompute", f"add pin {name}"), m)
 
+    @ck.checked(name=ck.text)
     def remove_pin(self, name: str) -> bool:
         """Remove a pin, its targets in every pose and the bones that use it."""
         def m(doc):
@@ -85,12 +90,14 @@ class Edits:
                 doc["bones"] = [b for b in doc["bones"] if name not in b]
         return self._edit(Event("pin", name, "precompute", f"remove pin {name}"), m)
 
+    @ck.checked(name=ck.text, at=ck.point)
     def move_pin(self, name: str, at) -> bool:
         """Move a pin's rest position (``at``)."""
         def m(doc):
             self._pin(doc, name)["at"] = _xy(at)
         return self._edit(Event("pin", name, "precompute", f"move pin {name}"), m)
 
+    @ck.checked(old=ck.text, new=ck.text)
     def rename_pin(self, old: str, new: str) -> bool:
         """Rename a pin everywhere: pins, poses, bones."""
         def m(doc):
@@ -103,6 +110,7 @@ class Edits:
                 doc["bones"] = [[new if x == old else x for x in b] for b in doc["bones"]]
         return self._edit(Event("pin", new, "none", f"rename pin {old}"), m)
 
+    @ck.checked(name=ck.text, depth=ck.optional(ck.COORD), kind=ck.optional(ck.text))
     def set_pin(self, name: str, *, depth: float | None = None, kind: str | None = None) -> bool:
         """Set a pin's rest depth and/or kind (``interior``, ``exterior`` or ``starch``)."""
         def m(doc):
@@ -116,6 +124,7 @@ class Edits:
         return self._edit(Event("pin", name, "precompute", f"change pin {name}"), m)
 
     # layers -------------------------------------------------------------------------
+    @ck.checked(name=ck.text, image=ck.optional(ck.path), index=ck.optional(ck.INDEX), fields=ck.plain)
     def add_layer(self, name: str, *, image: str | None = None, index: int | None = None, **fields) -> bool:
         """A new layer (``image`` file or the scene's source; ``fields``: offset, mask,
         order, inpaint, mesh, exterior as in the scene format), in front unless ``index``."""
@@ -129,6 +138,7 @@ class Edits:
             doc["layers"].insert(len(doc["layers"]) if index is None else index, L)
         return self._edit(Event("layer", name, "mesh", f"add layer {name}"), m)
 
+    @ck.checked(name=ck.text)
     def remove_layer(self, name: str) -> bool:
         """Remove a layer with its pins, its links and their targets in every pose."""
         def m(doc):
@@ -147,6 +157,7 @@ class Edits:
                 owner[t] = {k: v for k, v in owner[t].items() if k not in gone and _ext_layer(k) != name}
         return self._edit(Event("layer", name, "mesh", f"remove layer {name}"), m)
 
+    @ck.checked(name=ck.text, index=ck.INDEX)
     def reorder_layer(self, name: str, index: int) -> bool:
         """Move a layer to list position ``index`` (the stacking order; later = in front)."""
         def m(doc):
@@ -155,6 +166,7 @@ class Edits:
             doc["layers"].insert(index if index >= 0 else len(doc["layers"]) + 1 + index, L)
         return self._edit(Event("layer", name, "mesh", f"reorder layer {name}"), m)
 
+    @ck.checked(old=ck.text, new=ck.text)
     def rename_layer(self, old: str, new: str) -> bool:
         """Rename a layer everywhere: pins, links, automatic exterior point names in poses."""
         def m(doc):
@@ -170,6 +182,7 @@ class Edits:
                 owner[t] = {(new + k[len(old):] if _ext_layer(k) == old else k): v for k, v in owner[t].items()}
         return self._edit(Event("layer", new, "none", f"rename layer {old}"), m)
 
+    @ck.checked(name=ck.text, fields=ck.plain)
     def set_layer(self, name: str, **fields) -> bool:
         """Change a layer's ``offset``, ``mask``, ``order``, ``inpaint``, ``mesh``,
         ``exterior``, ``deformer`` ({"mode": ...}) or ``stiffness`` ({"file": ...})
@@ -183,14 +196,17 @@ class Edits:
                     L[k] = v
         return self._edit(Event("layer", name, "mesh", f"change layer {name}"), m)
 
+    @ck.checked(name=ck.text, mask=ck.plain)
     def set_mask(self, name: str, mask) -> bool:
         """A layer's mask: ``"alpha"`` or ``{"threshold": T}``, ``{"polygon": ...}``, ``{"rect": ...}``,
         ``{"file": path}``, ``{"grabcut": ...}``."""
         return self.set_layer(name, mask=mask)
 
+    @ck.checked(name=ck.text, method=ck.text)
     def set_inpaint(self, name: str, method: str) -> bool:
         return self.set_layer(name, inpaint=method)
 
+    @ck.checked(name=ck.text, options=ck.plain)
     def set_mesh_options(self, name: str, **options) -> bool:
         """A layer's ``max_area``, ``min_angle``, ``simplify`` (None: back to the default)."""
         L = self._layer(self._doc, name)
@@ -202,29 +218,36 @@ class Edits:
                 mesh[k] = v
         return self.set_layer(name, mesh=mesh or None)
 
+    @ck.checked(name=ck.text, mask=ck.layer_grid(ck.pixels("a mask", lo=0, hi=255)))
     def set_mask_pixels(self, name: str, mask) -> bool:
         """A layer's mask as pixels: ``mask`` (h, w) bool in the layer image's grid (the
         source's for a layer without its own image). Kept as a PNG until :meth:`save`
         writes it beside the scene (``mask: {"file": ...}``)."""
-        return self.set_mask(name, {"file": self.pending.add(mask_rgba(mask), f"{name}-mask")})
+        with self.pending.staged():  # a refused mask leaves no PNG behind
+            return self.set_mask(name, {"file": self.pending.add(mask_rgba(mask), f"{name}-mask")})
 
+    @ck.checked(name=ck.text, rgba=ck.pixels("layer pixels", 4))
     def set_layer_pixels(self, name: str, rgba) -> bool:
         """A layer's own pixels ((h, w, 4) uint8, placed at its offset): a repainted or
         cloned layer. Kept as a PNG until :meth:`save` writes it beside the scene."""
-        path = self.pending.add(rgba, name)
-
+        self._layer(self._doc, name)  # an unknown layer is refused before a PNG is written
         def m(doc):
             self._layer(doc, name)["image"] = path
-        return self._edit(Event("layer", name, "mesh", f"paint layer {name}"), m)
+        with self.pending.staged():  # refused pixels (e.g. all transparent) leave no PNG behind
+            path = self.pending.add(rgba if rgba.dtype == np.uint8 else np.rint(rgba), name)
+            return self._edit(Event("layer", name, "mesh", f"paint layer {name}"), m)
 
+    @ck.checked(layer=ck.text, region=ck.anything, name=ck.text, cut=ck.flag)
     def split_layer(self, layer: str, region, name: str, *, cut: bool = True) -> bool:
         """Layer via Cut (or, ``cut=False``, via Copy): the pixels of ``layer`` inside
         ``region`` (a polygon, list of [x, y] canvas points, or an (H, W) bool mask of the
         canvas) become a new layer ``name`` in front of it; a cut takes them out of
         ``layer``, refilling it where the part covered its body (:mod:`puppet.scene.document.split`)."""
-        return split_layer(self, layer, region, name, cut)
+        with self.pending.staged():  # a refused split leaves none of its PNGs behind
+            return split_layer(self, layer, region, name, cut)
 
     # links --------------------------------------------------------------------------
+    @ck.checked(a=ck.text, b=ck.text, segment=ck.points(2, 2))
     def add_link(self, a: str, b: str, segment) -> bool:
         """A link segment ``[[x0, y0], [x1, y1]]`` between layers ``a`` and ``b``."""
         seg = [_xy(segment[0]), _xy(segment[1])]
@@ -238,6 +261,7 @@ class Edits:
             links.append({"layers": [a, b], "segments": [seg]})
         return self._edit(Event("link", f"{a}+{b}", "mesh", f"link {a} and {b}"), m)
 
+    @ck.checked(a=ck.text, b=ck.text, segment=ck.optional(ck.integer(0, 10 ** 9)))
     def remove_link(self, a: str, b: str, segment: int | None = None) -> bool:
         """Remove segment number ``segment`` of the link between ``a`` and ``b`` (all when None)."""
         def m(doc):
@@ -255,16 +279,20 @@ class Edits:
         return self._edit(Event("link", f"{a}+{b}", "mesh", f"unlink {a} and {b}"), m)
 
     # poses ----------------------------------------------------------------------------
+    @ck.checked(name=ck.text, like=ck.optional(ck.text), activate=ck.flag)
     def add_pose(self, name: str, *, like: str | None = None, activate: bool = True) -> bool:
         """A new pose (empty, or a copy of pose ``like``), made active unless ``activate=False``."""
         def m(doc):
             poses = doc.setdefault("poses", {})
             if name in poses or name == "rest":
                 raise self._fail(f"a pose named {name!r} exists already")
+            if like not in (None, "rest") and like not in poses:
+                raise self._fail(f"no pose named {like!r} to copy")
             poses[name] = dict(poses[like]) if like not in (None, "rest") else {}
             return name if activate else None
         return self._edit(Event("pose", name, "solve", f"add pose {name}"), m)
 
+    @ck.checked(old=ck.text, new=ck.text)
     def rename_pose(self, old: str, new: str) -> bool:
         """Rename a pose (and its animation keys)."""
         def m(doc):
@@ -280,6 +308,7 @@ class Edits:
             return new if self._active == old else None
         return self._edit(Event("pose", new, "none", f"rename pose {old}"), m)
 
+    @ck.checked(name=ck.text)
     def delete_pose(self, name: str) -> bool:
         """Delete a pose and the animation keys that show it."""
         def m(doc):
@@ -294,12 +323,15 @@ class Edits:
             return "rest" if self._active == name else None
         return self._edit(Event("pose", name, "solve", f"delete pose {name}"), m)
 
+    @ck.checked(name=ck.text)
     def set_active_pose(self, name: str) -> bool:
         """Show and edit pose ``name`` (``"rest"`` included)."""
         if name != "rest" and name not in self.data.poses:
             raise self._fail(f"no pose named {name!r}")
         return self._edit(Event("active", name, "solve", f"show pose {name}"), lambda doc: name)
 
+    @ck.checked(pin=ck.text, to=ck.optional(ck.point), angle=ck.optional(ck.COORD), depth=ck.optional(ck.COORD),
+                pose=ck.optional(ck.text))
     def set_target(self, pin: str, to=None, *, angle: float | None = None, depth: float | None = None,
                    pose: str | None = None) -> bool:
         """Where pose ``pose`` (default: the active one) puts ``pin``: target, angle, depth.
@@ -319,6 +351,7 @@ class Edits:
             return made
         return self._edit(Event("target", pin, "solve", f"move {pin}"), m)
 
+    @ck.checked(pin=ck.text, pose=ck.optional(ck.text))
     def clear_target(self, pin: str, *, pose: str | None = None) -> bool:
         """Put ``pin`` back at rest in pose ``pose`` (default: the active one)."""
         def m(doc):
@@ -334,6 +367,8 @@ class Edits:
             raise self._fail(f"no pin or exterior point named {pin!r}")
 
     # app-only settings ----------------------------------------------------------------
+    @ck.checked(image=ck.optional(ck.path), opacity=ck.number(0, 1), offset=ck.point,
+                scale=ck.number(1e-3, 1e3, lo_open=True))
     def set_underlay(self, image: str | None, *, opacity: float = 0.5, offset=(0.0, 0.0), scale: float = 1.0) -> bool:
         """The reference picture drawn under the canvas by the app (None removes it);
         stored under the scene's ``app`` key, which render ignores."""
@@ -351,6 +386,7 @@ class Edits:
         return self._edit(Event("app", "underlay", "none", "set underlay"), m)
 
     # deformer (animation keys: puppet.scene.document.key_edits) ---------------------------------------
+    @ck.checked(options=ck.plain)
     def set_deformer(self, **options) -> bool:
         """Deformer options: ``method``, ``weights``, ``init``, ``iterations``, ``alpha``, ``relax_foldovers``."""
         def m(doc):
@@ -379,8 +415,9 @@ def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
             raise SceneError(f"a layer has no field {k!r} (fields: {', '.join(known)})")
         if v is None and not keep_none:
             continue
-        if k == "offset" and v is not None:
-            v = _xy(v)
+        if k == "offset" and isinstance(v, list) and len(v) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+            v = _xy(v)  # numbers as floats; anything else is reported by the validation, with its path
         if k in ("mask", "stiffness") and isinstance(v, dict) and isinstance(v.get("file"), str):
             v = dict(v, file=os.path.abspath(v["file"]))
         out[k] = v

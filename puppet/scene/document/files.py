@@ -26,6 +26,30 @@ class PendingFiles:
     def __init__(self):
         self._folder: str | None = None
         self._finalizer = None
+        self._staged: list[str] | None = None  # files written inside staged(), while it runs
+
+    @contextlib.contextmanager
+    def staged(self):
+        """The files written inside (by :meth:`add`, :meth:`adopt`) are removed again when
+        the block raises: an edit that is refused leaves no PNG behind. Nested blocks
+        belong to the outermost one."""
+        if self._staged is not None:
+            yield
+            return
+        self._staged = []
+        try:
+            yield
+        except BaseException:
+            for p in self._staged:
+                with contextlib.suppress(OSError):
+                    os.remove(p)
+            raise
+        finally:
+            self._staged = None
+
+    def _wrote(self, path: str) -> None:
+        if self._staged is not None:
+            self._staged.append(path)
 
     @property
     def folder(self) -> str:
@@ -42,6 +66,7 @@ class PendingFiles:
         path = os.path.join(self.folder, f"{stem}-{digest}.png")
         if not os.path.exists(path):
             save_png(path, rgba)
+            self._wrote(path)
         return path
 
     def owns(self, path: str) -> bool:
@@ -57,6 +82,7 @@ class PendingFiles:
                 return path
             if not os.path.exists(dest):
                 shutil.copyfile(path, dest)
+                self._wrote(dest)
         except OSError:
             return path
         return dest

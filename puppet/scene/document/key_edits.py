@@ -15,6 +15,7 @@ import numpy as np
 
 from puppet.scene.document.history import Event
 from puppet.scene.document.recording import recorded, write_motion
+from puppet.scene.format import args as ck
 from puppet.scene.format.animation import SAME_TIME, pins_json
 from puppet.scene.format.model import DEPTH_MODES, EASES, INBETWEENS
 from puppet.scene.time.evaluate import exterior_names
@@ -61,6 +62,8 @@ class KeyEdits:
             raise self._fail("a curve [cx1, cy1, cx2, cy2] goes with the 'bezier' ease, and only with it")
 
     # edits --------------------------------------------------------------------------
+    @ck.checked(time=ck.TIME, pose=ck.optional(ck.text), pins=ck.optional(ck.pins_table()), ease=ck.text,
+                curve=ck.optional(ck.numbers_list(4)), overrides=ck.optional(ck.pins_table(nulls=True)))
     def set_key(self, time: float, pose: str | None = None, *, pins: dict | None = None, ease: str = "linear",
                 curve=None, overrides: dict | None = None) -> bool:
         """A key at ``time`` seconds showing pose ``pose`` (a name, ``"rest"`` included) or
@@ -86,6 +89,7 @@ class KeyEdits:
             self._put_key(doc, key)
         return self._edit(Event("animation", pose or "", "none", f"key at {float(time):g} s"), m)
 
+    @ck.checked(keys=ck.timed_tables, start=ck.optional(ck.TIME), end=ck.optional(ck.TIME))
     def record_motion(self, keys: dict, *, start: float | None = None, end: float | None = None) -> bool:
         """Write recorded keys of some pins over the span ``start``..``end`` (default: the
         first to the last recorded time), keeping every other pin's keys and the keys' poses;
@@ -113,6 +117,7 @@ class KeyEdits:
         names = sorted({n for pins in table.values() for n in pins})
         return self._edit(Event("animation", "", "none", f"record {', '.join(names)} {t0:g}-{t1:g} s"), m)
 
+    @ck.checked(time=ck.TIME, pins=ck.pins_table())
     def key_pins(self, time: float, pins: dict) -> bool:
         """Key ``pins`` (``{pin: [x, y] | {"to", "angle", "depth"}}``) at ``time``, keeping
         what a key there holds: a pose key keeps its pose and gets them as ``overrides``, a
@@ -126,6 +131,7 @@ class KeyEdits:
             write_motion(doc, table, 1.0, 0.0)  # an empty span: no key loses a pin
         return self._edit(Event("animation", "", "none", f"key {', '.join(pins)} at {float(time):g} s"), m)
 
+    @ck.checked(time=ck.TIME)
     def remove_key(self, time: float) -> bool:
         """Remove the key at ``time`` (the animation goes with its last key)."""
         def m(doc):
@@ -137,6 +143,7 @@ class KeyEdits:
                 del doc["animation"]
         return self._edit(Event("animation", "", "none", f"remove key at {float(time):g} s"), m)
 
+    @ck.checked(time=ck.TIME, new_time=ck.TIME)
     def move_key(self, time: float, new_time: float) -> bool:
         """Move the key at ``time`` to ``new_time`` (replacing a key there)."""
         def m(doc):
@@ -145,12 +152,14 @@ class KeyEdits:
             self._put_key(doc, dict(key, time=float(new_time)))
         return self._edit(Event("animation", "", "none", f"move key {float(time):g} s -> {float(new_time):g} s"), m)
 
+    @ck.checked(time=ck.TIME, new_time=ck.TIME)
     def copy_key(self, time: float, new_time: float) -> bool:
         """Copy the key at ``time`` to ``new_time`` (replacing a key there)."""
         def m(doc):
             self._put_key(doc, dict(self._key_at(doc, time), time=float(new_time)))
         return self._edit(Event("animation", "", "none", f"copy key {float(time):g} s -> {float(new_time):g} s"), m)
 
+    @ck.checked(time=ck.TIME, ease=ck.text, curve=ck.optional(ck.numbers_list(4)))
     def set_key_ease(self, time: float, ease: str, curve=None) -> bool:
         """The ease of the segment ending at the key at ``time`` (``curve`` for ``"bezier"``)."""
         self._check_ease(ease, curve)
@@ -167,16 +176,19 @@ class KeyEdits:
                 doc["animation"][field] = value
         return self._edit(Event("animation", "", "none", label), m)
 
+    @ck.checked(fps=ck.number(0, 240, lo_open=True))
     def set_fps(self, fps: float) -> bool:
         """Frames per second of the animation (0 < fps <= 240)."""
         return self._set_anim("fps", fps, "change fps")
 
+    @ck.checked(kind=ck.text)
     def set_inbetween(self, kind: str) -> bool:
         """``"rigid"`` (shape-preserving in-betweens) or ``"linear"`` (pins on straight lines)."""
         if kind not in INBETWEENS:
             raise self._fail(f"{kind!r} is not an in-between (one of: {', '.join(INBETWEENS)})")
         return self._set_anim("inbetween", kind, f"in-betweens {kind}")
 
+    @ck.checked(mode=ck.text)
     def set_depth_mode(self, mode: str) -> bool:
         """Pin depth ``"step"``s at keys or ``"interpolate"``s between them."""
         if mode not in DEPTH_MODES:
@@ -184,11 +196,13 @@ class KeyEdits:
         return self._set_anim("depth", mode, f"depth {mode}")
 
     # reading ------------------------------------------------------------------------
+    @ck.checked()
     def keys(self) -> list[dict]:
         """The animation's keys in file form, sorted by time (a copy; [] without animation)."""
         anim = self.to_dict().get("animation")
         return anim["keys"] if anim else []
 
+    @ck.checked(pin=ck.optional(ck.text))
     def key_times(self, pin: str | None = None) -> list[float]:
         """Times of the keys that mention ``pin`` (a pose key mentions every pin; a pins
         key those it names); of every key when None."""
@@ -200,11 +214,13 @@ class KeyEdits:
             raise self._fail(f"no pin or exterior point named {pin!r}") from None
         return [float(t) for t, h in zip(self.tracks().times, hit) if h]
 
+    @ck.checked()
     def duration(self) -> float:
         """Time of the last key in seconds (0 without animation)."""
         anim = self.data.animation
         return float(anim.keys[-1].time) if anim else 0.0
 
+    @ck.checked(time=ck.TIME)
     def pose_at(self, time: float) -> dict:
         """The pose shown at ``time`` as a file-form pins table (what "Key" stores): every
         interior pin where the frame shows it (``[x, y]``, or ``{"to", "angle", "depth"}``

@@ -46,17 +46,15 @@ def region_mask(region, canvas: tuple[int, int], offset, shape: tuple[int, int],
     W, H = canvas
     try:
         arr = np.asarray(region)
-    except (TypeError, ValueError):  # ragged lists
+    except (TypeError, ValueError, OverflowError):  # ragged lists
         arr = np.asarray([], float)
     if arr.dtype == bool:
         if arr.shape != (H, W):
             raise fail(f"a region mask must be the canvas's size {W}x{H} (as (H, W) = ({H}, {W})), "
                        f"not {arr.shape}")
         return canvas_to_image(arr, offset, shape)
-    try:
-        P = arr.astype(float)
-    except (TypeError, ValueError):
-        P = np.zeros((0, 0))
+    # numbers only: not strings, complex numbers or objects (ints beyond a float among them)
+    P = arr.astype(float) if arr.dtype.kind in "iuf" else np.zeros((0, 0))
     if P.ndim != 2 or P.shape[1] != 2 or len(P) < 3 or not np.isfinite(P).all():
         raise fail("a region is a polygon of at least 3 finite [x, y] canvas points or a boolean mask of the "
                    f"canvas, not {_short(region)}")
@@ -64,7 +62,7 @@ def region_mask(region, canvas: tuple[int, int], offset, shape: tuple[int, int],
 
 
 def _short(v) -> str:
-    text = repr(v)
+    text = " ".join(repr(v).split())  # one line: an array's repr has several
     return text if len(text) <= 60 else text[:57] + "..."
 
 

@@ -18,7 +18,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.scene.drag.process import unpack
+from puppet.scene.drag.process import DragProcess, unpack
+from puppet.scene.format import args as ck
 from puppet.scene.rig.proxy import proxy_for, proxy_layer, proxy_solve
 from puppet.scene.rig.solve import PinState, preview_group
 
@@ -49,6 +50,29 @@ def _file_form(pins: Mapping) -> dict:
     return {n: [float(xy[0]), float(xy[1])] for n, xy in pins.items()}
 
 
+def drag_solver(v, a: ck.Arg):
+    """A drag's ``solver``: a :class:`~puppet.scene.drag.process.DragProcess`."""
+    if not isinstance(v, DragProcess):
+        raise a.fail("be a puppet.scene.drag.process.DragProcess or None", v)
+    return v
+
+
+def _document(v, a: ck.Arg):
+    """A drag's document: anything with a scene's ``data``, ``built`` and ``events``."""
+    if not all(hasattr(v, k) for k in ("data", "built", "events", "file")):
+        raise a.fail("be a scene (puppet.api.Scene or a Document)", v)
+    return v
+
+
+def drag_targets(v, a: ck.Arg):
+    """Where to put the dragged pins: ``(x, y)`` or ``{name: (x, y)}``."""
+    if isinstance(v, Mapping):
+        if not all(isinstance(k, str) for k in v):
+            raise a.fail("be (x, y) or a dict of pin names to (x, y)", v)
+        return {k: ck.point(xy, a) for k, xy in v.items()}
+    return ck.point(v, a)
+
+
 def _record(doc, t0: float, keys: dict) -> None:
     """Store recorded ``keys`` ({time: {name: [x, y]}}) from ``t0`` on, one undo step
     (pose keys in the span keep their pose: ``Document.record_motion``)."""
@@ -73,6 +97,8 @@ class DragSession:
         ARAP iterations per preview frame, warm-started from the previous frame.
     """
 
+    @ck.checked("DragSession", doc=_document, names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag,
+                iterations=ck.ITERATIONS, solver=ck.optional(drag_solver))
     def __init__(self, doc, names, time: float | None = None, *, record: bool = False, iterations: int = 4,
                  solver=None):
         names = [names] if isinstance(names, str) else list(names)
@@ -121,6 +147,7 @@ class DragSession:
                 self._serial = self._solver.open(self.doc, self.names, self.time, self.record, self.iterations)
 
     # -- previews -----------------------------------------------------------------------
+    @ck.checked(targets=drag_targets, time=ck.optional(ck.TIME))
     def move_layers(self, targets, time: float | None = None) -> list:
         """Put the pins at ``targets`` ({name: (x, y)}, or one (x, y) for a one-pin drag);
         returns the preview's posed layers (:class:`~puppet.scene.rig.core.LayerResult`).
@@ -128,13 +155,13 @@ class DragSession:
         ``time`` (record mode only): the playhead now; the other pins are where the
         animation has them then."""
         if not self.open:
-            raise SceneError("this drag has been released")
+            raise SceneError("this drag has been released", file=self.doc.file)
         if self._stale:
             self._rebuild()
         targets = self._targets(targets)
         if time is not None:
             if not self.record:
-                raise SceneError("only a recording moves in time (give time= to drag() instead)")
+                raise SceneError("only a recording moves in time (give time= to drag() instead)", file=self.doc.file)
             self._state = self._start_state(float(time))
         state = self._state
         for n, xy in targets.items():
@@ -182,13 +209,14 @@ class DragSession:
         return self.doc.rig.evaluate(built, state, solved={**stand_in, **solved})
 
     # -- the end --------------------------------------------------------------------------
+    @ck.checked(keys=ck.optional(ck.timed_tables))
     def commit(self, keys: Mapping | None = None) -> None:
         """End the drag and record it in one undo step: the last targets in the active
         pose (a pose drag), in the key at ``time`` (a key drag), or, in record mode,
         ``keys`` = {time: {name: (x, y)}} replacing the pins' keys over the recorded span.
         A drag that never moved changes nothing."""
         if not self.open:
-            raise SceneError("this drag has been released")
+            raise SceneError("this drag has been released", file=self.doc.file)
         self._close()
         doc = self.doc
         if self.record:
@@ -206,6 +234,7 @@ class DragSession:
             for n, xy in self._last.items():
                 doc.set_target(n, xy)
 
+    @ck.checked(keys=ck.optional(ck.timed_tables))
     def release_layers(self, keys: Mapping | None = None) -> list:
         """:meth:`commit`, then the exact layers: ``doc.layers()`` for a pose drag,
         ``doc.layers(time=time)`` for a key drag or a recording."""
@@ -214,6 +243,7 @@ class DragSession:
             return self.doc.layers(time=self.time)
         return self.doc.layers()
 
+    @ck.checked()
     def cancel(self) -> None:
         """End the drag without changing anything."""
         if self.open:
@@ -250,12 +280,12 @@ class DragSession:
     def _targets(self, targets) -> dict[str, np.ndarray]:
         if not isinstance(targets, Mapping):
             if len(self.names) != 1:
-                raise SceneError(f"this drag moves {len(self.names)} pins: give {{name: (x, y)}}")
+                raise SceneError(f"this drag moves {len(self.names)} pins: give {{name: (x, y)}}", file=self.doc.file)
             targets = {self.names[0]: targets}
         out = {}
         for n, xy in targets.items():
             if n not in self._where:
-                raise SceneError(f"{n!r} is not one of the dragged pins ({', '.join(self.names)})")
+                raise SceneError(f"{n!r} is not one of the dragged pins ({', '.join(self.names)})", file=self.doc.file)
             xy = np.asarray(xy, float).reshape(-1)
             if xy.shape != (2,) or not np.all(np.isfinite(xy)):
                 raise SceneError(f"drag target must be two finite numbers, got {xy.tolist()}")

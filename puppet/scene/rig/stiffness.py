@@ -41,6 +41,16 @@ def _sample(grey: np.ndarray, offset, V: np.ndarray) -> np.ndarray:
     return grey[i, j].astype(np.float64)
 
 
+def _reach(V: np.ndarray, at, r: float) -> np.ndarray:
+    """Distance of points V (n, 2) from ``at`` as a fraction of ``r``, capped at 1: (n,).
+
+    Every radius the format allows (0 < r <= 1e4, however small) gives no warning: the
+    distance is capped at ``r`` before the division, so the quotient lies in [0, 1] and
+    ``r * r`` (which underflows to 0 for r below 1e-154) is never formed."""
+    d = np.hypot(V[:, 0] - at[0], V[:, 1] - at[1])
+    return np.minimum(d, r) / r
+
+
 def _in_polygon(P: np.ndarray, V: np.ndarray) -> np.ndarray:
     """Even-odd point-in-polygon of points V (n, 2) in polygon P (p, 2); (n,) bool."""
     x, y = V[:, 0][:, None], V[:, 1][:, None]
@@ -66,9 +76,7 @@ def layer_grey(data, k: int, im, V: np.ndarray) -> np.ndarray | None:
                 i = data.pins.index(p)
                 raise SceneError(f"starch pin {p.name!r} at ({p.at[0]:g}, {p.at[1]:g}) is outside the mask of "
                                  f"layer {L.name!r}", file=data.file, path=f"pins[{i}].at")
-            r = p.radius or STARCH_RADIUS
-            d2 = np.sum((V - p.at) ** 2, axis=1) / (r * r)
-            g = 255.0 * np.clip(1.0 - d2, 0.0, 1.0) ** 2  # smooth bump, 255 at the pin
+            g = 255.0 * (1.0 - _reach(V, p.at, p.radius or STARCH_RADIUS) ** 2) ** 2  # smooth bump, 255 at the pin
             out = g if out is None else np.maximum(out, g)
     for link in data.links:
         if L.name in link.layers:

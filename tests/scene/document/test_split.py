@@ -199,7 +199,7 @@ def test_pins_on_the_part_go_with_it(flat):
     (("body", np.ones((10, 10), bool), "bar"), "canvas's size 200x170"),
     (("body", AROUND_BAR, "body"), "a layer named 'body' exists already"),
     (("legs", AROUND_BAR, "bar"), "no layer named 'legs'"),
-    (("body", AROUND_BAR, ""), "needs a name"),
+    (("body", AROUND_BAR, ""), "split_layer: name must be a non-empty string"),
     (("body", [[0, 0], [W, 0], [W, H], [0, H]], "bar"), "takes all of layer 'body'"),
 ])
 def test_bad_input_is_a_scene_error(flat, args, message):
@@ -252,7 +252,7 @@ def test_link_segments_on_the_part_go_with_it(make_scene):
 
 def test_cut_flag_must_be_a_bool(flat):
     sc = puppet.load_scene(flat)
-    with pytest.raises(puppet.SceneError, match="cut is True"):
+    with pytest.raises(puppet.SceneError, match="split_layer: cut must be True or False"):
         sc.split_layer("body", AROUND_BAR, "bar", cut="no")
 
 
