@@ -232,6 +232,16 @@ def _by_suffix(path: str) -> Format | None:
     return max(hits, key=lambda f: len(f.suffix)) if hits else None  # .spine.json before .json
 
 
+#: Endings of files puppet does not write: an existing folder named so (``out.gltf/``) is
+#: not taken for a frame folder unless the path ends in ``/`` (the user asked for a file).
+FILE_ENDINGS = (".gltf", ".json", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff", ".svg", ".pdf",
+                ".avi", ".mov", ".mkv", ".m4v", ".ogv", ".zip", ".psd", ".ora", ".kra", ".txt")
+
+
+def _file_like(path: str) -> bool:
+    return os.path.basename(path).lower().endswith(FILE_ENDINGS)
+
+
 def find(path: str, kind: str | None = None) -> Format:
     """The format of ``path``, or the format named ``kind`` when given (then the path
     must end in its suffix or one of its ``also`` suffixes).
@@ -240,7 +250,9 @@ def find(path: str, kind: str | None = None) -> Format:
     format (an existing folder at ``out.html`` stays an HTML output, which the output
     checker then refuses as a folder, rather than being filled with frames); a frame
     folder is a path ending in ``/``, or an existing folder whose name has no known
-    ending (``--format dir`` names one explicitly).
+    ending and no ending of a file puppet does not write (:data:`FILE_ENDINGS`: an existing
+    folder ``out.gltf`` is refused like the path ``out.gltf``); ``--format dir`` names one
+    explicitly.
 
     Raises
     ------
@@ -263,7 +275,7 @@ def find(path: str, kind: str | None = None) -> Format:
     if slash:
         return BY_KIND["dir"]
     fmt = _by_suffix(path)
-    if fmt is None and os.path.isdir(path):
+    if fmt is None and os.path.isdir(path) and not _file_like(path):
         return BY_KIND["dir"]
     if fmt is None:
         ends = ", ".join(f.suffix for f in FORMATS if not f.folder)

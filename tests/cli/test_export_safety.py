@@ -139,7 +139,16 @@ def test_puppet_video_refuses_an_existing_folder_at_a_video_output(tmp_path, nam
     assert snapshot(tmp_path) == before
 
 
-@pytest.mark.parametrize("name", ["frames", "out.html/"])
+@pytest.mark.parametrize("name", ["out.gltf", "out.jpg", "out.json"])
+def test_an_existing_folder_named_like_a_file_puppet_does_not_write_is_refused(tmp_path, bar, name):
+    (tmp_path / name).mkdir()
+    before = snapshot(tmp_path)
+    line = one_error_line(cli("animate", bar, "-o", tmp_path / name, "--to", "0.2", timeout=60))
+    assert line.startswith(f"puppet: error: -o '{tmp_path / name}': give a folder (ending in /) or a file")
+    assert snapshot(tmp_path) == before  # not filled with frames
+
+
+@pytest.mark.parametrize("name", ["frames", "frames.v2", "out.html/", "out.gltf/"])
 def test_a_folder_without_a_known_ending_or_with_a_slash_gets_frames(tmp_path, bar, name):
     (tmp_path / name.rstrip("/")).mkdir()
     r = cli("animate", bar, "-o", f"{tmp_path / name.rstrip('/')}{'/' if name.endswith('/') else ''}",
