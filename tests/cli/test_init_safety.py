@@ -345,3 +345,17 @@ def test_an_import_from_before_manifests_owns_its_images_a_hand_made_scene_none(
     before = snapshot(str(tmp_path))
     assert "--force" in one_error_line(cli("init", art, "-o", "char.json", cwd=tmp_path))
     assert snapshot(str(tmp_path)) == before
+
+
+# -- the art file is a file the scene reads ----------------------------------------------
+def test_the_art_file_is_never_overwritten_by_a_save(tmp_path, art):
+    ok(cli("init", art, "-o", "char.json", cwd=tmp_path))
+    before = snapshot(str(tmp_path))
+    script = ("import puppet, sys\n"
+              "from puppet.errors import SceneError\n"
+              "try:\n    puppet.load_scene('char.json').save(sys.argv[1])\n"
+              "except SceneError as e:\n    print(e)\n")
+    r = subprocess.run([sys.executable, "-c", script, str(art)], capture_output=True, text=True, timeout=60,
+                       cwd=str(tmp_path), env=dict(os.environ, PYTHONPATH=ROOT))
+    assert "it is a file the scene reads" in r.stdout and "app.art" in r.stdout, r.stdout + r.stderr
+    assert snapshot(str(tmp_path)) == before

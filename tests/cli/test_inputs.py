@@ -22,3 +22,10 @@ def test_the_apps_underlay_picture_is_an_input(tmp_path):
     data = load_scene_data(make_bar(tmp_path))
     data.raw = dict(data.raw, app={"underlay": {"image": "ref/person.jpg"}})
     assert input_files(data)[-1] == (os.path.join(str(tmp_path), "ref", "person.jpg"), "app.underlay.image")
+
+
+def test_the_layered_art_a_scene_was_made_from_is_an_input(tmp_path):
+    data = load_scene_data(make_bar(tmp_path))
+    data.raw = dict(data.raw, app={"art": "../art/char.psd", "underlay": {"image": "u.png"}})
+    assert input_files(data)[-2:] == [(os.path.join(str(tmp_path), "u.png"), "app.underlay.image"),
+                                      (os.path.join(os.path.dirname(str(tmp_path)), "art", "char.psd"), "app.art")]

@@ -33,20 +33,20 @@ def input_files(data: SceneData, *, scene_file: bool = True) -> list[tuple[str, 
             out.append((mask.file, f"layers[{i}].mask.file"))
         if getattr(layer, "stiffness", None):
             out.append((layer.stiffness, f"layers[{i}].stiffness.file"))
-    underlay = _underlay(data)
-    if underlay:
-        out.append((underlay, "app.underlay.image"))
+    app = _app(data)
+    u = app.get("underlay")
+    for path, what in ((u.get("image") if isinstance(u, dict) else None, "app.underlay.image"),
+                       (app.get("art"), "app.art")):
+        if isinstance(path, str) and path:
+            out.append((os.path.normpath(os.path.join(os.path.dirname(data.file or ""), path)), what))
     return out
 
 
-def _underlay(data: SceneData) -> str | None:
-    """The app's reference picture (``app.underlay.image``), absolute, if the scene names one."""
+def _app(data: SceneData) -> dict:
+    """The scene's ``app`` block (the app's reference picture ``underlay.image``, the
+    layered ``art`` file "Reload art" re-imports), or an empty dict."""
     app = getattr(data, "app", None)
     if not isinstance(app, dict):
         raw = getattr(data, "raw", None)
         app = raw.get("app") if isinstance(raw, dict) else None
-    u = app.get("underlay") if isinstance(app, dict) else None
-    image = u.get("image") if isinstance(u, dict) else None
-    if not isinstance(image, str) or not image:
-        return None
-    return os.path.normpath(os.path.join(os.path.dirname(data.file or ""), image))
+    return app if isinstance(app, dict) else {}
