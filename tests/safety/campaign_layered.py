@@ -442,10 +442,10 @@ def section2() -> list[Case]:
         ]
     for fmt in ("psd", "ora", "kra"):
         cases.append(Case(f"init {fmt} --update: the art gains a layer named as the scene's stiffness image", "2",
-                          init(f"{{d}}/in/plus.{fmt}", "{d}/out/S.json", "--update"), outputs=OUT_S,
+                          init(f"{{d}}/in/plus.{fmt}", "{d}/out/S.json", "--update"), outputs=OUT_S + ("out/S.json*",),
                           protect=("out/S-layers/stiff.png",), setup=[base("stiff")], renders=("out/S.json",)))
     cases.append(Case("init psd --update: S-layers/head.png made a link by the user", "2",
-                      init("{d}/in/recolour.psd", "{d}/out/S.json", "--update"), outputs=OUT_S,
+                      init("{d}/in/recolour.psd", "{d}/out/S.json", "--update"), outputs=OUT_S + ("out/S.json*",),
                       protect=("out/S-layers/head.png", "out/mine.png"),
                       setup=[base("psd"), lambda d: os.rename(os.path.join(d, "out/S-layers/head.png"),
                                                               os.path.join(d, "out/mine.png")),
