@@ -240,9 +240,15 @@ def test_hostile_arguments_give_a_scene_error_or_success(scene, folder, name, da
 @HOSTILE_SETTINGS
 @given(data=st.data())
 def test_hostile_drag_arguments(scene, folder, name, data):
-    d = scene.drag("a1")
+    _hostile_drag_call(scene, folder, name, DRAG_CALLS, data)
+
+
+def _hostile_drag_call(scene, folder, name, table, data, **drag_kw):
+    """One method of a drag on pin a1 called with hostile arguments; the drag cancelled
+    and every edit undone after."""
+    d = scene.drag("a1", **drag_kw)
     try:
-        _hostile_call(d, folder, name, *DRAG_CALLS[name], data, scene=scene)
+        _hostile_call(d, folder, name, *table[name], data, scene=scene)
     finally:
         d.cancel()
         while scene.undo():
@@ -335,13 +341,7 @@ def test_drawing_methods_check_first(scene, folder, name, data):
 @HOSTILE_SETTINGS
 @given(data=st.data())
 def test_drawing_drag_methods_check_first(scene, folder, name, data):
-    d = scene.drag("a1", size=(50, 40))
-    try:
-        _hostile_call(d, folder, name, *DRAG_DRAWING[name], data, scene=scene)
-    finally:
-        d.cancel()
-        while scene.undo():
-            pass
+    _hostile_drag_call(scene, folder, name, DRAG_DRAWING, data, size=(50, 40))
 
 
 @pytest.mark.gl

@@ -359,3 +359,43 @@ def test_the_art_file_is_never_overwritten_by_a_save(tmp_path, art):
                        cwd=str(tmp_path), env=dict(os.environ, PYTHONPATH=ROOT))
     assert "it is a file the scene reads" in r.stdout and "app.art" in r.stdout, r.stdout + r.stderr
     assert snapshot(str(tmp_path)) == before
+
+
+# -- a stop during an import: the whole import or nothing ---------------------------------
+STOP = """
+import os, signal, sys
+import puppet.cli as cli
+import puppet.output as output
+import puppet.scene.make.art as art
+when = sys.argv[2]
+def stop():
+    os.kill(os.getpid(), signal.SIGTERM)
+if when == "staging":  # while the PNGs are written to the staging folder
+    real_pngs = art._write_pngs
+    def _write_pngs(*a, **k):
+        stop()
+        return real_pngs(*a, **k)
+    art._write_pngs = _write_pngs
+else:  # while the PNGs and the scene are renamed into place (signals held)
+    real_commit_all = output.commit_all
+    def commit_all(staged):
+        stop()
+        return real_commit_all(staged)
+    output.commit_all = commit_all
+sys.argv = ["puppet", "init", sys.argv[1], "-o", "char.json"]
+sys.exit(cli.main())
+"""
+
+
+@pytest.mark.parametrize("when", ["staging", "commit"])
+def test_a_stop_during_an_import_leaves_the_whole_import_or_nothing(tmp_path, art, when):
+    before = snapshot(str(tmp_path))
+    r = subprocess.run([sys.executable, "-c", STOP, str(art), when], capture_output=True, text=True, timeout=60,
+                       cwd=str(tmp_path), env=dict(os.environ, PYTHONPATH=ROOT))
+    assert r.returncode == -signal.SIGTERM and r.stderr == "puppet: stopped by SIGTERM\n", r.stderr
+    if when == "staging":
+        assert snapshot(str(tmp_path)) == before
+        return
+    left = sorted(os.listdir(tmp_path))
+    assert left == ["char-layers", "char.json", "char.ora"], left  # no staging folder, no temporary
+    ok(cli("check", "char.json", cwd=tmp_path))  # the scene and every layer image it names are there

@@ -23,7 +23,6 @@ import os
 import resource
 import shutil
 import signal
-import subprocess
 import sys
 import tempfile
 import time
@@ -35,6 +34,7 @@ sys.path.insert(0, ROOT)
 from tests.batch.conftest import write_bar  # noqa: E402
 from tests.batch.test_safety import FakeServer as Server  # noqa: E402
 from tests.fstree import snapshot  # noqa: E402
+from tests.safety.child import run_child  # noqa: E402
 
 MEMORY_CAP = 8 * 2 ** 30  # address space per process (inherited by the workers)
 FAST_TIMEOUT, CLUSTER_TIMEOUT = 60, 300
@@ -448,26 +448,15 @@ def run_case(base: str, case: Case, python: str) -> Result:
     before = snapshot(f)
     env = dict(os.environ, TMPDIR=os.path.join(f, "tmp"))
     t0 = time.monotonic()
-    p = subprocess.Popen([python, "-m", "puppet", *argv], cwd=os.path.join(f, "in"), stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, errors="replace", start_new_session=True,
-                         env=env, preexec_fn=_limits)
-    timeout = CLUSTER_TIMEOUT if case.cluster else FAST_TIMEOUT
-    try:
-        if case.signal_after:
-            sig, after = case.signal_after
-            try:
-                p.wait(timeout=after)
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, sig)
-        out, err = p.communicate(timeout=timeout)
-        res.rc = p.returncode
-    except subprocess.TimeoutExpired:
+    ran = run_child([python, "-m", "puppet", *argv], timeout=CLUSTER_TIMEOUT if case.cluster else FAST_TIMEOUT,
+                    signal_after=case.signal_after, cwd=os.path.join(f, "in"), start_new_session=True, env=env,
+                    preexec_fn=_limits)
+    res.rc, out, err = ran.rc, ran.out, ran.err
+    if ran.hang:
         res.flags.append("hang")
-        os.killpg(p.pid, signal.SIGKILL)
-        out, err = p.communicate()
     res.seconds = time.monotonic() - t0
     time.sleep(0.2)  # a process of the group may still be ending
-    with_pg_gone(p.pid)
+    with_pg_gone(ran.pid)
     res.err = err
     if "Traceback" in err or "Traceback" in out or res.rc == 1:
         res.flags.append("traceback")

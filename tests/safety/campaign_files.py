@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, ROOT)
 from tests import fstree  # noqa: E402
+from tests.safety.child import case_command, run_child  # noqa: E402
 MEMORY_CAP = 6 << 30  # bytes of address space per case
 PY = sys.executable
 
@@ -402,24 +403,11 @@ def run_case(case: Case, template: str, timeout: float) -> dict:
         for f in case.setup:
             f(d)
         before = snapshot(d)
-        if case.script is not None:
-            cmd = [PY, "-c", case.script, d]
-        else:
-            cmd = [PY, "-m", "puppet", *[a.replace("{d}", d) for a in case.argv]]
         env = dict(os.environ, PYTHONPATH=ROOT, **(case.env or {}))
         env.pop("DISPLAY", None)
-        res = {"name": case.name, "hang": False}
-        try:
-            p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=d,
-                                 preexec_fn=_cap)
-            _, err = p.communicate(timeout=timeout)
-            res["rc"] = p.returncode
-        except subprocess.TimeoutExpired:
-            os.killpg(p.pid, 9)
-            p.communicate()
-            res.update(hang=True, rc=None)
-            err = ""
-        res["err"] = err
+        ran = run_child(case_command(PY, case.script, case.argv, d), timeout=timeout, env=env, cwd=d,
+                        preexec_fn=_cap)
+        res = {"name": case.name, "hang": ran.hang, "rc": ran.rc, "err": "" if ran.hang else ran.err}
         after = snapshot(d)
         return judge(case, d, before, after, res)
     finally:

@@ -63,6 +63,7 @@ from tests import artfiles  # noqa: E402
 from tests.fstree import snapshot  # noqa: E402
 from tests.imaging.test_layered_zip import lzf_compress, tile_file  # noqa: E402
 from tests.safety.campaign_files import fifo, link, unmount_under, write  # noqa: E402
+from tests.safety.child import case_command, run_child  # noqa: E402
 
 MEMORY_CAP = 4 << 30  # bytes of address space per case (the machine has 23 GB and 2 cores)
 PY = sys.executable
@@ -845,13 +846,13 @@ def held() -> list[Case]:
             Case(f"init {fmt}: S-layers is a file", "held", init(f"{{d}}/in/char.{fmt}"), setup=[write("out/S-layers", "x")]),
             Case(f"init {fmt} --update without a scene", "held", init(f"{{d}}/in/char.{fmt}", "{d}/out/S.json", "--update")),
             Case(f"init {fmt}: SIGINT at 0.8 s", "held", init(f"{{d}}/in/char.{fmt}", "{d}/out/S.json", *AUTO),
-                 outputs=OUT_S, signal_after=(signal.SIGINT, 0.8)),
+                 outputs=OUT_S, signal_after=(signal.SIGINT, 0.8), renders=("out/S.json",)),
             Case(f"init {fmt}: SIGTERM at 0.8 s", "held", init(f"{{d}}/in/char.{fmt}", "{d}/out/S.json", *AUTO),
-                 outputs=OUT_S, signal_after=(signal.SIGTERM, 0.8)),
+                 outputs=OUT_S, signal_after=(signal.SIGTERM, 0.8), renders=("out/S.json",)),
             Case(f"init {fmt}: SIGTERM at 1.6 s", "held", init(f"{{d}}/in/char.{fmt}", "{d}/out/S.json", *AUTO),
-                 outputs=OUT_S, signal_after=(signal.SIGTERM, 1.6)),
+                 outputs=OUT_S, signal_after=(signal.SIGTERM, 1.6), renders=("out/S.json",)),
             Case(f"init {fmt} --update: SIGINT at 1.2 s", "held", init(f"{{d}}/in/recolour.{fmt}", "{d}/out/S.json", "--update"),
-                 setup=[base(fmt)], outputs=OUT_S + ("out/S.json*",), signal_after=(signal.SIGINT, 1.2)),
+                 setup=[base(fmt)], outputs=OUT_S + ("out/S.json*",), signal_after=(signal.SIGINT, 1.2), renders=("out/S.json",)),
         ]
     for fmt, ver in (("psd", 1), ("psb", 2)):
         src = "{d}/in/char." + fmt
@@ -1072,34 +1073,18 @@ def run_case(case: Case, template: str, timeout: float) -> dict:
         for f in case.setup:
             f(d)
         before = snapshot(d)
-        if case.script is not None:
-            script = case.script + (APP_END if case.script.startswith(APP.split("{")[0]) else "")
-            cmd = [PY, "-c", script, d]
-        else:
-            cmd = [PY, "-m", "puppet", *[a.replace("{d}", d) for a in case.argv]]
-        limit = case.timeout or timeout
+        script = case.script
+        if script is not None and script.startswith(APP.split("{")[0]):
+            script += APP_END
         t0 = time.monotonic()
-        p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=child_env(d), cwd=d,
-                             preexec_fn=lambda: _cap(case.memory_cap))
-        try:
-            if case.signal_after:
-                sig, after = case.signal_after
-                try:
-                    p.wait(timeout=after)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, sig)
-            _, err = p.communicate(timeout=limit)
-            res["rc"] = p.returncode
-        except subprocess.TimeoutExpired:
-            os.killpg(p.pid, signal.SIGKILL)
-            _, err = p.communicate()
-            res["hang"] = True
-        res["seconds"] = time.monotonic() - t0
-        res["err"] = err
+        ran = run_child(case_command(PY, script, case.argv, d), timeout=case.timeout or timeout,
+                        signal_after=case.signal_after, env=child_env(d), cwd=d,
+                        preexec_fn=lambda: _cap(case.memory_cap))
+        res.update(rc=ran.rc, hang=ran.hang, err=ran.err, seconds=time.monotonic() - t0)
         time.sleep(0.05)
         after = snapshot(d)
         judge(case, d, before, after, res)
-        if res["rc"] == 0 and not res["hang"]:
+        if (res["rc"] == 0 or res["whole"]) and not res["hang"]:
             for scene in case.renders:
                 if os.path.exists(os.path.join(d, scene)):
                     why = render_ok(d, scene, timeout)
@@ -1134,8 +1119,13 @@ def judge(case: Case, d: str, before: dict, after: dict, res: dict) -> None:
     if case.expect_ok and rc not in (0, None) and not res["traceback"]:
         res["wrong"].append("a valid file was refused: " + (lines[-1][:160] if lines else ""))
     forced = "--force" in (case.argv or [])
-    ok = rc in (0, 5)  # 5: an API script that got through a call that should have been refused
     changed = sorted(p for p in set(before) | set(after) if before.get(p) != after.get(p))
+    # a stop that came after the output was committed (signals are held while it is) leaves
+    # the whole output: only outputs changed, no temporary, the scenes to render all there
+    res["whole"] = rc in sig_ok and bool(changed) and bool(case.renders) and all(
+        is_output(p) and not p.endswith(".tmp") for p in changed) and all(
+        os.path.exists(os.path.join(d, r)) for r in case.renders)
+    ok = rc in (0, 5) or res["whole"]  # 5: an API script that got through a call that should have been refused
     res["outside"] = [] if hang else [p for p in changed if not ok or (not is_output(p) and (
         p not in before or p.split(os.sep)[0] in ("outside", "tmp")))]
     res["modified"] = [] if hang else [p for p in changed if p in before and p.split(os.sep)[0] not in ("outside", "tmp")
