@@ -84,6 +84,10 @@ def test_a_pose_drag_crosses_ten_modules_and_one_hand_off(make_scene):
     modules = []
     for mark in ("event", "post", "solve", "draw"):
         modules += [m for m in stacks.seen[mark][1] if m not in modules]
+    # the argument checks every public method of a drag passes through first (a decorator,
+    # docs/api.md "Argument errors"): a gate on the way in, not a hop that forwards the drag
+    assert "scene/format/args.py" in modules
+    modules.remove("scene/format/args.py")
     print("the drag's path:", " -> ".join(modules))
     assert len(modules) <= 10, modules
     for hop in ("app/tools/gestures.py", "app/model/app.py", "scene/drag/session.py", "app/gl/canvas.py"):
