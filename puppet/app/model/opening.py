@@ -62,9 +62,23 @@ def preload(path: str) -> str:
             print(line, file=sys.stderr)
         print(res.summary(), file=sys.stderr)
         path = os.path.abspath(res.scene)
+        _preloaded.clear()
+        scene, saved, _ = load(path, picture=False)
+        _preloaded[path] = (scene, saved, art_status(res))  # the status line says what the import did
+        return path
     _preloaded.clear()
     _preloaded[path] = load(path, picture=is_picture(path))
     return path
+
+
+def art_status(res) -> str:
+    """The status line after layered art was imported: the summary, and the notes (the
+    backup an update kept, renamed layers ...), also said on stderr."""
+    if not res.notes:
+        return res.summary()
+    kept = [n for n in res.notes if "is kept in" in n]  # the backup first: what a user needs to know
+    first = (kept or res.notes)[0]
+    return res.summary() + f" ({len(res.notes)} note(s): {first}" + (" ...)" if len(res.notes) > 1 else ")")
 
 
 def load(path: str, *, picture: bool, recover_from: str | None = None):
@@ -82,8 +96,7 @@ def load(path: str, *, picture: bool, recover_from: str | None = None):
     if is_art(path):  # File > Open or a drop of layered art: its scene beside it
         res = from_art(path)
         scene, saved, _ = load(os.path.abspath(res.scene), picture=False, recover_from=recover_from)
-        notes = f" ({len(res.notes)} note(s): {res.notes[0]}...)" if res.notes else ""
-        return scene, saved, res.summary() + notes
+        return scene, saved, art_status(res)
     name = os.path.basename(path)
     if picture and recover_from is not None:  # the autosave of a scene made from this picture
         scene = puppet.load_scene(recover_from)
