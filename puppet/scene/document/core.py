@@ -136,23 +136,25 @@ class Document(Edits, KeyEdits, DeformEdits):
     @ck.checked()
     def undo(self) -> bool:
         """Go back one step; False when there is nothing to undo."""
-        if not self.history.can_undo():
-            return False
-        step = self.history.undo_stack.pop()
-        self._set(*step.before)
-        self.history.redo_stack.append(step)
-        self.events.emit(Event("undo", level="mesh", label=step.label))
-        return True
+        return self._travel("undo")
 
     @ck.checked()
     def redo(self) -> bool:
         """Redo the last undone step; False when there is nothing to redo."""
-        if not self.history.can_redo():
+        return self._travel("redo")
+
+    def _travel(self, way: str) -> bool:
+        """Move one step from the ``way`` stack (``"undo"`` or ``"redo"``) to the other,
+        setting the state before (undo) or after (redo) it, and say so."""
+        undo = way == "undo"
+        src, dst = ((self.history.undo_stack, self.history.redo_stack) if undo
+                    else (self.history.redo_stack, self.history.undo_stack))
+        if not (self.history.can_undo() if undo else self.history.can_redo()):
             return False
-        step = self.history.redo_stack.pop()
-        self._set(*step.after)
-        self.history.undo_stack.append(step)
-        self.events.emit(Event("redo", level="mesh", label=step.label))
+        step = src.pop()
+        self._set(*(step.before if undo else step.after))
+        dst.append(step)
+        self.events.emit(Event(way, level="mesh", label=step.label))
         return True
 
     # -- drawing facts -----------------------------------------------------------
