@@ -25,7 +25,7 @@ import numpy as np
 
 from puppet.errors import SceneError
 from puppet.scene.document.core import Document
-from puppet.scene.drag.child import child_setup, start_child, stop_child
+from puppet.scene.drag.child import child_setup, messages, start_child, stop_child
 
 #: Fields sent back per layer and frame (the others come from the template frame).
 STATIC = ("rest", "triangles")
@@ -53,13 +53,7 @@ def _child(conn, doc: dict, file: str, t0: float, rate: float) -> None:
         scene = Document(doc, file)
         scene.built  # noqa: B018
         conn.send(("ready",))
-        while True:
-            try:
-                i = conn.recv()
-            except (EOFError, OSError):
-                return
-            if i is None:
-                return
+        for i in messages(conn):
             t = time.perf_counter()
             layers = scene.layers(time=t0 + i / rate)
             conn.send(("ok", i, _pack(layers), time.perf_counter() - t))

@@ -8,7 +8,7 @@ bit for bit. It lives here, not beside ``DragProcess``, because it makes a whole
 from __future__ import annotations
 
 from puppet.scene.document.core import Document
-from puppet.scene.drag.child import child_setup
+from puppet.scene.drag.child import child_setup, messages
 
 #: LayerResult fields sent back per moved layer (``rest``, ``triangles`` and ``pins`` too
 #: for a layer drawn as a proxy mesh, see :mod:`puppet.scene.rig.proxy`).
@@ -19,13 +19,7 @@ def child_main(fd: int) -> None:
     """The child: ``python -c "...child_main(FD)"`` with one end of a socket pair."""
     conn = child_setup(fd)
     rig, session = None, None
-    while True:
-        try:
-            msg = conn.recv()
-        except (EOFError, OSError):
-            return
-        if msg is None:
-            return
+    for msg in messages(conn):
         try:
             if msg[0] == "open":
                 rig, session = _open(rig, *msg[1:])

@@ -45,6 +45,18 @@ def child_setup(fd: int):
     return Connection(fd)
 
 
+def messages(conn):
+    """In the child: the parent's messages, until it sends ``None`` or the pipe closes."""
+    while True:
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):
+            return
+        if msg is None:
+            return
+        yield msg
+
+
 def stop_child(proc, conn) -> None:
     """Ask the child to stop (``None``), wait 2 s, then kill it; close the connection."""
     import subprocess
