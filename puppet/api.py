@@ -115,7 +115,7 @@ class Scene(Document):
     def _reduced(self, L, image_key: str, reduce: int):
         """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled
         about the offset so that every vertex keeps its texture coordinate."""
-        image = self.rig.memo.get("pixels", fingerprint("reduced", image_key, reduce),
+        image = self.rig.memo.get("reduced", fingerprint(image_key, reduce),
                                   lambda: reduced_rgba(L.image, reduce))
         seen = self._reduced_rest.get(L.key)
         if seen is None or seen[0] is not L.rest or seen[1] is not image:  # the same array each frame:

@@ -83,6 +83,13 @@ class Memo:
                 store.popitem(last=False)
         return value
 
+    def at_least(self, kinds, n: int) -> None:
+        """Keep at least ``n`` parts of each of ``kinds`` (a scene of many layers keeps one
+        part per layer: a store smaller than that would rebuild every part every frame)."""
+        with self._lock:
+            for kind in kinds:
+                self.capacity[kind] = max(self.capacity.get(kind, self.default), int(n))
+
     def count(self, kind: str) -> int:
         return self.builds.get(kind, 0)
 

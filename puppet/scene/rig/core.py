@@ -33,9 +33,13 @@ from puppet.scene.rig.solve import (
 )
 from puppet.scene.rig.stiffness import group_cells
 
-#: how many of each kind of built part are kept (least recently used dropped first)
-CAPACITY = {"pixels": 16, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
+#: how many of each kind of built part are kept (least recently used dropped first); the
+#: kinds of :data:`PER_LAYER` keep at least two per layer of the scene built last
+CAPACITY = {"pixels": 16, "reduced": 64, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
             "cells": 16}
+
+#: kinds of part built once per layer (or per group, at most one per layer)
+PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells")
 
 
 @dataclass
@@ -98,6 +102,7 @@ class Rig:
     # -- building ----------------------------------------------------------------
     def build(self, data: SceneData) -> Built:
         memo = self.memo
+        memo.at_least(PER_LAYER, 2 * len(data.layers))
         rank = build.stacking(data)
         source = None
         if data.source is not None:
