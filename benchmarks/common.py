@@ -1,10 +1,15 @@
 """Shared by the benchmark scripts: test meshes, pins, timing."""
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import time
 
 import numpy as np
 import triangle
+
+from benchmarks.bench_import import make_psd
 
 
 def disc(n_boundary: int, max_area: float, radius: float = 100.0):
@@ -53,3 +58,18 @@ def best(fn, repeat=5, warmup=True):
         out = fn()
         times.append(time.perf_counter() - t0)
     return min(times), out
+
+
+def psd4k_scene(folder: str) -> str:
+    """The 20-part 4000x4000 PSD scene of issue 31, made once per ``folder`` and reused:
+    ``bench_import.make_psd(art.psd, 4000, 20)``, then ``puppet init art.psd -o s.json
+    --pins auto --links auto`` in a new process. Returns the scene's path."""
+    os.makedirs(folder, exist_ok=True)
+    art, path = os.path.join(folder, "art.psd"), os.path.join(folder, "s.json")
+    if not os.path.exists(path):
+        if not os.path.exists(art):
+            make_psd(art + ".part", 4000, 20)
+            os.replace(art + ".part", art)
+        subprocess.run([sys.executable, "-m", "puppet", "init", art, "-o", path, "--pins", "auto", "--links", "auto"],
+                       check=True, capture_output=True, timeout=900, cwd=folder)
+    return path
