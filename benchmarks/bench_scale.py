@@ -56,7 +56,8 @@ from benchmarks.common import psd4k_scene  # noqa: E402
 TREX = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
 SIZES = ["2k", "8k", "32k", "128k", "psd4k", "garment", "islands"]
 #: T-rex copies: label -> (art scale, max_area of every layer); measured 2.2k, 8.2k, 31.7k vertices at scale 1
-TREX_MESH = {"2k": (1, 30.0), "8k": (1, 7.5), "32k": (1, 1.9), "128k": (2, 1.9)}
+#: and 135.8k at scale 2 with 1.9 px²
+TREX_MESH = {"2k": (1, 30.0), "8k": (1, 7.5), "32k": (1, 1.9), "128k": (2, 2.0)}
 #: the islands: transparent lines every TILE px, GAP px wide, over the 4000x4000 garment
 TILE, GAP = 250, 24
 CACHE = ".puppet-cache"
@@ -213,13 +214,23 @@ def preview_error(scene, pin: str, path: np.ndarray) -> dict:
             "err_p95": float(np.percentile(dist, 95)), "err_max": float(dist.max())}
 
 
+def islands(F: np.ndarray, n: int) -> int:
+    """The number of connected pieces of a mesh of ``n`` vertices and triangles ``F``."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]]])
+    return connected_components(coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n)), directed=False)[0]
+
+
 def measure_drag(path: str, steps: int) -> dict:
     """Vertices, groups, move times, release times and the preview error of one scene."""
     import puppet  # lazy: the parent process never loads a scene
 
     scene = puppet.load_scene(path)
     groups = scene.built.groups
-    out = {"vertices": sum(len(g.mesh.V) for g in groups), "groups": len(groups)}
+    out = {"vertices": sum(len(g.mesh.V) for g in groups), "groups": len(groups),
+           "islands": sum(islands(g.mesh.F, len(g.mesh.V)) for g in groups)}
     scene.render(size=(640, 640))  # textures and the solver's parts built before timing
     pin, start = middle_pin(scene)
     radius = 0.04 * max(scene.canvas)
@@ -306,7 +317,7 @@ def cell(r: dict, key: str, spec: str, scale: float = 1.0) -> str:
 
 
 def print_header() -> None:
-    print("| scene | vertices | groups | move med ms | move p95 ms | release_layers ms | release + draw ms | "
+    print("| scene | vertices | groups (islands) | move med ms | move p95 ms | release_layers ms | release + draw ms | "
           "preview error px (med / p95 / max) | load + first render s: cold | cached |")
     print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
 
@@ -314,7 +325,7 @@ def print_header() -> None:
 def print_row(r: dict) -> None:
     err = " / ".join(cell(r, k, ".1f") for k in ("err_med", "err_p95", "err_max"))
     cold, cached = (cell(r.get(k, {}), "open", ".2f") for k in ("cold", "cached"))
-    print(f"| {r['name']} | {cell(r, 'vertices', 'd')} | {cell(r, 'groups', 'd')} | {cell(r, 'move_med', '.0f')} | "
+    print(f"| {r['name']} | {cell(r, 'vertices', 'd')} | {cell(r, 'groups', 'd')} ({cell(r, 'islands', 'd')}) | {cell(r, 'move_med', '.0f')} | "
           f"{cell(r, 'move_p95', '.0f')} | {cell(r, 'release', '.0f', 1000)} | {cell(r, 'release_draw', '.0f', 1000)} | "
           f"{err} | {cold} | {cached} |", flush=True)
 
