@@ -51,7 +51,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from benchmarks.bench_drag import garment_4k, load_floor  # noqa: E402
-from benchmarks.common import psd4k_scene  # noqa: E402
+from benchmarks.common import middle_pin, pose_gap, psd4k_scene  # noqa: E402
 
 TREX = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
 SIZES = ["2k", "8k", "32k", "128k", "psd4k", "garment", "islands"]
@@ -143,45 +143,11 @@ def make_scene(row: str, base: str) -> str:
 
 
 # -- measures (each in a child process) ------------------------------------------------------------
-def middle_pin(scene) -> tuple[str, np.ndarray]:
-    """The interior pin nearest the centroid of the interior pins, and where it is."""
-    pins = [p for p in scene.data.pins if p.kind == "interior"]
-    at = np.array([p.at for p in pins], float)
-    k = int(np.argmin(np.linalg.norm(at - at.mean(axis=0), axis=1)))
-    return pins[k].name, at[k]
-
-
 def drag_path(start: np.ndarray, steps: int, radius: float) -> np.ndarray:
     """``steps`` points over three quarters of a circle that passes through ``start``
     (``radius`` < 0: the circle on the left of ``start``, turning the other way)."""
     t = np.linspace(0, 1.5 * np.pi, steps + 1)[1:]
     return np.stack([start[0] + radius * (1 - np.cos(t)), start[1] - abs(radius) * np.sin(t)], axis=1)
-
-
-def at_rest(preview, exact) -> np.ndarray:
-    """The preview's deformation read at the exact mesh's rest vertices: (n, 2). Each rest
-    vertex is placed in the preview triangle (of its 8 with the nearest centroids) where its
-    smallest barycentric coordinate is largest (clamped outside the preview's outline)."""
-    from scipy.spatial import cKDTree
-
-    if preview.rest.shape == exact.rest.shape and np.array_equal(preview.rest, exact.rest):
-        return preview.deformed
-    F, V, U = preview.triangles, preview.rest, preview.deformed
-    _, cand = cKDTree(V[F].mean(axis=1)).query(exact.rest, k=min(8, len(F)))
-    cand = cand.reshape(len(exact.rest), -1)
-    a, b, c = (V[F[cand, i]] for i in range(3))  # (n, k, 2)
-    p = exact.rest[:, None, :]
-    det = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (c[..., 0] - a[..., 0]) * (b[..., 1] - a[..., 1])
-    det = np.where(np.abs(det) < 1e-12, 1e-12, det)
-    l1 = ((p[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (c[..., 0] - a[..., 0]) * (p[..., 1] - a[..., 1])) / det
-    l2 = ((b[..., 0] - a[..., 0]) * (p[..., 1] - a[..., 1]) - (p[..., 0] - a[..., 0]) * (b[..., 1] - a[..., 1])) / det
-    lam = np.stack([1 - l1 - l2, l1, l2], axis=-1)
-    best = np.argmax(lam.min(axis=-1), axis=1)
-    rows = np.arange(len(best))
-    w = np.clip(lam[rows, best], 0, None)
-    w /= w.sum(axis=1, keepdims=True)
-    tri = F[cand[rows, best]]
-    return np.einsum("nk,nkd->nd", w, U[tri])
 
 
 def preview_error(scene, pin: str, path: np.ndarray) -> dict:
@@ -202,13 +168,8 @@ def preview_error(scene, pin: str, path: np.ndarray) -> dict:
     for k in marks:
         d = scene.drag(pin)
         d.move_layers(path[k])
-        exact = d.release_layers()
+        dist.append(pose_gap(previews[k], d.release_layers(), pin))
         scene.undo()
-        group = next(r.group for r in exact if pin in r.pins)
-        by_name = {r.name: r for r in previews[k]}
-        for r in exact:
-            if r.group == group:
-                dist.append(np.linalg.norm(at_rest(by_name[r.name], r) - r.deformed, axis=1))
     dist = np.concatenate(dist)
     return {"release_draw": release_draw, "err_med": float(np.median(dist)),
             "err_p95": float(np.percentile(dist, 95)), "err_max": float(dist.max())}
@@ -232,7 +193,7 @@ def measure_drag(path: str, steps: int) -> dict:
     out = {"vertices": sum(len(g.mesh.V) for g in groups), "groups": len(groups),
            "islands": sum(islands(g.mesh.F, len(g.mesh.V)) for g in groups)}
     scene.render(size=(640, 640))  # textures and the solver's parts built before timing
-    pin, start = middle_pin(scene)
+    pin, start = middle_pin(path)
     radius = 0.04 * max(scene.canvas)
     route = drag_path(start, steps, radius)
     d = scene.drag(pin)

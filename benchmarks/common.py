@@ -1,6 +1,7 @@
 """Shared by the benchmark scripts: test meshes, pins, timing."""
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -73,3 +74,50 @@ def psd4k_scene(folder: str) -> str:
         subprocess.run([sys.executable, "-m", "puppet", "init", art, "-o", path, "--pins", "auto", "--links", "auto"],
                        check=True, capture_output=True, timeout=900, cwd=folder)
     return path
+
+
+def middle_pin(path: str) -> tuple[str, np.ndarray]:
+    """The interior pin of the scene file ``path`` nearest the centroid of its interior
+    pins (the pin a scale benchmark drags), and where it is (2,)."""
+    with open(path) as f:
+        pins = [p for p in json.load(f)["pins"] if p.get("kind", "interior") == "interior"]
+    at = np.array([p["at"] for p in pins], float)
+    k = int(np.argmin(np.linalg.norm(at - at.mean(axis=0), axis=1)))
+    return pins[k]["name"], at[k]
+
+
+def at_rest(preview, exact) -> np.ndarray:
+    """The deformation of a preview layer read at the exact layer's rest vertices: (n, 2)
+    (both :class:`~puppet.scene.rig.core.LayerResult`). The same rest mesh gives the
+    preview's own vertices; another (a proxy, a subspace's mesh) is read through its
+    triangles: each rest vertex is placed in the triangle, of the 8 with the nearest
+    centroids, where its smallest barycentric coordinate is largest (clamped to >= 0,
+    so a vertex outside the preview's outline takes the nearest edge's deformation)."""
+    from scipy.spatial import cKDTree
+
+    if preview.rest.shape == exact.rest.shape and np.array_equal(preview.rest, exact.rest):
+        return preview.deformed
+    F, V, U = preview.triangles, preview.rest, preview.deformed
+    _, cand = cKDTree(V[F].mean(axis=1)).query(exact.rest, k=min(8, len(F)))
+    cand = cand.reshape(len(exact.rest), -1)
+    a, b, c = (V[F[cand, i]] for i in range(3))  # (n, k, 2)
+    e1, e2, q = b - a, c - a, exact.rest[:, None, :] - a
+    det = e1[..., 0] * e2[..., 1] - e2[..., 0] * e1[..., 1]
+    det = np.where(np.abs(det) < 1e-12, 1e-12, det)
+    l1 = (q[..., 0] * e2[..., 1] - e2[..., 0] * q[..., 1]) / det
+    l2 = (e1[..., 0] * q[..., 1] - q[..., 0] * e1[..., 1]) / det
+    lam = np.stack([1 - l1 - l2, l1, l2], axis=-1)
+    rows = np.arange(len(cand))
+    best = np.argmax(lam.min(axis=-1), axis=1)
+    w = np.clip(lam[rows, best], 0, None)
+    w /= w.sum(axis=1, keepdims=True)
+    return np.einsum("nk,nkd->nd", w, U[F[cand[rows, best]]])
+
+
+def pose_gap(preview: list, exact: list, pin: str) -> np.ndarray:
+    """Distances (px) between a preview's layers and the exact ones, over every vertex of
+    the exact group that holds ``pin``."""
+    group = next(r.group for r in exact if pin in r.pins)
+    shown = {r.name: r for r in preview}
+    return np.concatenate([np.linalg.norm(at_rest(shown[r.name], r) - r.deformed, axis=1)
+                           for r in exact if r.group == group])
