@@ -4,13 +4,19 @@ captured at 60 fps with PyAV's x11grab; a captured frame counts as a canvas upda
 the canvas changed outside the pin markers' path (a disc round each dragged pin's route,
 so that marker moves do not count as poses), and as a marker update when it changed
 inside that path. Drags: a single pin, 3 pins and a key drag on the T-rex, one pin on a
-4000x4000 garment photo; beside them, the same drags replayed in a headless window (EGL,
-no X, events dispatched in-process), the figure the app's loop alone reaches.
+4000x4000 garment photo, a middle pin (``common.middle_pin``) on the 20-part 4000x4000
+PSD of issue 31 (``psd4k``, made once into ``bench_scale``'s folder); beside them, the same
+drags replayed in a headless window (EGL, no X, events dispatched in-process), the figure
+the app's loop alone reaches.
 
-    .venv/bin/python benchmarks/bench_app.py [--steps 120] [--only real|headless]
+    .venv/bin/python benchmarks/bench_app.py [--steps 120] [--only real|headless] [--scenes trex,garment,psd4k]
 
 Release is the time from the mouse-up to the last canvas change (the exact pose shown).
-The capture shares the machine with the app (decoding, comparing frames).
+How far the last preview stands from the release: in the real window, the optical flow
+(Farneback) from the last canvas frame captured before the mouse-up to the settled one,
+95th percentile over the art's edges (window px); in the headless window, the vertices of
+the last preview shown against the released pose (``common.pose_gap``, canvas px, 95th
+percentile / max). The capture shares the machine with the app (decoding, comparing frames).
 """
 from __future__ import annotations
 
@@ -24,11 +30,14 @@ import sys
 import tempfile
 import threading
 import time
+from collections import deque
 
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
+
+from benchmarks.common import middle_pin, pose_gap, psd4k_scene  # noqa: E402
 
 TREX = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
 SIZE = (1280, 800)
@@ -167,6 +176,9 @@ class Capture:
                                  options={"framerate": "60", "video_size": f"{aw}x{ah}", "draw_mouse": "0"})
         self.mask = mask[ay:ay + ah, ax:ax + aw]
         self.frames: list[tuple[float, bool, bool]] = []
+        #: (time, frame) of the latest canvas changes, and the latest frame
+        self.shown: deque = deque(maxlen=60)
+        self.last: np.ndarray | None = None
         self._stop = False
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -180,9 +192,11 @@ class Capture:
             cur = frame.to_ndarray(format="gray").astype(np.int16)
             if prev is not None:
                 diff = np.abs(cur - prev) > 2
-                self.frames.append((t, int(np.count_nonzero(diff & ~self.mask)) > 8,
-                                    int(np.count_nonzero(diff & self.mask)) > 8))
-            prev = cur
+                canvas = int(np.count_nonzero(diff & ~self.mask)) > 8
+                self.frames.append((t, canvas, int(np.count_nonzero(diff & self.mask)) > 8))
+                if canvas:
+                    self.shown.append((t, cur))
+            prev = self.last = cur
             if self._stop:
                 break
 
@@ -190,6 +204,18 @@ class Capture:
         self._stop = True
         self._thread.join(10)
         self.container.close()
+
+
+def release_jump(preview: np.ndarray, final: np.ndarray, mask: np.ndarray) -> float:
+    """How far (px) the canvas moved from the frame ``preview`` to ``final`` (grey frames
+    of the canvas area): the 95th percentile of the optical flow (Farneback) over the
+    edges of ``final`` outside ``mask``."""
+    import cv2  # lazy: only the real window's frames are compared
+
+    a, b = (np.clip(f, 0, 255).astype(np.uint8) for f in (preview, final))
+    flow = cv2.calcOpticalFlowFarneback(a, b, None, 0.5, 4, 21, 3, 5, 1.1, 0)
+    edges = (np.hypot(cv2.Sobel(b, cv2.CV_32F, 1, 0), cv2.Sobel(b, cv2.CV_32F, 0, 1)) > 40) & ~mask
+    return float(np.percentile(np.linalg.norm(flow[edges], axis=1), 95)) if edges.any() else 0.0
 
 
 def path_mask(paths) -> np.ndarray:
@@ -245,23 +271,53 @@ def real_drag(app: RealApp, names, steps: int, after: float = 2.5) -> dict:
     span = max(t_up - t0 - 0.05, 1e-6)
     changes = [f[0] for f in cap.frames if f[1] and t0 <= f[0] <= t_up + after]
     gaps = np.diff([f[0] for f in during if f[1]]) * 1000
-    return {"canvas_per_s": sum(f[1] for f in during) / span, "marker_per_s": sum(f[2] for f in during) / span,
+    before = [f for t, f in cap.shown if t <= t_up]
+    jump = release_jump(before[-1], cap.last, cap.mask) if before and cap.last is not None else None
+    return {"jump_px": jump, "canvas_per_s": sum(f[1] for f in during) / span, "marker_per_s": sum(f[2] for f in during) / span,
             "captured_per_s": len(during) / span, "gap_p95_ms": float(np.percentile(gaps, 95)) if len(gaps) else None,
             "release_ms": max(0.0, (max(changes) - t_up) * 1000) if changes else None, "drag_s": span}
 
 
-def real_runs(drags, garment: str | None, steps: int) -> list[dict]:
+def grab(app: RealApp, path: str) -> None:
+    """Save the app's window (colour) as the PNG ``path``."""
+    import av  # lazy: only screenshots and the capture grab the screen
+
+    with av.open(f"{app.x.name}.0+{app.origin[0]},{app.origin[1]}", format="x11grab",
+                 options={"video_size": f"{SIZE[0]}x{SIZE[1]}", "draw_mouse": "1"}) as c:
+        next(c.decode(video=0)).to_image().save(path)
+
+
+def shots(app: RealApp, name: str, folder: str) -> None:
+    """Three screenshots of a drag of pin ``name`` into ``folder``: before, while held
+    (a preview, once the app is idle) and after the release."""
+    start = app.info()["markers"][name]
+    to = np.asarray(start, float) + (60, -40)
+    grab(app, os.path.join(folder, "1-before.png"))
+    app.x.run("xdotool", "mousemove", *map(str, app.screen(start)), "mousedown", "1",
+              *[a for p in np.linspace(start, to, 8)[1:] for a in ("mousemove", *map(str, app.screen(p)), "sleep", "0.05")])
+    app.settle()
+    grab(app, os.path.join(folder, "2-held.png"))
+    app.x.run("xdotool", "mouseup", "1")
+    app.settle()
+    grab(app, os.path.join(folder, "3-released.png"))
+    app.x.run("xdotool", "key", "ctrl+z")
+    app.settle()
+
+
+def real_runs(groups, steps: int, shots_to: str | None = None) -> list[dict]:
+    """``groups``: [(scene path, its drags as in :data:`TREX_DRAGS`)]; screenshots of the
+    first drag of each scene into ``shots_to/SCENE/`` when given."""
     rows = []
     x = Xvfb()
     try:
         folder = tempfile.mkdtemp(prefix="bench-app-")
-        groups = [(TREX, drags)] if drags else []
-        if garment:
-            groups.append((garment, [("garment", "single pin", [garment_pin(garment)], None, None)]))
         for scene, kinds in groups:
             app = RealApp(x, scene, folder)
             try:
-                for _, label, names, pose, t in kinds:
+                if shots_to:
+                    os.makedirs(os.path.join(shots_to, kinds[0][0]), exist_ok=True)
+                    shots(app, kinds[0][2][-1], os.path.join(shots_to, kinds[0][0]))
+                for name, label, names, pose, t in kinds:
                     info = app.info()
                     if pose is not None:
                         app.click(rect_centre(info["rects"][f"pose:{pose}"]))
@@ -269,7 +325,7 @@ def real_runs(drags, garment: str | None, steps: int) -> list[dict]:
                         tl = info["timeline"]
                         app.click((tl["x0"] + t * (tl["x1"] - tl["x0"]) / tl["span"], tl["y0"] + 6))
                     r = real_drag(app, names, steps)
-                    rows.append(dict(r, scene=os.path.basename(scene), kind=label, where="real window"))
+                    rows.append(dict(r, scene=name, kind=label, where="real window"))
             finally:
                 app.close()
     finally:
@@ -303,7 +359,7 @@ def headless_drag(scene: str, names, pose, t, steps: int) -> dict:
             d.click(*s, mods=pyglet.window.key.MOD_SHIFT if k else 0)
         path = pointer_path(starts[-1], steps)
         d.press(*starts[-1], mods=pyglet.window.key.MOD_SHIFT if len(names) > 1 else 0)
-        shown, last = [], app.snap.version
+        shown, last, preview = [], app.snap.version, None
         t_start = next_event = time.perf_counter()
         k = 0
         while k < len(path):  # the app's own loop (window.run), pointer events at 60 Hz
@@ -318,27 +374,41 @@ def headless_drag(scene: str, names, pose, t, steps: int) -> dict:
             if d.w.step():
                 if app.snap.version != last and app.snap.preview:
                     shown.append(time.perf_counter())
-                    last = app.snap.version
+                    last, preview = app.snap.version, app.snap.layers
             else:
                 time.sleep(0.004)
         elapsed = time.perf_counter() - t_start
         d.release()
         t0 = time.perf_counter()
         d.settle()
-        return {"canvas_per_s": len(shown) / elapsed, "release_ms": (time.perf_counter() - t0) * 1000}
+        release = time.perf_counter() - t0
+        gap = pose_gap(preview, app.snap.layers, names[-1]) if preview else None
+        return {"canvas_per_s": len(shown) / elapsed, "release_ms": release * 1000,
+                "gap_p95": None if gap is None else float(np.percentile(gap, 95)),
+                "gap_max": None if gap is None else float(gap.max())}
     finally:
         d.close()
 
 
-def headless_runs(drags, garment: str | None, steps: int) -> list[dict]:
+def headless_runs(groups, steps: int) -> list[dict]:
     rows = []
-    todo = [(TREX, *d[1:]) for d in drags]
-    if garment:
-        todo.append((garment, "single pin", [garment_pin(garment)], None, None))
-    for scene, label, names, pose, t in todo:
-        r = headless_drag(scene, names, pose, t, steps)
-        rows.append(dict(r, scene=os.path.basename(scene), kind=label, where="headless"))
+    for scene, drags in groups:
+        for name, label, names, pose, t in drags:
+            r = headless_drag(scene, names, pose, t, steps)
+            rows.append(dict(r, scene=name, kind=label, where="headless"))
     return rows
+
+
+def scene_drags(names) -> list:
+    """[(scene path, its drags as in :data:`TREX_DRAGS`)] of the named scenes, made when missing."""
+    groups = [(TREX, TREX_DRAGS)] if "trex" in names else []
+    if "garment" in names:
+        garment = garment_scene(os.path.join(tempfile.gettempdir(), "puppet-bench-garment"))
+        groups.append((garment, [("garment", "single pin", [garment_pin(garment)], None, None)]))
+    if "psd4k" in names:
+        psd = psd4k_scene(os.path.join(tempfile.gettempdir(), "puppet-bench-scale", "psd4k"))
+        groups.append((psd, [("psd4k", "middle pin", [middle_pin(psd)[0]], None, None)]))
+    return groups
 
 
 def fmt(v, spec=".0f") -> str:
@@ -349,16 +419,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=120, help="pointer moves per drag (at 60 Hz)")
     ap.add_argument("--only", choices=("real", "headless"), help="one of the two windows")
-    ap.add_argument("--scenes", default="trex,garment", help="trex and/or garment (the 4000x4000 photo)")
+    ap.add_argument("--scenes", default="trex,garment", help="any of trex, garment (the 4000x4000 photo), psd4k "
+                    "(the 20-part 4000x4000 PSD)")
     ap.add_argument("--solver", choices=("thread", "process"), help="where the app solves drag previews "
                     "(PUPPET_APP_SOLVER; default: the app's)")
+    ap.add_argument("--shots", metavar="DIR", help="save screenshots of a drag on each scene (real window) here")
     a = ap.parse_args()
     if a.solver:
         os.environ["PUPPET_APP_SOLVER"] = a.solver  # the app's child and the headless window read it
-    scenes = a.scenes.split(",")
-    drags = TREX_DRAGS if "trex" in scenes else []
-    garment = garment_scene(os.path.join(tempfile.gettempdir(), "puppet-bench-garment")) if "garment" in scenes \
-        else None
+    groups = scene_drags(a.scenes.split(","))
     from benchmarks.bench_drag import load_floor
 
     from puppet.app.model.session import SOLVER
@@ -370,15 +439,17 @@ def main() -> None:
         missing = [t for t in ("Xvfb", "xdotool") if shutil.which(t) is None]
         if missing:
             sys.exit(f"bench_app: the real window needs {', '.join(missing)}")
-        rows += real_runs(drags, garment, a.steps)
+        rows += real_runs(groups, a.steps, a.shots)
     if a.only != "real":
-        rows += headless_runs(drags, garment, a.steps)
-    print(f"{'scene':<18}{'drag':<15}{'window':<13}{'canvas/s':>9}{'marker/s':>9}{'frames/s':>9}"
-          f"{'gap p95':>9}{'release':>9}")
+        rows += headless_runs(groups, a.steps)
+    print(f"{'scene':<10}{'drag':<15}{'window':<13}{'canvas/s':>9}{'marker/s':>9}{'frames/s':>9}"
+          f"{'gap p95':>9}{'release':>9}   last preview to release (px)")
     for r in rows:
-        print(f"{r['scene']:<18}{r['kind']:<15}{r['where']:<13}{r['canvas_per_s']:>9.1f}"
+        jump = f"flow p95 {fmt(r.get('jump_px'), '.1f')}" if r["where"] == "real window" else \
+            f"vertices p95 {fmt(r.get('gap_p95'), '.1f')} / max {fmt(r.get('gap_max'), '.1f')}"
+        print(f"{r['scene']:<10}{r['kind']:<15}{r['where']:<13}{r['canvas_per_s']:>9.1f}"
               f"{fmt(r.get('marker_per_s'), '.1f'):>9}{fmt(r.get('captured_per_s'), '.1f'):>9}"
-              f"{fmt(r.get('gap_p95_ms')):>7}ms{fmt(r['release_ms']):>7}ms")
+              f"{fmt(r.get('gap_p95_ms')):>7}ms{fmt(r['release_ms']):>7}ms   {jump}")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
     print(json.dumps(rows))
 
