@@ -19,8 +19,8 @@ of a circle from a middle pin (the interior pin nearest the pins' centroid; radi
 the canvas' larger side); the exact release: ``release_layers`` after those moves and
 ``release`` (the full-size frame drawn) after the same path walked with ``move_layers``;
 the preview error: at 5 points of that path, the last ``move_layers`` against
-``release_layers`` of a fresh drag to the same point, every vertex of the dragged group
-(px: median / 95th percentile / max; preview meshes that are not the exact one -- a proxy,
+``release_layers`` of a fresh drag to the same point, over the vertices of the dragged group
+that move (px: median / 95th percentile / max; preview meshes that are not the exact one -- a proxy,
 a subspace -- are read at the exact mesh's rest vertices through their triangles); load +
 first render (``load_scene`` and a full-size ``render()``, timed inside a new process) cold
 (the cache folder ``.puppet-cache`` beside the scene removed) and cached (a second new

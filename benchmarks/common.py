@@ -115,9 +115,15 @@ def at_rest(preview, exact) -> np.ndarray:
 
 
 def pose_gap(preview: list, exact: list, pin: str) -> np.ndarray:
-    """Distances (px) between a preview's layers and the exact ones, over every vertex of
-    the exact group that holds ``pin``."""
+    """Distances (px) between a preview's layers and the exact ones, over the vertices of
+    the exact group that holds ``pin`` that the drag moves (> 0.01 px from rest in the
+    exact pose or in the preview: an island without pins, left at rest, does not count)."""
     group = next(r.group for r in exact if pin in r.pins)
     shown = {r.name: r for r in preview}
-    return np.concatenate([np.linalg.norm(at_rest(shown[r.name], r) - r.deformed, axis=1)
-                           for r in exact if r.group == group])
+    gaps = []
+    for r in exact:
+        if r.group == group:
+            seen = at_rest(shown[r.name], r)
+            moved = np.maximum(np.linalg.norm(r.deformed - r.rest, axis=1), np.linalg.norm(seen - r.rest, axis=1))
+            gaps.append(np.linalg.norm(seen - r.deformed, axis=1)[moved > 0.01])
+    return np.concatenate(gaps)
