@@ -46,12 +46,17 @@ import tempfile
 import time
 
 import numpy as np
+from PIL import Image
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from benchmarks.bench_drag import garment_4k, load_floor  # noqa: E402
 from benchmarks.common import middle_pin, pose_gap, psd4k_scene  # noqa: E402
+
+import puppet  # noqa: E402
 
 TREX = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
 SIZES = ["2k", "8k", "32k", "128k", "psd4k", "garment", "islands"]
@@ -67,8 +72,6 @@ ERROR_POINTS = 5
 # -- the scenes ----------------------------------------------------------------------------------
 def trex_dense(folder: str, label: str) -> str:
     """A copy of the T-rex with every layer meshed at ``TREX_MESH[label]`` (art scaled)."""
-    from PIL import Image
-
     scale, area = TREX_MESH[label]
     path = os.path.join(folder, f"trex-{label}.json")
     with open(TREX) as f:
@@ -105,8 +108,7 @@ def scaled(data: dict, s: int) -> dict:
 
 def garment_islands(folder: str) -> str:
     """The 4000x4000 garment photo cut into ~165 islands, through ``puppet init --alpha --pins auto``."""
-    from PIL import Image
-
+    # lazy: a measuring process must not have imported the scene makers before it times load_scene
     from puppet.scene.make.picture import init_scene
 
     emoji = os.path.join(ROOT, "assets", "noto-emoji", "emoji_u1f455.png")  # bench_drag.garment_4k's photo
@@ -177,17 +179,12 @@ def preview_error(scene, pin: str, path: np.ndarray) -> dict:
 
 def islands(F: np.ndarray, n: int) -> int:
     """The number of connected pieces of a mesh of ``n`` vertices and triangles ``F``."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]]])
     return connected_components(coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n)), directed=False)[0]
 
 
 def measure_drag(path: str, steps: int) -> dict:
     """Vertices, groups, move times, release times and the preview error of one scene."""
-    import puppet  # lazy: the parent process never loads a scene
-
     scene = puppet.load_scene(path)
     groups = scene.built.groups
     out = {"vertices": sum(len(g.mesh.V) for g in groups), "groups": len(groups),
@@ -216,9 +213,8 @@ def measure_drag(path: str, steps: int) -> dict:
 
 
 def measure_open(path: str) -> dict:
-    """Load + first render (full size) of a scene, timed in this (new) process."""
-    import puppet  # lazy: timed from the import on, in a process of its own
-
+    """Load + first render (full size) of a scene, timed in this (new) process (puppet
+    already imported)."""
     t0, c0 = time.perf_counter(), time.process_time()
     scene = puppet.load_scene(path)
     t1 = time.perf_counter()
