@@ -11,17 +11,18 @@ Rows (``--sizes``, any of them, in this order by default):
   --links auto``).
 - ``garment``: ``bench_drag``'s 4000x4000 garment photo (``puppet init --alpha --pins auto``).
 - ``islands``: the same photo cut into tiles by transparent lines (24 px wide, every 250 px):
-  165 islands in one layer, then ``puppet init --alpha --pins auto``.
+  one layer of 165 islands (164 in its mesh), then ``puppet init --alpha --pins auto``.
 
 Columns: vertices and groups of the built scene; the preview ``move`` (``scene.drag(pin).move``,
 a preview frame drawn) median and 95th percentile over ``--steps`` points of three quarters
 of a circle from a middle pin (the interior pin nearest the pins' centroid; radius 4 % of
 the canvas' larger side); the exact release: ``release_layers`` after those moves and
-``release`` (the full-size frame drawn) after the same path walked with ``move_layers``;
+``release`` (the full-size frame drawn) after the mirrored path (the circle on the pin's
+left: another end point, since the rig keeps solved poses) walked with ``move_layers``;
 the preview error: at 5 points of that path, the last ``move_layers`` against
 ``release_layers`` of a fresh drag to the same point, over the vertices of the dragged group
-that move (px: median / 95th percentile / max; preview meshes that are not the exact one -- a proxy,
-a subspace -- are read at the exact mesh's rest vertices through their triangles); load +
+that move (px: median / 95th percentile / max; a preview mesh that is not the exact one --
+a proxy, a subspace -- is read at the exact mesh's rest vertices through its triangles); load +
 first render (``load_scene`` and a full-size ``render()``, timed inside a new process) cold
 (the cache folder ``.puppet-cache`` beside the scene removed) and cached (a second new
 process; "n/a" when no cache folder appeared). Below the table: ``puppet animate`` of the
