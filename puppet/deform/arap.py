@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from puppet.deform import factor
-from puppet.deform.mls import mls_object_space
+from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
 from puppet.deform.modes import mode_operators, mode_rhs
 from puppet.deform.threads import blas_capped, one_blas_thread
 from puppet.geom.laplacian import cotangent_weights, spring_weights, uniform_weights
@@ -143,6 +143,14 @@ class ArapData:
     @property
     def n(self) -> int:
         return self.V.shape[0]
+
+    def mls_weights(self) -> DistanceWeights:
+        """The weights of the MLS initial guess over ``D`` (they depend on the mesh and the
+        pins, never on a pose): computed on first use, then kept."""
+        w = self.__dict__.get("_mls_weights")
+        if w is None:
+            w = self.__dict__["_mls_weights"] = distance_weights(self.D, alpha=self.alpha)
+        return w
 
 
 def _cell_operators(V, W, free):
@@ -428,7 +436,7 @@ def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
     bc = _check_bc(data, bc)
     V, b = data.V, data.b
     if U0 is None:
-        U = mls_object_space(V, data.D, bc, V[b], kind="rigid", alpha=data.alpha)
+        U = mls_object_space(V, data.D, bc, V[b], kind="rigid", alpha=data.alpha, weights=data.mls_weights())
     else:
         U = np.array(U0, dtype=np.float64, order="C")
         if U.shape != V.shape:

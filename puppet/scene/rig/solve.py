@@ -17,7 +17,7 @@ from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
 from puppet.deform.hinge import hinge_guess
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
-from puppet.deform.mls import mls_object_space
+from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
 from puppet.deform.modes import SCALE_SPAN, apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
 from puppet.deform.relax import relax_foldovers
 from puppet.deform.rotate import arap_solve_rotated, mode_solve_rotated
@@ -64,6 +64,16 @@ class GroupPre:
     igarashi: object = None
     skeleton: object = None
 
+    def weights(self, alpha: float) -> DistanceWeights:
+        """The inverse-distance weights over ``D`` (of the MLS guess and the depth field):
+        pose-independent, so computed once per group version and kept."""
+        if self.arap is not None and self.arap.alpha == alpha and self.arap.D is self.D:
+            return self.arap.mls_weights()
+        kept = self.__dict__.get("_weights")
+        if kept is None or kept[0] != alpha:
+            kept = self.__dict__["_weights"] = (alpha, distance_weights(self.D, alpha=alpha))
+        return kept[1]
+
 
 def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None) -> GroupPre:
     """Factorisations and weights of one group (``bones``: (nb, 2) indices into the group's
@@ -105,7 +115,8 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
     elif deformer.method == "mls":
-        U = mls_object_space(V, pre.D, bc, V[g.b], kind="rigid", alpha=deformer.alpha)
+        U = mls_object_space(V, pre.D, bc, V[g.b], kind="rigid", alpha=deformer.alpha,
+                             weights=pre.weights(deformer.alpha))
         U[pre.arap.held] = V[pre.arap.held]
     elif deformer.method == "igarashi":
         U = igarashi_solve(pre.igarashi, bc)
@@ -139,7 +150,7 @@ def initial_guess(pre: GroupPre, g: Group, bc, alpha: float) -> np.ndarray | Non
     if pre.prefit:
         V = apply_similarity(V, *similarity_fit(V[b], bc))
     if pre.DH is None:
-        return mls_object_space(V, pre.D, bc, V[b], kind="rigid", alpha=alpha)
+        return mls_object_space(V, pre.D, bc, V[b], kind="rigid", alpha=alpha, weights=pre.weights(alpha))
     return hinge_guess(V, pre.D, V[b], bc, g.pin_part, g.mesh.maps, g.hinges, pre.DH, alpha=alpha)
 
 
@@ -155,7 +166,10 @@ def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterio
 
 
 def _finish(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose, U: np.ndarray):
-    depth = depth_field(pre.D, pose.depth, alpha=deformer.alpha) if len(g.pins) else np.zeros(len(U))
+    if len(g.pins) and np.any(pose.depth):
+        depth = depth_field(pre.D, pose.depth, alpha=deformer.alpha, weights=pre.weights(deformer.alpha))
+    else:  # no pins, or all at depth 0 (the field is 0 then)
+        depth = np.zeros(len(U))
     U, ext_pos = _exterior(g, ext, U, pose.ext_to)
     return U, depth, ext_pos
 
