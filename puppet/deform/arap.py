@@ -431,9 +431,9 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
         return _arap_solve(data, bc, iterations, U0, callback, held, scale)
 
 
-def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
-    """The body of :func:`arap_solve`, run under one BLAS thread."""
-    bc = _check_bc(data, bc)
+def initial_positions(data: ArapData, bc: np.ndarray, U0=None) -> np.ndarray:
+    """The start of the iteration (a new array): ``U0`` (non-finite rows at rest) or the
+    MLS guess; held components at rest and the pins on their (checked) targets ``bc``."""
     V, b = data.V, data.b
     if U0 is None:
         U = mls_object_space(V, data.D, bc, V[b], kind="rigid", alpha=data.alpha, weights=data.mls_weights())
@@ -445,6 +445,14 @@ def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
     U[lost] = V[lost]
     U[data.held] = V[data.held]
     U[b] = bc
+    return U
+
+
+def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
+    """The body of :func:`arap_solve`, run under one BLAS thread."""
+    bc = _check_bc(data, bc)
+    V, b = data.V, data.b
+    U = initial_positions(data, bc, U0)
     if data.factor is None or int(iterations) <= 0:
         return U
     free = data.free

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from puppet.deform.anderson import arap_solve_anderson
 from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
@@ -111,7 +112,11 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
             U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else V
-            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
+            if deformer.accelerate == "anderson" and pre.arap.mix is None:
+                U = arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
+                                        U0=U0)[0]
+            else:
+                U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
     elif deformer.method == "mls":
