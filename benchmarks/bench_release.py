@@ -1,0 +1,114 @@
+"""The exact solve a release runs, against vertices: default (20 plain ARAP iterations
+from the MLS guess) against Anderson acceleration to a tolerance (issue 31).
+
+The bundled T-rex (``assets/scenes/trex-layers.json``, 8 linked layers) is meshed denser
+(every layer's ``mesh.max_area`` scaled) to about 2k, 8k, 32k, 60k and 128k vertices;
+``--psd SCENE`` adds a scene of your own (the 20-part 4K PSD of ``bench_import.make_psd``
+after ``puppet init --pins auto --links auto``). In each, the pin nearest the middle of
+the biggest group moves by a tenth of the group's size, and the table gives:
+
+* ``release ms``: wall and CPU time of the default exact solve (``solve_group``: MLS
+  guess, 20 iterations, fold relaxation), median of ``--repeat``;
+* ``gap20``: its relative energy above the converged pose, ``(E - E*) / E*``, where E*
+  is the lowest energy Anderson reaches (tolerance 1e-6 px);
+* plain and Anderson iterations to ``--tol`` px (no vertex moving more in a plain
+  step; ``>N`` = not reached in ``--cap``), their CPU time and the gap where they stop.
+
+CPU times (``time.process_time``: both solver threads) are what to compare on a busy
+machine; the load average is printed with the table. Run:
+``python benchmarks/bench_release.py --psd /path/s.json``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+import puppet
+from puppet.deform.anderson import arap_solve_anderson
+from puppet.deform.arap import arap_energy
+from puppet.scene.rig.build import layer_areas
+from puppet.scene.rig.solve import solve_group
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+TREX = os.path.join(HERE, "..", "assets", "scenes", "trex-layers.json")
+
+
+def meshed(path: str, vertices: int | None):
+    """The scene with every layer's triangle area scaled for about ``vertices`` vertices."""
+    scene = puppet.load_scene(path)
+    if vertices is None:
+        return scene
+    built = scene.built
+    n = sum(len(g.mesh.V) for g in built.groups)
+    for L, area in zip(scene.data.layers, layer_areas(scene.data, built.images)):
+        scene.set_mesh_options(L.name, max_area=float(area) * n / vertices)
+    return scene
+
+
+def case(scene):
+    """(solve_group arguments, ArapData, targets) of a drag of the middle pin of the
+    biggest group by a tenth of its size."""
+    built = scene.built
+    gi = max(range(len(built.groups)), key=lambda i: len(built.groups[i].mesh.V))
+    g = built.groups[gi]
+    V = g.mesh.V
+    mid = V.mean(axis=0)
+    pins = list(g.pins)
+    i = pins[int(np.argmin([np.linalg.norm(V[g.b[k]] - mid) for k in range(len(pins))]))]
+    state = scene.state()
+    state.to[i] += 0.1 * np.ptp(V, axis=0).max() * np.array([0.8, -0.6])
+    pose = built.group_pose(gi, state)
+    args = (built.pre[gi], g, scene.data.deformer, built.exterior[gi], pose)
+    return args, built.pre[gi].arap, pose.bc
+
+
+def timed(fn, repeat: int):
+    walls, cpus, out = [], [], None
+    for _ in range(repeat):
+        w, c = time.perf_counter(), time.process_time()
+        out = fn()
+        walls.append(time.perf_counter() - w)
+        cpus.append(time.process_time() - c)
+    return 1e3 * float(np.median(walls)), 1e3 * float(np.median(cpus)), out
+
+
+def row(name: str, scene, repeat: int, tol: float, cap: int) -> str:
+    args, a, bc = case(scene)
+    solve_group(*args)  # weights of the MLS guess computed once, as after a first render
+    wall, cpu, (U, _, _) = timed(lambda: solve_group(*args), repeat)
+    ref = arap_solve_anderson(a, bc, iterations=4 * cap, tolerance=1e-6)[1]
+    e_star = min(ref.energies)
+    gap = (arap_energy(a, U) - e_star) / e_star
+    cells = []
+    for window in (0, 5):
+        c0 = time.process_time()
+        Uw, info = arap_solve_anderson(a, bc, iterations=cap, tolerance=tol, window=window)
+        ms = 1e3 * (time.process_time() - c0)
+        its = f"{info.iterations}" if info.converged else f">{info.iterations}"
+        cells.append(f"{its:>6} {ms:7.0f} {(arap_energy(a, Uw) - e_star) / e_star:8.1e}")
+    return f"{name:>10} {a.n:>7} {len(a.b):>4} {wall:6.0f} {cpu:6.0f} {gap:8.1e}  " + "  ".join(cells)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="2000,8000,32000,60000,128000", help="T-rex vertex counts ('' for none)")
+    ap.add_argument("--psd", action="append", default=[], help="another scene (repeatable)")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--tol", type=float, default=0.01, help="px")
+    ap.add_argument("--cap", type=int, default=300, help="most iterations of the to-tolerance runs")
+    o = ap.parse_args()
+    print(f"load average at start {os.getloadavg()[0]:.2f}; tolerance {o.tol} px; cap {o.cap}")
+    print(f"{'scene':>10} {'verts':>7} {'pins':>4} {'wall':>6} {'cpu':>6} {'gap20':>8}  "
+          f"{'plain':>6} {'cpu':>7} {'gap':>8}  {'AA':>6} {'cpu':>7} {'gap':>8}")
+    cases = [(f"trex-{int(s) // 1000}k", TREX, int(s)) for s in o.sizes.split(",") if s]
+    cases += [(os.path.basename(p)[:10], p, None) for p in o.psd]
+    for name, path, n in cases:
+        print(row(name, meshed(path, n), o.repeat, o.tol, o.cap), flush=True)
+    print(f"load average at end {os.getloadavg()[0]:.2f} (times in ms; cpu = process CPU time, both solver threads)")
+
+
+if __name__ == "__main__":
+    main()
