@@ -7,6 +7,7 @@ The reference is the old path: the object-space MLS and the depth field as they 
 them, on the same precomputation."""
 import json
 from contextlib import contextmanager
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ import puppet.deform.arap as arap_module
 import puppet.deform.rotate as rotate_module
 import puppet.scene.rig.solve as solve_module
 from puppet.cli import main
+from puppet.deform.arap import arap_solve
 from puppet.deform.mls import inverse_distance_weights, mls_from_weights
 from puppet.errors import SceneError
 from puppet.scene.rig.solve import solve_group
@@ -183,3 +185,19 @@ def test_opt_in_round_trips_through_save(make_scene, tmp_path):
     sc.save(str(out))
     assert json.loads(out.read_text())["deformer"]["accelerate"] == "anderson"
     assert puppet.load_scene(str(out)).data.deformer.tolerance == 0.05
+
+
+def test_warm_start_reaches_the_same_pose_and_the_default_ignores_it(make_scene):
+    sc = puppet.load_scene(make_scene(l_scene(), {"l.png": l_shape()}))
+    b = sc.built
+    pre, g, ext = b.pre[0], b.groups[0], b.exterior[0]
+    pose = b.group_pose(0, sc.state("lift"))
+    preview = arap_solve(pre.arap, pose.bc, iterations=4, U0=g.mesh.V)  # a rough preview
+    d = sc.data.deformer
+    assert all(np.array_equal(x, y) for x, y in zip(solve_group(pre, g, d, ext, pose, warm=preview),
+                                                    solve_group(pre, g, d, ext, pose)))
+    fast = replace(d, accelerate="anderson", tolerance=1e-4, iterations=2000)
+    warm = solve_group(pre, g, fast, ext, pose, warm=preview)[0]
+    cold = solve_group(pre, g, fast, ext, pose)[0]
+    assert np.abs(warm - cold).max() < 0.02
+    assert np.abs(preview - cold).max() > 1.0  # the preview itself was not the answer

@@ -99,8 +99,11 @@ def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None
 
 
 def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
-                pose: GroupPose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Deformed vertices (n, 2), pin-depth field (n,) and exterior positions (j, 2) of one group."""
+                pose: GroupPose, *, warm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Deformed vertices (n, 2), pin-depth field (n,) and exterior positions (j, 2) of one group.
+
+    ``warm`` (n, 2): where an accelerated solve (``deformer.accelerate``) starts instead of
+    the MLS guess, e.g. the group's last drag preview; the default loop ignores it."""
     V, bc = g.mesh.V, pose.bc
     if len(g.pins) == 0:
         U = V.copy()
@@ -111,12 +114,7 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
         elif np.any(pose.angle != 0):
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
-            U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else V
-            if deformer.accelerate == "anderson" and pre.arap.mix is None:
-                U = arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
-                                        U0=U0)[0]
-            else:
-                U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
+            U = _arap_pose(pre, g, deformer, bc, warm)
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
     elif deformer.method == "mls":
@@ -128,6 +126,20 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     else:
         U = skeleton_solve(pre.skeleton, bc)
     return _finish(pre, g, deformer, ext, pose, U)
+
+
+def _arap_pose(pre: GroupPre, g: Group, deformer: Deformer, bc, warm) -> np.ndarray:
+    """ARAP without pin angles: the default loop, or the accelerated one where the scene
+    opts in (rigid cells only), from ``warm`` when given."""
+    accelerate = deformer.accelerate == "anderson" and pre.arap.mix is None
+    if accelerate and warm is not None:
+        return arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
+                                   U0=warm)[0]
+    U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else g.mesh.V
+    if accelerate:
+        return arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
+                                   U0=U0)[0]
+    return arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
 
 
 def scale_bounds(pre: GroupPre, g: Group, bc) -> tuple[float, float] | None:
