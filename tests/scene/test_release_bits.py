@@ -201,3 +201,23 @@ def test_warm_start_reaches_the_same_pose_and_the_default_ignores_it(make_scene)
     cold = solve_group(pre, g, fast, ext, pose)[0]
     assert np.abs(warm - cold).max() < 0.02
     assert np.abs(preview - cold).max() > 1.0  # the preview itself was not the answer
+
+
+def test_a_pose_edit_keeps_the_clipped_links_and_a_link_edit_redoes_them(make_scene):
+    """The links clipped to the masks and the triangle areas are kept across pose edits (a
+    release's commit), and rebuilt when a link or a mesh option changes."""
+    path = make_scene(arm_scene(segments=[[[185, 125], [215, 125]]]), arm_images())
+    sc = puppet.load_scene(path)
+    sc.built
+    n = sc.rig.memo.count("links")
+    sc.set_target("tip", (250, 40), pose="up")
+    assert sc.rig.memo.count("links") == n
+    fresh = puppet.load_scene(path)
+    fresh.set_target("tip", (250, 40), pose="up")
+    for a, b in zip(sc.layers(), fresh.layers()):
+        assert np.array_equal(a.deformed, b.deformed)
+    sc.add_link_point("body", "arm", (200, 125))
+    assert sc.rig.memo.count("links") == n + 1
+    sc.set_mesh_options("arm", max_area=30.0)
+    assert sc.rig.memo.count("links") == n + 2
+    assert len(sc.built.groups[0].hinges) == 1
