@@ -15,6 +15,7 @@ import pytest
 import puppet
 import puppet.deform.arap as arap_module
 import puppet.deform.rotate as rotate_module
+import puppet.scene.rig.core as rig_core
 import puppet.scene.rig.solve as solve_module
 from puppet.cli import main
 from puppet.deform.arap import arap_solve
@@ -221,3 +222,28 @@ def test_a_pose_edit_keeps_the_clipped_links_and_a_link_edit_redoes_them(make_sc
     sc.set_mesh_options("arm", max_area=30.0)
     assert sc.rig.memo.count("links") == n + 2
     assert len(sc.built.groups[0].hinges) == 1
+
+
+@pytest.mark.parametrize("accelerate", ["none", "anderson"])
+def test_a_release_starts_from_the_previews_only_when_opted_in(make_scene, monkeypatch, accelerate):
+    """Opted in, the release's accelerated solve starts from the drag's last preview and
+    lands where a cold solve of the same pose does (within the tolerance's reach);
+    otherwise the release is the cold solve bit for bit."""
+    deformer = {"accelerate": accelerate, "tolerance": 1e-4, "iterations": 2000} if accelerate != "none" else {}
+    path = make_scene(l_scene(deformer=deformer), {"l.png": l_shape()})
+    starts = []
+    real = rig_core.solve_group
+    monkeypatch.setattr(rig_core, "solve_group", lambda *a, warm=None: starts.append(warm) or real(*a, warm=warm))
+    sc = puppet.load_scene(path)
+    sc.layers()
+    d = sc.drag("head")
+    for k in range(1, 6):
+        d.move_layers((130 + 2 * k, 30 - 3 * k))
+    released = d.release_layers()
+    cold = puppet.load_scene(path)
+    cold.set_target("head", (140, 15))
+    gap = max(np.abs(a.deformed - b.deformed).max() for a, b in zip(released, cold.layers()))
+    if accelerate == "none":
+        assert gap == 0 and all(w is None for w in starts)
+    else:
+        assert gap < 0.02 and any(w is not None for w in starts)

@@ -14,6 +14,8 @@ deformed vertices and depth per layer (:meth:`Rig.evaluate`) -> the compositor.
 """
 from __future__ import annotations
 
+import threading
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -98,6 +100,7 @@ class Rig:
 
     def __init__(self):
         self.memo = Memo(CAPACITY)
+        self._warm = threading.local()  # this thread's starts of accelerated solves, by pre key
 
     # -- building ----------------------------------------------------------------
     def build(self, data: SceneData) -> Built:
@@ -170,8 +173,20 @@ class Rig:
         d = built.data.deformer
         gp = built.group_pose(gi, state)
         key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]])
+        warm = getattr(self._warm, "starts", {}).get(built.pre_keys[gi])
         return self.memo.get("solve", key, lambda: solve_group(built.pre[gi], built.groups[gi], d,
-                                                               built.exterior[gi], gp))
+                                                               built.exterior[gi], gp, warm=warm))
+
+    @contextmanager
+    def warm_started(self, built: Built, starts: dict):
+        """Inside (this thread): an exact solve of group ``gi`` of ``built``'s version that
+        is not cached starts from ``starts[gi]`` (n, 2) (a drag's last preview) where the
+        scene opts into an accelerated solve; the default loop ignores it."""
+        self._warm.starts = {built.pre_keys[gi]: U for gi, U in starts.items()}
+        try:
+            yield
+        finally:
+            self._warm.starts = {}
 
     def evaluate(self, built: Built, state: PinState, solved: dict | None = None) -> list[LayerResult]:
         """Per-layer results of one pose, in scene layer order. ``solved`` may give some
