@@ -250,3 +250,12 @@ def test_a_release_starts_from_the_previews_only_when_opted_in(make_scene, monke
         assert gap == 0 and all(w is None for w in starts)
     else:
         assert gap < 0.02 and any(w is not None for w in starts)
+
+
+def test_an_accelerated_scene_may_take_more_iterations_unless_it_says(make_scene):
+    imgs = {"l.png": l_shape()}
+    sc = puppet.load_scene(make_scene(l_scene(deformer={"accelerate": "anderson"}), imgs, name="a.json"))
+    assert sc.data.deformer.iterations == 300
+    sc = puppet.load_scene(make_scene(l_scene(deformer={"accelerate": "anderson", "iterations": 40}), imgs))
+    assert sc.data.deformer.iterations == 40
+    assert puppet.load_scene(make_scene(l_scene(), imgs, name="c.json")).data.deformer.iterations == 20

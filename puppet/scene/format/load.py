@@ -315,6 +315,8 @@ def _deformer(c, v, p) -> m.Deformer:
     d.relax_foldovers = expect_bool(c, v.get("relax_foldovers", True), join(p, "relax_foldovers"))
     d.mode = expect_string(c, v.get("mode", d.mode), join(p, "mode"), choices=m.MODES)
     d.accelerate = expect_string(c, v.get("accelerate", d.accelerate), join(p, "accelerate"), choices=m.ACCELERATIONS)
+    if d.accelerate != "none" and "iterations" not in v:
+        d.iterations = m.ACCELERATED_ITERATIONS
     d.tolerance = expect_number(c, v.get("tolerance", d.tolerance), join(p, "tolerance"), lo=0, lo_open=True, hi=100)
     if "tolerance" in v and d.accelerate == "none":
         raise c.fail(join(p, "tolerance"), 'a tolerance needs "accelerate": "anderson" (plain ARAP runs '

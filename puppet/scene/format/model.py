@@ -14,6 +14,9 @@ MODES = ("rigid", "similar", "distort")
 #: ``deformer.accelerate``: "none" (a fixed number of plain ARAP iterations, as always) or
 #: "anderson" (Anderson-accelerated iterations until ``deformer.tolerance``)
 ACCELERATIONS = ("none", "anderson")
+#: ``deformer.iterations`` of an accelerated solve when the file does not say: the most it
+#: may take (it stops at the tolerance, in about 30 from the MLS guess at every size measured)
+ACCELERATED_ITERATIONS = 300
 PIN_KINDS = ("interior", "exterior", "starch")
 EASES = ("linear", "smooth", "step", "bezier")
 INBETWEENS = ("rigid", "linear")
