@@ -106,8 +106,9 @@ def row(name: str, scene, repeat: int, tol: float, cap: int, drag: float) -> str
         ms = 1e3 * (time.process_time() - c0)
         its = f"{info.iterations}" if info.converged else f">{info.iterations}"
         cells.append(f"{its:>5} {ms:7.0f}" + (f" {(arap_energy(a, Uw) - e_star) / e_star:8.1e}" if window else ""))
+    start = dragged(args)
     c0 = time.process_time()
-    info = arap_solve_anderson(a, bc, iterations=cap, tolerance=tol, U0=dragged(args))[1]
+    info = arap_solve_anderson(a, bc, iterations=cap, tolerance=tol, U0=start)[1]
     its = f"{info.iterations}" if info.converged else f">{info.iterations}"
     cells.append(f"{its:>5} {1e3 * (time.process_time() - c0):7.0f}")
     fast = replace(args[2], accelerate="anderson", tolerance=tol, iterations=cap)
