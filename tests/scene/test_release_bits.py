@@ -14,6 +14,7 @@ import pytest
 
 import puppet
 import puppet.deform.arap as arap_module
+import puppet.deform.hinge as hinge_module
 import puppet.deform.rotate as rotate_module
 import puppet.scene.rig.core as rig_core
 import puppet.scene.rig.solve as solve_module
@@ -66,7 +67,7 @@ def old_depth_field(D, pin_depth, *, alpha=1.0, weights=None):
 def old_path(monkeypatch):
     """Inside: the solver calls the old functions."""
     with monkeypatch.context() as m:
-        for mod in (arap_module, rotate_module, solve_module):
+        for mod in (arap_module, rotate_module, solve_module, hinge_module):
             m.setattr(mod, "mls_object_space", old_mls_object_space)
         m.setattr(solve_module, "depth_field", old_depth_field)
         yield m

@@ -16,7 +16,7 @@ from puppet.deform.anderson import arap_solve_anderson
 from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
-from puppet.deform.hinge import hinge_guess
+from puppet.deform.hinge import HingeWeights, hinge_guess, hinge_weights
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
 from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
 from puppet.deform.modes import SCALE_SPAN, apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
@@ -73,6 +73,15 @@ class GroupPre:
         kept = self.__dict__.get("_weights")
         if kept is None or kept[0] != alpha:
             kept = self.__dict__["_weights"] = (alpha, distance_weights(self.D, alpha=alpha))
+        return kept[1]
+
+    def hinge_weights(self, g: Group, alpha: float) -> HingeWeights:
+        """The weights of the hinged guess (:func:`~puppet.deform.hinge.hinge_weights`) of
+        group ``g`` (the group of this precomputation), computed once and kept."""
+        kept = self.__dict__.get("_hinge_weights")
+        if kept is None or kept[0] != alpha:
+            kept = self.__dict__["_hinge_weights"] = (alpha, hinge_weights(
+                self.D, g.pin_part, g.mesh.maps, g.hinges, self.DH, alpha=alpha))
         return kept[1]
 
 
@@ -168,7 +177,8 @@ def initial_guess(pre: GroupPre, g: Group, bc, alpha: float) -> np.ndarray | Non
         V = apply_similarity(V, *similarity_fit(V[b], bc))
     if pre.DH is None:
         return mls_object_space(V, pre.D, bc, V[b], kind="rigid", alpha=alpha, weights=pre.weights(alpha))
-    return hinge_guess(V, pre.D, V[b], bc, g.pin_part, g.mesh.maps, g.hinges, pre.DH, alpha=alpha)
+    return hinge_guess(V, pre.D, V[b], bc, g.pin_part, g.mesh.maps, g.hinges, pre.DH, alpha=alpha,
+                       weights=pre.hinge_weights(g, alpha))
 
 
 def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose,
