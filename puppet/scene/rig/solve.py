@@ -142,9 +142,9 @@ def _arap_pose(pre: GroupPre, g: Group, deformer: Deformer, bc, warm) -> np.ndar
     opts in (rigid cells only), from ``warm`` when given."""
     accelerate = deformer.accelerate == "anderson" and pre.arap.mix is None
     if accelerate and warm is not None:
-        return arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
-                                   U0=warm)[0]
-    U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else g.mesh.V
+        U0 = warm
+    else:
+        U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else g.mesh.V
     if accelerate:
         return arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
                                    U0=U0)[0]
