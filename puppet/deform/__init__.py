@@ -1,4 +1,5 @@
 """Deformers: numpy in, numpy out (no GL, no scene objects)."""
+from puppet.deform.anderson import AndersonInfo, arap_solve_anderson
 from puppet.deform.arap import ArapData, arap_energy, arap_precompute, arap_solve
 from puppet.deform.boundary import exterior_frame, exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
@@ -11,6 +12,7 @@ from puppet.deform.skeleton import SkeletonData, mls_skeleton, skeleton_precompu
 
 __all__ = [
     "ArapData", "arap_precompute", "arap_solve", "arap_energy",
+    "arap_solve_anderson", "AndersonInfo",
     "arap_solve_rotated", "rotation_initial_guess",
     "folded_triangles", "relax_foldovers",
     "IgarashiData", "igarashi_precompute", "igarashi_solve",

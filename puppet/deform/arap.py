@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from puppet.deform import factor
-from puppet.deform.mls import mls_object_space
+from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
 from puppet.deform.modes import mode_operators, mode_rhs
 from puppet.deform.threads import blas_capped, one_blas_thread
 from puppet.geom.laplacian import cotangent_weights, spring_weights, uniform_weights
@@ -143,6 +143,14 @@ class ArapData:
     @property
     def n(self) -> int:
         return self.V.shape[0]
+
+    def mls_weights(self) -> DistanceWeights:
+        """The weights of the MLS initial guess over ``D`` (they depend on the mesh and the
+        pins, never on a pose): computed on first use, then kept."""
+        w = self.__dict__.get("_mls_weights")
+        if w is None:
+            w = self.__dict__["_mls_weights"] = distance_weights(self.D, alpha=self.alpha)
+        return w
 
 
 def _cell_operators(V, W, free):
@@ -423,12 +431,12 @@ def arap_solve(data: ArapData, bc, *, iterations: int = 20, U0=None,
         return _arap_solve(data, bc, iterations, U0, callback, held, scale)
 
 
-def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
-    """The body of :func:`arap_solve`, run under one BLAS thread."""
-    bc = _check_bc(data, bc)
+def initial_positions(data: ArapData, bc: np.ndarray, U0=None) -> np.ndarray:
+    """The start of the iteration (a new array): ``U0`` (non-finite rows at rest) or the
+    MLS guess; held components at rest and the pins on their (checked) targets ``bc``."""
     V, b = data.V, data.b
     if U0 is None:
-        U = mls_object_space(V, data.D, bc, V[b], kind="rigid", alpha=data.alpha)
+        U = mls_object_space(V, data.D, bc, V[b], kind="rigid", alpha=data.alpha, weights=data.mls_weights())
     else:
         U = np.array(U0, dtype=np.float64, order="C")
         if U.shape != V.shape:
@@ -437,6 +445,14 @@ def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
     U[lost] = V[lost]
     U[data.held] = V[data.held]
     U[b] = bc
+    return U
+
+
+def _arap_solve(data, bc, iterations, U0, callback, held, scale) -> np.ndarray:
+    """The body of :func:`arap_solve`, run under one BLAS thread."""
+    bc = _check_bc(data, bc)
+    V, b = data.V, data.b
+    U = initial_positions(data, bc, U0)
     if data.factor is None or int(iterations) <= 0:
         return U
     free = data.free

@@ -8,14 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.deform.mls import inverse_distance_weights
+from puppet.deform.mls import DistanceWeights, distance_weights
 from puppet.deform.threads import blas_capped
 
 __all__ = ["depth_field"]
 
 
 @blas_capped
-def depth_field(D: np.ndarray, pin_depth, *, alpha: float = 1.0) -> np.ndarray:
+def depth_field(D: np.ndarray, pin_depth, *, alpha: float = 1.0,
+                weights: DistanceWeights | None = None) -> np.ndarray:
     """Weighted average of pin depths with weights ``D^(-2 alpha)``.
 
     Parameters
@@ -27,6 +28,9 @@ def depth_field(D: np.ndarray, pin_depth, *, alpha: float = 1.0) -> np.ndarray:
         Depth of each pin, in stacking units.
     alpha : float
         Weight exponent.
+    weights : DistanceWeights, optional
+        ``puppet.deform.mls.distance_weights(D, alpha=alpha)`` computed before (they do
+        not depend on the pin depths); None: computed here.
 
     Returns
     -------
@@ -42,13 +46,14 @@ def depth_field(D: np.ndarray, pin_depth, *, alpha: float = 1.0) -> np.ndarray:
     n = D.shape[1]
     if not z_pin.any():  # no pins, or all at depth 0 (the common case): no weights needed
         return np.zeros(n)
-    W, exact, reachable = inverse_distance_weights(D, alpha=alpha)
+    w = distance_weights(D, alpha=alpha) if weights is None else weights
+    if w.todo.shape != (n,):
+        raise ValueError(f"weights are for {w.todo.shape[0]} points, not {n}")
     z = np.zeros(n)
-    todo = reachable & (exact < 0)
-    Wt = W[:, todo]
+    todo, Wt = w.todo, w.W
     z[todo] = (z_pin @ Wt) / Wt.sum(axis=0)
-    hit = exact >= 0
-    z[hit] = z_pin[exact[hit]]
+    hit = w.exact >= 0
+    z[hit] = z_pin[w.exact[hit]]
     # a convex combination can leave [min, max] by one rounding; clamp it back
     z[todo] = np.clip(z[todo], z_pin.min(), z_pin.max())
     return z

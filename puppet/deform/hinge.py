@@ -14,14 +14,37 @@ articulated figures move:
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from puppet.deform.mls import mls_object_space
+from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
 
-__all__ = ["hinge_guess"]
+__all__ = ["hinge_guess", "hinge_weights", "HingeWeights"]
 
 
-def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0) -> np.ndarray:
+class HingeWeights(NamedTuple):
+    """The pose-independent weights of :func:`hinge_guess` (:func:`hinge_weights`): of all
+    the pins over the mesh, and of each part's own pins and hinges over its vertices."""
+
+    all: DistanceWeights
+    parts: list  # per part: DistanceWeights, or None for a part without pins or hinges
+
+
+def hinge_weights(D, pin_part, parts, H, DH, *, alpha: float = 1.0) -> HingeWeights:
+    """The weights :func:`hinge_guess` computes for every pose, once (same arguments)."""
+    pin_part, H = np.asarray(pin_part, np.int64), np.asarray(H, np.int64).reshape(-1, 2)
+    member = _members(parts, np.asarray(D).shape[1])
+    per = []
+    for li, idx in enumerate(parts):
+        sel, sides = _part_controls(member[li], li, pin_part, H)
+        per.append(None if sel.sum() + len(sides) == 0 else
+                   distance_weights(_part_distances(D, DH, sel, sides, idx), alpha=alpha))
+    return HingeWeights(distance_weights(D, alpha=alpha), per)
+
+
+def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0,
+                weights: HingeWeights | None = None) -> np.ndarray:
     """Initial guess of a hinged mesh.
 
     Parameters
@@ -45,6 +68,9 @@ def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0) -> n
         Geodesic distances from each hinge's two vertices.
     alpha : float
         MLS weight exponent.
+    weights : HingeWeights, optional
+        ``hinge_weights(D, pin_part, parts, H, DH, alpha=alpha)`` computed before (they do
+        not depend on the pose; the same result without their cost). None: computed here.
 
     Returns
     -------
@@ -52,15 +78,13 @@ def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0) -> n
         Pins exactly on ``bc``; a part without pins or hinges takes the plain MLS guess.
     """
     V = np.asarray(V, np.float64)
-    U = mls_object_space(V, D, bc, P, kind="rigid", alpha=alpha)
+    U = mls_object_space(V, D, bc, P, kind="rigid", alpha=alpha, weights=None if weights is None else weights.all)
     H = np.asarray(H, np.int64).reshape(-1, 2)
     if len(H) == 0:
         return U
     pin_part = np.asarray(pin_part, np.int64)
     counts = np.bincount(pin_part, minlength=len(parts))
-    member = [np.zeros(len(V), bool) for _ in parts]
-    for m, idx in zip(member, parts):
-        m[idx] = True
+    member = _members(parts, len(V))
     HT = U[H[:, 0]].copy()
     for j, h in enumerate(H):
         acc, wsum = np.zeros(2), 0.0
@@ -74,20 +98,38 @@ def hinge_guess(V, D, P, bc, pin_part, parts, H, DH, *, alpha: float = 1.0) -> n
         if wsum > 0:
             HT[j] = acc / wsum
     for li, idx in enumerate(parts):
-        sel = pin_part == li
-        sides = [(j, _side(member[li], h)) for j, h in enumerate(H)]
-        sides = [(j, s) for j, s in sides if s is not None]
+        sel, sides = _part_controls(member[li], li, pin_part, H)
         if sel.sum() + len(sides) == 0:
             continue
         hs = np.array([j for j, _ in sides], np.int64)
-        Dh = np.array([DH[j, s][idx] for j, s in sides]).reshape(len(sides), len(idx))
-        Dl = np.vstack([D[sel][:, idx], Dh])
+        Dl = _part_distances(D, DH, sel, sides, idx)
         Q = np.vstack([bc[sel], HT[hs]])
         Pl = np.vstack([P[sel], V[H[hs, 0]]])
-        U[idx] = mls_object_space(V[idx], Dl, Q, Pl, kind="rigid", alpha=alpha)
+        U[idx] = mls_object_space(V[idx], Dl, Q, Pl, kind="rigid", alpha=alpha,
+                                  weights=None if weights is None else weights.parts[li])
     U[H[:, 0]] = HT
     U[H[:, 1]] = HT
     return U
+
+
+def _members(parts, n: int) -> list[np.ndarray]:
+    """Per part, which of the n vertices belong to it."""
+    member = [np.zeros(n, bool) for _ in parts]
+    for m, idx in zip(member, parts):
+        m[idx] = True
+    return member
+
+
+def _part_controls(member: np.ndarray, li: int, pin_part: np.ndarray, H: np.ndarray):
+    """The controls of part ``li``: its pins (bool (k,)) and its hinges' (index, side)."""
+    sides = [(j, _side(member, h)) for j, h in enumerate(H)]
+    return pin_part == li, [(j, s) for j, s in sides if s is not None]
+
+
+def _part_distances(D, DH, sel, sides, idx) -> np.ndarray:
+    """Distances from part's controls (its pins, then its hinges' sides) to its vertices."""
+    Dh = np.array([DH[j, s][idx] for j, s in sides]).reshape(len(sides), len(idx))
+    return np.vstack([D[sel][:, idx], Dh])
 
 
 def _side(member: np.ndarray, h: np.ndarray) -> int | None:

@@ -30,6 +30,8 @@ alpha = 1, sinh-substituted Gauss-Legendre otherwise) and the same core does the
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from puppet.deform.threads import blas_capped
@@ -39,6 +41,8 @@ __all__ = [
     "mls_object_space",
     "mls_from_weights",
     "inverse_distance_weights",
+    "distance_weights",
+    "DistanceWeights",
     "KINDS",
 ]
 
@@ -88,6 +92,29 @@ def inverse_distance_weights(D: np.ndarray, *, alpha: float = 1.0):
     cols = np.flatnonzero(exact >= 0)
     W[exact[cols], cols] = 1.0
     return W, exact, reachable
+
+
+class DistanceWeights(NamedTuple):
+    """The pose-independent part of object-space MLS (and of the depth field): the
+    weights of :func:`inverse_distance_weights` kept for the points that need the fit.
+
+    They depend only on the distances and ``alpha``, never on the targets, so a solver
+    computes them once per mesh and pin set (:func:`distance_weights`) and passes them to
+    every pose (``weights=`` of :func:`mls_object_space`, of
+    :func:`puppet.deform.depth.depth_field`); the results are bit for bit those of
+    computing them again.
+    """
+
+    W: np.ndarray  #: (k, t) weights of the ``t`` points in ``todo``, C order
+    todo: np.ndarray  #: (n,) bool: reachable and on no control
+    exact: np.ndarray  #: (n,) int: the first control at distance 0, -1 if none
+
+
+def distance_weights(D: np.ndarray, *, alpha: float = 1.0) -> DistanceWeights:
+    """:class:`DistanceWeights` of distances ``D`` (k, n) (see :func:`inverse_distance_weights`)."""
+    W, exact, reachable = inverse_distance_weights(D, alpha=alpha)
+    todo = reachable & (exact < 0)
+    return DistanceWeights(W[:, todo], todo, exact)
 
 
 def _check_controls(p, q):
@@ -201,15 +228,14 @@ def mls_from_weights(X, p, q, W, *, kind: str = "rigid") -> np.ndarray:
     return X + disp
 
 
-def _mls_distances(X, D, p, q, kind, alpha):
-    """Shared driver: weights from distances, exact hits, unreachable points."""
-    W, exact, reachable = inverse_distance_weights(D, alpha=alpha)
+def _mls_distances(X, D, p, q, kind, alpha, weights=None):
+    """Shared driver: weights from distances (or given), exact hits, unreachable points."""
+    w = distance_weights(D, alpha=alpha) if weights is None else weights
     U = X.copy()
-    todo = reachable & (exact < 0)
-    if todo.any():
-        U[todo] = mls_from_weights(X[todo], p, q, W[:, todo], kind=kind)
-    hit = exact >= 0
-    U[hit] = q[exact[hit]]
+    if w.todo.any():
+        U[w.todo] = mls_from_weights(X[w.todo], p, q, w.W, kind=kind)
+    hit = w.exact >= 0
+    U[hit] = q[w.exact[hit]]
     return U
 
 
@@ -282,7 +308,8 @@ def _mls_image_chunk(X, p, q, kind, alpha):
 
 
 @blas_capped
-def mls_object_space(V, D, q, p=None, *, kind: str = "rigid", alpha: float = 1.0) -> np.ndarray:
+def mls_object_space(V, D, q, p=None, *, kind: str = "rigid", alpha: float = 1.0,
+                     weights: DistanceWeights | None = None) -> np.ndarray:
     """Object-space MLS: the MLS closed forms with weights from given distances.
 
     Parameters
@@ -299,6 +326,9 @@ def mls_object_space(V, D, q, p=None, *, kind: str = "rigid", alpha: float = 1.0
     kind : {"rigid", "similarity", "affine"}
     alpha : float
         Weight exponent: ``w_i(v) = D[i, v]^(-2 alpha)``.
+    weights : DistanceWeights, optional
+        ``distance_weights(D, alpha=alpha)`` computed before (pose-independent; the
+        same result, without their cost). None: computed here.
 
     Returns
     -------
@@ -318,4 +348,6 @@ def mls_object_space(V, D, q, p=None, *, kind: str = "rigid", alpha: float = 1.0
         raise ValueError(f"D must have shape (k, n) = {(len(p), len(V))}, got {D.shape}")
     if len(p) == 0:
         return V.copy()
-    return _mls_distances(V, D, p, q, kind, alpha)
+    if weights is not None and weights.todo.shape != (len(V),):
+        raise ValueError(f"weights are for {weights.todo.shape[0]} points, not {len(V)}")
+    return _mls_distances(V, D, p, q, kind, alpha, weights)

@@ -123,7 +123,7 @@ def rotation_initial_guess(data: ArapData, bc, angles_deg) -> np.ndarray:
     bc = _check_bc(data, bc)
     angles = _check_angles(data, angles_deg)
     V, b = data.V, data.b
-    U = mls_object_space(V, data.D, bc, V[b], kind="rigid", alpha=data.alpha)
+    U = mls_object_space(V, data.D, bc, V[b], kind="rigid", alpha=data.alpha, weights=data.mls_weights())
     near = _nearest_pin(data)
     turned = np.flatnonzero((near >= 0) & (angles[np.maximum(near, 0)] != 0))
     if len(turned):

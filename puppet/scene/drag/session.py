@@ -237,11 +237,16 @@ class DragSession:
     @ck.checked(keys=ck.optional(ck.timed_tables))
     def release_layers(self, keys: Mapping | None = None) -> list:
         """:meth:`commit`, then the exact layers: ``doc.layers()`` for a pose drag,
-        ``doc.layers(time=time)`` for a key drag or a recording."""
+        ``doc.layers(time=time)`` for a key drag or a recording. A scene that opts into
+        accelerated solves (``deformer.accelerate``) starts them from the last previews."""
+        starts = {gi: U for gi, U in self._U.items() if isinstance(gi, int)} \
+            if self.doc.data.deformer.accelerate != "none" else {}
+        built = self._built
         self.commit(keys)
-        if self.time is not None and self.doc.data.animation is not None:
-            return self.doc.layers(time=self.time)
-        return self.doc.layers()
+        with self.doc.rig.warm_started(built, starts):
+            if self.time is not None and self.doc.data.animation is not None:
+                return self.doc.layers(time=self.time)
+            return self.doc.layers()
 
     @ck.checked()
     def cancel(self) -> None:

@@ -259,7 +259,16 @@ def _link(c, v, p, names) -> m.Link:
 
 
 def _check_modes(c, d: m.Deformer, layers) -> None:
-    """Modes other than rigid are ARAP cell energies: other methods refuse them."""
+    """Modes other than rigid are ARAP cell energies: other methods refuse them. Anderson
+    acceleration is for rigid ARAP only."""
+    if d.accelerate != "none":
+        if d.method != "arap":
+            raise c.fail("deformer.accelerate", f"{d.accelerate!r} needs method 'arap' (the method is {d.method!r})")
+        bent = [("deformer.mode", d.mode)] + [(f"layers[{L.index}].deformer.mode", L.mode) for L in layers]
+        for path, mode in bent:
+            if mode not in (None, "rigid"):
+                raise c.fail(path, f"mode {mode!r} cannot be accelerated (deformer.accelerate {d.accelerate!r} "
+                                   "needs rigid cells)")
     if d.method == "arap":
         return
     if d.mode != "rigid":
@@ -294,7 +303,8 @@ def _pin(c, v, p, names) -> m.Pin:
 
 
 def _deformer(c, v, p) -> m.Deformer:
-    expect_object(c, v, p, optional=("method", "weights", "init", "iterations", "alpha", "relax_foldovers", "mode"))
+    expect_object(c, v, p, optional=("method", "weights", "init", "iterations", "alpha", "relax_foldovers", "mode",
+                                     "accelerate", "tolerance"))
     d = m.Deformer()
     d.method = expect_string(c, v.get("method", d.method), join(p, "method"), choices=m.METHODS)
     d.weights = expect_string(c, v.get("weights", d.weights), join(p, "weights"), choices=m.WEIGHTS)
@@ -304,6 +314,13 @@ def _deformer(c, v, p) -> m.Deformer:
     d.alpha = expect_number(c, v.get("alpha", d.alpha), join(p, "alpha"), lo=0, lo_open=True, hi=20)
     d.relax_foldovers = expect_bool(c, v.get("relax_foldovers", True), join(p, "relax_foldovers"))
     d.mode = expect_string(c, v.get("mode", d.mode), join(p, "mode"), choices=m.MODES)
+    d.accelerate = expect_string(c, v.get("accelerate", d.accelerate), join(p, "accelerate"), choices=m.ACCELERATIONS)
+    if d.accelerate != "none" and "iterations" not in v:
+        d.iterations = m.ACCELERATED_ITERATIONS
+    d.tolerance = expect_number(c, v.get("tolerance", d.tolerance), join(p, "tolerance"), lo=0, lo_open=True, hi=100)
+    if "tolerance" in v and d.accelerate == "none":
+        raise c.fail(join(p, "tolerance"), 'a tolerance needs "accelerate": "anderson" (plain ARAP runs '
+                                           '"iterations" iterations)')
     return d
 
 

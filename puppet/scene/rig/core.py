@@ -14,6 +14,8 @@ deformed vertices and depth per layer (:meth:`Rig.evaluate`) -> the compositor.
 """
 from __future__ import annotations
 
+import threading
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,7 +38,7 @@ from puppet.scene.rig.stiffness import group_cells
 #: how many of each kind of built part are kept (least recently used dropped first); the
 #: kinds of :data:`PER_LAYER` keep at least two per layer of the scene built last
 CAPACITY = {"pixels": 16, "reduced": 64, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
-            "cells": 16}
+            "cells": 16, "links": 8}
 
 #: kinds of part built once per layer (or per group, at most one per layer)
 PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells")
@@ -98,6 +100,7 @@ class Rig:
 
     def __init__(self):
         self.memo = Memo(CAPACITY)
+        self._warm = threading.local()  # this thread's starts of accelerated solves, by pre key
 
     # -- building ----------------------------------------------------------------
     def build(self, data: SceneData) -> Built:
@@ -120,8 +123,12 @@ class Rig:
             image_keys.append(key)
             images.append(memo.get("image", key, lambda k=k, L=L: build.finish_image(
                 bases[k], build.inpaint_hole(data, bases, k, rank), L.inpaint)))
-        areas = build.layer_areas(data, images)
-        parts = link_parts(data, images)
+        # the links clipped to the masks (a dilation per linked layer) and the layers' triangle
+        # areas depend on the images and the links, not on a pose: kept, not redone every edit
+        links_key = fingerprint(image_keys, [(L.name, L.mesh.max_area) for L in data.layers],
+                                [(k.layers, k.segments, k.points, k.polygons) for k in data.links])
+        areas, parts = memo.get("links", links_key, lambda: (build.layer_areas(data, images),
+                                                               link_parts(data, images)))
         polylines = build.link_polylines(data, areas, parts)
         mesh_keys, meshes, outlines = [], [], []
         for k, L in enumerate(data.layers):
@@ -166,8 +173,20 @@ class Rig:
         d = built.data.deformer
         gp = built.group_pose(gi, state)
         key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]])
+        warm = getattr(self._warm, "starts", {}).get(built.pre_keys[gi])
         return self.memo.get("solve", key, lambda: solve_group(built.pre[gi], built.groups[gi], d,
-                                                               built.exterior[gi], gp))
+                                                               built.exterior[gi], gp, warm=warm))
+
+    @contextmanager
+    def warm_started(self, built: Built, starts: dict):
+        """Inside (this thread): an exact solve of group ``gi`` of ``built``'s version that
+        is not cached starts from ``starts[gi]`` (n, 2) (a drag's last preview) where the
+        scene opts into an accelerated solve; the default loop ignores it."""
+        self._warm.starts = {built.pre_keys[gi]: U for gi, U in starts.items()}
+        try:
+            yield
+        finally:
+            self._warm.starts = {}
 
     def evaluate(self, built: Built, state: PinState, solved: dict | None = None) -> list[LayerResult]:
         """Per-layer results of one pose, in scene layer order. ``solved`` may give some
@@ -197,7 +216,7 @@ def _link_extra(link) -> tuple:
 def _cells_key(d, cells, g) -> tuple:
     """What of the cells' settings enters a group's precomputation, () when nothing does."""
     grey, modes = cells
-    if grey is None and all(m == "rigid" for m in modes) and not len(g.couple):
+    if grey is None and modes.count("rigid") == len(modes) and not len(g.couple):
         return ()
     return (grey, modes if d.method == "arap" else None, g.couple, g.kappa)
 

@@ -12,12 +12,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from puppet.deform.anderson import arap_solve_anderson
 from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
-from puppet.deform.hinge import hinge_guess
+from puppet.deform.hinge import HingeWeights, hinge_guess, hinge_weights
 from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
-from puppet.deform.mls import mls_object_space
+from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
 from puppet.deform.modes import SCALE_SPAN, apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
 from puppet.deform.relax import relax_foldovers
 from puppet.deform.rotate import arap_solve_rotated, mode_solve_rotated
@@ -64,6 +65,25 @@ class GroupPre:
     igarashi: object = None
     skeleton: object = None
 
+    def weights(self, alpha: float) -> DistanceWeights:
+        """The inverse-distance weights over ``D`` (of the MLS guess and the depth field):
+        pose-independent, so computed once per group version and kept."""
+        if self.arap is not None and self.arap.alpha == alpha and self.arap.D is self.D:
+            return self.arap.mls_weights()
+        kept = self.__dict__.get("_weights")
+        if kept is None or kept[0] != alpha:
+            kept = self.__dict__["_weights"] = (alpha, distance_weights(self.D, alpha=alpha))
+        return kept[1]
+
+    def hinge_weights(self, g: Group, alpha: float) -> HingeWeights:
+        """The weights of the hinged guess (:func:`~puppet.deform.hinge.hinge_weights`) of
+        group ``g`` (the group of this precomputation), computed once and kept."""
+        kept = self.__dict__.get("_hinge_weights")
+        if kept is None or kept[0] != alpha:
+            kept = self.__dict__["_hinge_weights"] = (alpha, hinge_weights(
+                self.D, g.pin_part, g.mesh.maps, g.hinges, self.DH, alpha=alpha))
+        return kept[1]
+
 
 def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None) -> GroupPre:
     """Factorisations and weights of one group (``bones``: (nb, 2) indices into the group's
@@ -88,8 +108,11 @@ def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None
 
 
 def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
-                pose: GroupPose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Deformed vertices (n, 2), pin-depth field (n,) and exterior positions (j, 2) of one group."""
+                pose: GroupPose, *, warm: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Deformed vertices (n, 2), pin-depth field (n,) and exterior positions (j, 2) of one group.
+
+    ``warm`` (n, 2): where an accelerated solve (``deformer.accelerate``) starts instead of
+    the MLS guess, e.g. the group's last drag preview; the default loop ignores it."""
     V, bc = g.mesh.V, pose.bc
     if len(g.pins) == 0:
         U = V.copy()
@@ -100,18 +123,32 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
         elif np.any(pose.angle != 0):
             U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
         else:
-            U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else V
-            U = arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
+            U = _arap_pose(pre, g, deformer, bc, warm)
         if deformer.relax_foldovers:
             U = relax_foldovers(pre.arap, U, bc)
     elif deformer.method == "mls":
-        U = mls_object_space(V, pre.D, bc, V[g.b], kind="rigid", alpha=deformer.alpha)
+        U = mls_object_space(V, pre.D, bc, V[g.b], kind="rigid", alpha=deformer.alpha,
+                             weights=pre.weights(deformer.alpha))
         U[pre.arap.held] = V[pre.arap.held]
     elif deformer.method == "igarashi":
         U = igarashi_solve(pre.igarashi, bc)
     else:
         U = skeleton_solve(pre.skeleton, bc)
     return _finish(pre, g, deformer, ext, pose, U)
+
+
+def _arap_pose(pre: GroupPre, g: Group, deformer: Deformer, bc, warm) -> np.ndarray:
+    """ARAP without pin angles: the default loop, or the accelerated one where the scene
+    opts in (rigid cells only), from ``warm`` when given."""
+    accelerate = deformer.accelerate == "anderson" and pre.arap.mix is None
+    if accelerate and warm is not None:
+        U0 = warm
+    else:
+        U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else g.mesh.V
+    if accelerate:
+        return arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
+                                   U0=U0)[0]
+    return arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
 
 
 def scale_bounds(pre: GroupPre, g: Group, bc) -> tuple[float, float] | None:
@@ -139,8 +176,9 @@ def initial_guess(pre: GroupPre, g: Group, bc, alpha: float) -> np.ndarray | Non
     if pre.prefit:
         V = apply_similarity(V, *similarity_fit(V[b], bc))
     if pre.DH is None:
-        return mls_object_space(V, pre.D, bc, V[b], kind="rigid", alpha=alpha)
-    return hinge_guess(V, pre.D, V[b], bc, g.pin_part, g.mesh.maps, g.hinges, pre.DH, alpha=alpha)
+        return mls_object_space(V, pre.D, bc, V[b], kind="rigid", alpha=alpha, weights=pre.weights(alpha))
+    return hinge_guess(V, pre.D, V[b], bc, g.pin_part, g.mesh.maps, g.hinges, pre.DH, alpha=alpha,
+                       weights=pre.hinge_weights(g, alpha))
 
 
 def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose,
@@ -155,7 +193,10 @@ def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterio
 
 
 def _finish(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose, U: np.ndarray):
-    depth = depth_field(pre.D, pose.depth, alpha=deformer.alpha) if len(g.pins) else np.zeros(len(U))
+    if len(g.pins) and np.any(pose.depth):
+        depth = depth_field(pre.D, pose.depth, alpha=deformer.alpha, weights=pre.weights(deformer.alpha))
+    else:  # no pins, or all at depth 0 (the field is 0 then)
+        depth = np.zeros(len(U))
     U, ext_pos = _exterior(g, ext, U, pose.ext_to)
     return U, depth, ext_pos
 
