@@ -90,9 +90,9 @@ def beside(scene_file: str | None) -> DiskStore | None:
 class DiskStore:
     """Entries of one cache folder. ``loads`` / ``saves`` / ``rejects`` count per kind."""
 
-    def __init__(self, folder: str, max_bytes: int = MAX_BYTES):
+    def __init__(self, folder: str, max_bytes: int | None = None):
         self.folder = folder
-        self.max_bytes = int(max_bytes)
+        self.max_bytes = int(MAX_BYTES if max_bytes is None else max_bytes)
         self.version = f"{CODE_VERSION}/{_version()}"
         self.loads: dict[str, int] = {}
         self.saves: dict[str, int] = {}
@@ -226,6 +226,8 @@ def _encode(x, arrays: dict, seen: dict):
                 **{k: _encode(getattr(x, k), arrays, seen) for k in ("data", "indices", "indptr")}}
     if isinstance(x, tuple) and type(x).__name__ in CLASSES:  # a NamedTuple
         return {"obj": type(x).__name__, "tuple": [_encode(v, arrays, seen) for v in x]}
+    if type(x) is list and all(v is None or type(v) in (bool, int, float, str) for v in x):
+        return {"json": x}  # a plain list (a mode per vertex) as it is
     if type(x) in (list, tuple):
         return {"list" if type(x) is list else "tuple": [_encode(v, arrays, seen) for v in x]}
     if type(x) is dict and all(isinstance(k, str) for k in x):
@@ -290,6 +292,10 @@ def _decode(t, arrays: dict):
         if t["factor"] not in fz.SOLVERS:
             raise ValueError("unknown factor")
         return _Refactor(t["factor"])
+    if "json" in t:
+        if not isinstance(t["json"], list) or any(isinstance(v, (dict, list)) for v in t["json"]):
+            raise ValueError("bad plain list")
+        return t["json"]
     if "list" in t:
         return [_decode(v, arrays) for v in t["list"]]
     if "tuple" in t and "obj" not in t:
@@ -302,7 +308,7 @@ def _decode(t, arrays: dict):
     obj = cls.__new__(cls)
     obj.__dict__.update({str(k): _decode(v, arrays) for k, v in t["fields"].items()})
     if isinstance(obj, ArapData) and isinstance(obj.__dict__.get("factor"), _Refactor):
-        obj.factor = _refactor(obj, obj.factor.kind)
+        obj.factor = _Deferred(obj, obj.factor.kind)
     return obj
 
 
@@ -312,6 +318,31 @@ class _Refactor:
 
     def __init__(self, kind: str):
         self.kind = kind
+
+
+class _Deferred:
+    """A factor made again on a thread of its own (QDLDL releases the GIL) while the rest
+    of the scene loads and its layers are uploaded; its first use waits for it."""
+
+    def __init__(self, data: ArapData, kind: str):
+        self.kind = kind
+        self._done = threading.Event()
+        self._factor = self._error = None
+        threading.Thread(target=self._make, args=(data,), name="puppet-refactor", daemon=True).start()
+
+    def _make(self, data: ArapData) -> None:
+        try:
+            self._factor = _refactor(data, self.kind)
+        except BaseException as e:  # raised on first use, where a factorisation would have raised
+            self._error = e
+        finally:
+            self._done.set()
+
+    def __getattr__(self, name):
+        self._done.wait()
+        if self._error is not None:
+            raise self._error
+        return getattr(self._factor, name)
 
 
 def _refactor(data: ArapData, kind: str):
@@ -324,7 +355,7 @@ def _refactor(data: ArapData, kind: str):
 
 def _sane(x, seen: set) -> None:
     """Vertices finite and every vertex index within its mesh, all the way down."""
-    if id(x) in seen:
+    if id(x) in seen or x is None or isinstance(x, (bool, int, float, str)):
         return
     seen.add(id(x))
     if isinstance(x, (list, tuple)):
