@@ -25,6 +25,7 @@ import io
 import json
 import os
 import stat
+import sys
 import threading
 import zipfile
 
@@ -71,15 +72,6 @@ def enabled() -> bool:
     return os.environ.get(ENV, "on").strip().lower() not in ("off", "0", "no", "false")
 
 
-def _version() -> str:
-    try:
-        from importlib.metadata import version  # lazy: only when a cache is opened
-
-        return version("puppet")
-    except Exception:  # not installed (a source checkout): the code version alone
-        return "?"
-
-
 def beside(scene_file: str | None) -> DiskStore | None:
     """The disk store of an existing scene file, or None (no file, or ``PUPPET_CACHE=off``)."""
     if not enabled() or not scene_file or not os.path.isfile(scene_file):
@@ -93,7 +85,8 @@ class DiskStore:
     def __init__(self, folder: str, max_bytes: int | None = None):
         self.folder = folder
         self.max_bytes = int(MAX_BYTES if max_bytes is None else max_bytes)
-        self.version = f"{CODE_VERSION}/{_version()}"
+        # the package is loaded before any of its modules (importing it here would be a circle)
+        self.version = f"{CODE_VERSION}/{getattr(sys.modules.get('puppet'), '__version__', '?')}"
         self.loads: dict[str, int] = {}
         self.saves: dict[str, int] = {}
         self.rejects: dict[str, int] = {}
