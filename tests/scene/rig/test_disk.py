@@ -309,3 +309,22 @@ def test_a_part_holding_an_unknown_type_is_not_stored(tmp_path):
     assert store.save("mesh", "k", {"a": np.arange(3), "t": (1, 2.5, "x"), "n": None})
     back = store.load("mesh", "k")
     assert np.array_equal(back["a"], np.arange(3)) and back["t"] == (1, 2.5, "x") and back["n"] is None
+
+
+def test_layers_built_on_threads_equal_layers_built_one_by_one(make_scene, monkeypatch):
+    from puppet.scene.rig import core
+    path = scene(make_scene)
+    threaded = results(path)[0]
+    monkeypatch.setattr(core, "WORKERS", 1)
+    same(results(path)[0], threaded)
+
+
+def test_a_layer_error_on_a_thread_is_the_first_in_layer_order(make_scene, monkeypatch):
+    from puppet.errors import SceneError
+
+    def broken(s):
+        s["pins"][0]["at"] = [1, 1]  # outside layer a's mask
+        s["pins"][2]["at"] = [1, 51]  # outside layer b's mask
+    path = scene(make_scene, broken)
+    with pytest.raises(SceneError, match=r"pins\[0\]"):
+        Document.load(path).built
