@@ -60,6 +60,8 @@ KINDS = ("image", "outline", "mesh", "groups", "exterior", "cells", "precompute"
 CLASSES = {c.__name__: c for c in (ArapData, ModeOps, Region, GroupMesh, Mesh, Group, LayerImage,
                                    GroupExterior, GroupPre, ExteriorFrame)}
 SPARSE = {c.__name__: c for c in (sp.csr_matrix, sp.csc_matrix)}
+#: Fields a class builds on first access (absent from an entry when never used).
+LAZY = {"ArapData": {"C", "K"}}
 #: Array attributes that index a mesh's vertices (checked against its ``V``).
 VERTEX_INDICES = ("F", "b", "free", "held", "maps", "ei", "ej", "hinges", "couple")
 
@@ -251,7 +253,10 @@ def _unpack(raw: bytes, digest: str):
 
 
 def _check_header(z: zipfile.ZipFile, info: zipfile.ZipInfo) -> None:
-    """An array member holds a plain number type and no more elements than its bytes."""
+    """An array member is stored (not compressed: no zip bomb) and holds a plain number
+    type and no more elements than its bytes."""
+    if info.compress_type != zipfile.ZIP_STORED or info.file_size != info.compress_size:
+        raise ValueError(f"member {info.filename!r} is compressed")
     with z.open(info) as f:
         fmt = np.lib.format
         read = fmt.read_array_header_1_0 if fmt.read_magic(f) == (1, 0) else fmt.read_array_header_2_0
@@ -300,6 +305,10 @@ def _decode(t, arrays: dict):
         return cls(*[_decode(v, arrays) for v in t["tuple"]])
     obj = cls.__new__(cls)
     obj.__dict__.update({str(k): _decode(v, arrays) for k, v in t["fields"].items()})
+    if dataclasses.is_dataclass(cls):  # every field there (but those built on first access)
+        missing = {f.name for f in dataclasses.fields(cls)} - set(obj.__dict__) - LAZY.get(t["obj"], set())
+        if missing:
+            raise ValueError(f"{t['obj']} without {sorted(missing)}")
     if isinstance(obj, ArapData) and isinstance(obj.__dict__.get("factor"), _Refactor):
         obj.factor = _Deferred(obj, obj.factor.kind)
     return obj

@@ -328,3 +328,28 @@ def test_a_layer_error_on_a_thread_is_the_first_in_layer_order(make_scene, monke
     path = scene(make_scene, broken)
     with pytest.raises(SceneError, match=r"pins\[0\]"):
         Document.load(path).built
+
+
+def test_a_compressed_or_incomplete_entry_is_refused(tmp_path):
+    from puppet.scene.rig.build import Group
+    from puppet.geom.merge import GroupMesh
+    store = disk.DiskStore(str(tmp_path / "c"))
+    g = Group(layers=[0], mesh=GroupMesh(V=np.zeros((3, 2)), F=np.array([[0, 1, 2]]), maps=[np.arange(3)]))
+    assert store.save("groups", "k", [g])
+    assert store.load("groups", "k")[0].layers == [0]
+    entry = _entries_in(store.folder)[0]
+    m = _members(entry)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **m)
+    open(entry, "wb").write(buf.getvalue())
+    assert store.load("groups", "k") is None
+    meta = json.loads(m["meta"].tobytes())
+    del meta["tree"]["list"][0]["fields"]["b"]  # a Group without its pinned vertices
+    m["meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+    open(entry, "wb").write(_npz(m))
+    assert store.load("groups", "k") is None
+    assert store.rejects["groups"] == 2
+
+
+def _entries_in(f):
+    return sorted(os.path.join(f, n) for n in os.listdir(f))
