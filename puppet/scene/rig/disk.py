@@ -21,6 +21,7 @@ read-only or full disk only skips writing. Objects are rebuilt only from the cla
 from __future__ import annotations
 
 import dataclasses
+import functools
 import io
 import json
 import os
@@ -60,6 +61,8 @@ KINDS = ("image", "outline", "mesh", "groups", "exterior", "cells", "precompute"
 CLASSES = {c.__name__: c for c in (ArapData, ModeOps, Region, GroupMesh, Mesh, Group, LayerImage,
                                    GroupExterior, GroupPre, ExteriorFrame)}
 SPARSE = {c.__name__: c for c in (sp.csr_matrix, sp.csc_matrix)}
+#: Packages whose code builds the parts (their sources enter every entry's digest).
+BUILDERS = ("geom", "deform", "imaging", "scene")
 #: Fields a class builds on first access (absent from an entry when never used).
 LAZY = {"ArapData": {"C", "K"}}
 #: Array attributes that index a mesh's vertices (checked against its ``V``).
@@ -72,6 +75,24 @@ class Unsupported(TypeError):
 
 def enabled() -> bool:
     return os.environ.get(ENV, "on").strip().lower() not in ("off", "0", "no", "false")
+
+
+@functools.lru_cache(maxsize=1)
+def _code_stamp() -> str:
+    """The package version and a digest of the name, size and modification time of every
+    module that builds parts (a changed source file, even without a new CODE_VERSION,
+    asks for new entries)."""
+    package = sys.modules["puppet"]  # loaded before any of its modules (importing it here: a circle)
+    root = os.path.dirname(os.path.abspath(package.__file__))
+    files = []
+    for sub in BUILDERS:
+        for folder, dirs, names in os.walk(os.path.join(root, sub)):
+            dirs.sort()
+            for n in sorted(names):
+                if n.endswith(".py"):
+                    st = os.stat(os.path.join(folder, n))
+                    files.append((os.path.relpath(os.path.join(folder, n), root), st.st_size, st.st_mtime_ns))
+    return f"{getattr(package, '__version__', '?')}/{fingerprint(files)}"
 
 
 def beside(scene_file: str | None) -> DiskStore | None:
@@ -87,8 +108,7 @@ class DiskStore:
     def __init__(self, folder: str, max_bytes: int | None = None):
         self.folder = folder
         self.max_bytes = int(MAX_BYTES if max_bytes is None else max_bytes)
-        # the package is loaded before any of its modules (importing it here would be a circle)
-        self.version = f"{CODE_VERSION}/{getattr(sys.modules.get('puppet'), '__version__', '?')}"
+        self.version = f"{CODE_VERSION}/{_code_stamp()}"
         self.loads: dict[str, int] = {}
         self.saves: dict[str, int] = {}
         self.rejects: dict[str, int] = {}

@@ -353,3 +353,15 @@ def test_a_compressed_or_incomplete_entry_is_refused(tmp_path):
 
 def _entries_in(f):
     return sorted(os.path.join(f, n) for n in os.listdir(f))
+
+
+def test_a_changed_source_file_gives_new_entries(make_scene, cached, monkeypatch):
+    path = scene(make_scene)
+    results(path)
+    monkeypatch.setattr(disk, "BUILDERS", disk.BUILDERS + ("render",))  # as if another file changed
+    disk._code_stamp.cache_clear()
+    try:
+        _, builds, loads = results(path)
+    finally:
+        disk._code_stamp.cache_clear()
+    assert builds["mesh"] == 3 and not loads
