@@ -145,15 +145,15 @@ class DiskStore:
         read-only folder, full disk): the cache is only skipped."""
         path, digest = self.path(kind, key)
         try:
-            blob = _pack(value, digest)
+            arrays = _pack(value, digest)
         except Unsupported:
             return False
-        if len(blob) > self.max_bytes or not self._folder_ok(create=True):
+        if sum(a.nbytes for a in arrays.values()) > self.max_bytes or not self._folder_ok(create=True):
             return False
 
         def write(tmp: str) -> None:
             with open(tmp, "wb") as f:
-                f.write(blob)
+                np.savez(f, **arrays)
 
         try:
             atomic_write(path, write, follow=False)
@@ -214,14 +214,13 @@ def _read_regular(path: str, limit: int) -> bytes:
 
 
 # -- packing: a part as arrays and a JSON tree ---------------------------------------
-def _pack(value, digest: str) -> bytes:
+def _pack(value, digest: str) -> dict[str, np.ndarray]:
+    """The arrays of an entry: the part's, and ``meta`` (the JSON tree, as bytes)."""
     arrays: dict[str, np.ndarray] = {}
     tree = _encode(value, arrays, {})
     meta = json.dumps({"digest": digest, "tree": tree}, allow_nan=True).encode()
     arrays["meta"] = np.frombuffer(meta, np.uint8)
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    return buf.getvalue()
+    return arrays
 
 
 def _encode(x, arrays: dict, seen: dict):
