@@ -329,7 +329,8 @@ def _decode(t, arrays: dict):
         if missing:
             raise ValueError(f"{t['obj']} without {sorted(missing)}")
     if isinstance(obj, ArapData) and isinstance(obj.__dict__.get("factor"), _Refactor):
-        obj.factor = _Deferred(obj, obj.factor.kind)
+        obj.factor = _Deferred(obj.factor.kind)
+        obj.factor.start(obj)  # once in its place: the thread replaces it when done
     return obj
 
 
@@ -343,17 +344,22 @@ class _Refactor:
 
 class _Deferred:
     """A factor made again on a thread of its own (QDLDL releases the GIL) while the rest
-    of the scene loads and its layers are uploaded; its first use waits for it."""
+    of the scene loads and its layers are uploaded; its first use waits for it. Once made,
+    it takes its own place in the ArapData (``data.factor``), so later solves see the
+    factor itself (and may solve the two coordinates on two threads)."""
 
-    def __init__(self, data: ArapData, kind: str):
+    def __init__(self, kind: str):
         self.kind = kind
         self._done = threading.Event()
         self._factor = self._error = None
+
+    def start(self, data: ArapData) -> None:
         threading.Thread(target=self._make, args=(data,), name="puppet-refactor", daemon=True).start()
 
     def _make(self, data: ArapData) -> None:
         try:
             self._factor = _refactor(data, self.kind)
+            data.factor = self._factor
         except BaseException as e:  # raised on first use, where a factorisation would have raised
             self._error = e
         finally:

@@ -365,3 +365,15 @@ def test_a_changed_source_file_gives_new_entries(make_scene, cached, monkeypatch
     finally:
         disk._code_stamp.cache_clear()
     assert builds["mesh"] == 3 and not loads
+
+
+def test_a_factor_read_from_disk_is_made_again_and_takes_its_place(make_scene, cached):
+    path = scene(make_scene)
+    results(path)
+    doc = Document.load(path)
+    pre = doc.built.pre[1]  # the linked group
+    fresh = Document(doc.to_dict(), path).built.pre[1].arap.factor  # built here, no disk
+    f = pre.arap.factor
+    rhs = np.linspace(0.0, 1.0, f.n)  # waits for the factor
+    assert np.array_equal(f.solve(rhs), fresh.solve(rhs))
+    assert type(pre.arap.factor) is type(fresh)  # the factor itself now, not its stand-in
