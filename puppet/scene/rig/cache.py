@@ -81,7 +81,7 @@ class Memo:
     ``builds[kind]`` counts how often a part of that kind was really built (not found
     in memory nor on disk), which is how tests prove that an edit rebuilt only what it
     touched. ``get`` asks memory, then the disk layer (when there is one and it keeps
-    that kind), then builds and writes what it built to the disk layer.
+    that kind), then builds and has what it built written to the disk layer (on its writer thread).
 
     Safe to share between threads (the export's solver thread, the app's worker): the
     stores are changed under a lock; a build runs outside it, so two threads asking for
@@ -111,7 +111,7 @@ class Memo:
             with self._lock:
                 self.builds[kind] = self.builds.get(kind, 0) + 1
             if disk is not None:
-                disk.save(kind, key, value)
+                disk.save_later(kind, key, value)
         with self._lock:
             if key in store:  # another thread built it meanwhile: keep one
                 store.move_to_end(key)

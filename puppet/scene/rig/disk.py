@@ -20,14 +20,19 @@ read-only or full disk only skips writing. Objects are rebuilt only from the cla
 """
 from __future__ import annotations
 
+import atexit
+import contextlib
 import dataclasses
 import functools
 import io
 import json
 import os
+import queue
 import stat
 import sys
+import tempfile
 import threading
+import time
 import zipfile
 
 import numpy as np
@@ -40,7 +45,6 @@ from puppet.deform.modes import ModeOps
 from puppet.geom.contour import Region
 from puppet.geom.merge import GroupMesh
 from puppet.geom.triangulate import Mesh
-from puppet.output import OutputError, atomic_write
 from puppet.scene.rig.build import Group, LayerImage
 from puppet.scene.rig.cache import fingerprint
 from puppet.scene.rig.exterior import GroupExterior
@@ -150,18 +154,18 @@ class DiskStore:
             return False
         if sum(a.nbytes for a in arrays.values()) > self.max_bytes or not self._folder_ok(create=True):
             return False
-
-        def write(tmp: str) -> None:
-            with open(tmp, "wb") as f:
-                np.savez(f, **arrays)
-
         try:
-            atomic_write(path, write, follow=False)
-        except (OutputError, OSError):
+            _write(path, arrays)
+        except (OSError, ValueError):  # read-only, full, a link in the way
             return False
         self._count(self.saves, kind)
         self._prune()
         return True
+
+    def save_later(self, kind: str, key: str, value) -> None:
+        """:meth:`save` on the writer thread: a build does not wait for the disk (an edit
+        in the app that re-precomputes a big group, the first open of a big scene)."""
+        WRITER.put(lambda: self.save(kind, key, value))
 
     def _folder_ok(self, *, create: bool) -> bool:
         """The folder exists (made when ``create``), is a real folder and no link."""
@@ -180,14 +184,20 @@ class DiskStore:
         return stat.S_ISDIR(st.st_mode)
 
     def _prune(self) -> None:
-        """Drop the oldest entries while the folder holds more than ``max_bytes``."""
+        """Drop the oldest entries while the folder holds more than ``max_bytes``, and
+        temporary files a killed process left (an hour old)."""
         try:
             entries = []
+            old = time.time_ns() - 3600 * 10**9
             with os.scandir(self.folder) as it:
                 for e in it:
-                    if e.name.endswith(".npz") and e.is_file(follow_symlinks=False):
-                        st = e.stat(follow_symlinks=False)
+                    if not e.is_file(follow_symlinks=False):
+                        continue
+                    st = e.stat(follow_symlinks=False)
+                    if e.name.endswith(".npz"):
                         entries.append((st.st_mtime_ns, st.st_size, e.path))
+                    elif e.name.endswith(".tmp") and st.st_mtime_ns < old:
+                        os.unlink(e.path)
             total = sum(s for _, s, _ in entries)
             for _, size, p in sorted(entries):
                 if total <= self.max_bytes:
@@ -200,6 +210,74 @@ class DiskStore:
     def _count(self, table: dict, kind: str) -> None:
         with self._lock:
             table[kind] = table.get(kind, 0) + 1
+
+
+class _Writer:
+    """One thread that writes entries in the order they come, started when there is work
+    and ending when there is none; what is queued is written before the process exits."""
+
+    def __init__(self):
+        self._jobs: queue.Queue = queue.Queue()
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        atexit.register(self.flush)
+
+    def put(self, job) -> None:
+        with self._lock:
+            self._jobs.put(job)
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._run, name="puppet-cache-writer", daemon=True)
+                self._thread.start()
+
+    def flush(self) -> None:
+        """Wait until everything queued is written (or given up)."""
+        self._jobs.join()
+
+    def _run(self) -> None:
+        while True:
+            try:
+                job = self._jobs.get(timeout=0.5)
+            except queue.Empty:
+                with self._lock:
+                    if self._jobs.empty():
+                        self._thread = None
+                        return
+                continue
+            try:
+                job()
+            except Exception:  # noqa: BLE001 - a cache write never fails the program
+                pass
+            finally:
+                self._jobs.task_done()
+
+
+#: the writer of every store of the process
+WRITER = _Writer()
+
+
+def flush() -> None:
+    """Wait until every entry queued by :meth:`DiskStore.save_later` is written."""
+    WRITER.flush()
+
+
+def _write(path: str, arrays: dict) -> None:
+    """Write an entry atomically: a new temporary file beside it (never an existing file,
+    never through a link), renamed into place unless a link stands there. Not registered
+    with :mod:`puppet.output`'s leftovers (the command's cleanup must not remove a file the
+    writer thread is writing); one a killed process left is pruned an hour later. No
+    fsync: a torn entry after a crash fails its checks and is built again."""
+    folder, name = os.path.split(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        if os.path.islink(path):
+            raise OSError(f"{path} is a symbolic link")
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 def _read_regular(path: str, limit: int) -> bytes:
@@ -251,7 +329,7 @@ def _encode(x, arrays: dict, seen: dict):
     name = type(x).__name__
     if CLASSES.get(name) is not type(x):
         raise Unsupported(f"a {type(x).__qualname__}")
-    fields = vars(x)
+    fields = dict(vars(x))  # a copy: a field built on first access may come meanwhile
     if dataclasses.is_dataclass(x):  # its fields only (not a cached property)
         fields = {f.name: fields[f.name] for f in dataclasses.fields(x) if f.name in fields}
     return {"obj": name, "fields": {k: _encode(v, arrays, seen) for k, v in fields.items()}}

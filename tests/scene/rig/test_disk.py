@@ -48,6 +48,7 @@ def results(path: str):
     """(layers of a pose, built counts, disk loads) of a fresh load (a new process' view)."""
     doc = Document.load(path)
     out = doc.layers(POSE)
+    disk.flush()
     store = doc.rig.memo.disk
     return out, dict(doc.rig.memo.builds), dict(store.loads) if store else {}
 
@@ -377,3 +378,15 @@ def test_a_factor_read_from_disk_is_made_again_and_takes_its_place(make_scene, c
     rhs = np.linspace(0.0, 1.0, f.n)  # waits for the factor
     assert np.array_equal(f.solve(rhs), fresh.solve(rhs))
     assert type(pre.arap.factor) is type(fresh)  # the factor itself now, not its stand-in
+
+
+def test_a_command_writes_every_entry_before_it_exits(make_scene, cached, tmp_path):
+    import subprocess
+    import sys
+    path = scene(make_scene)
+    env = dict(os.environ, PUPPET_CACHE="on")
+    subprocess.run([sys.executable, "-m", "puppet", "mesh", path, "-o", str(tmp_path / "m.json")], env=env,
+                   check=True, capture_output=True)
+    assert not [n for n in os.listdir(folder(path)) if n.endswith(".tmp")]
+    _, builds, loads = results(path)
+    assert not any(builds.get(k) for k in disk.KINDS), builds
