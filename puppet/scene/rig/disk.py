@@ -217,10 +217,15 @@ class _Writer:
     and ending when there is none; what is queued is written before the process exits."""
 
     def __init__(self):
+        self._reset()
+        atexit.register(self.flush)
+        if hasattr(os, "register_at_fork"):  # a forked child has no writer thread: its own queue
+            os.register_at_fork(after_in_child=self._reset)
+
+    def _reset(self) -> None:
         self._jobs: queue.Queue = queue.Queue()
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
-        atexit.register(self.flush)
 
     def put(self, job) -> None:
         with self._lock:

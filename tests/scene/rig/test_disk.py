@@ -390,3 +390,22 @@ def test_a_command_writes_every_entry_before_it_exits(make_scene, cached, tmp_pa
     assert not [n for n in os.listdir(folder(path)) if n.endswith(".tmp")]
     _, builds, loads = results(path)
     assert not any(builds.get(k) for k in disk.KINDS), builds
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork here")
+def test_a_forked_child_writes_with_a_writer_of_its_own(tmp_path):
+    store = disk.DiskStore(str(tmp_path / "c"))
+    store.save_later("mesh", "parent", {"a": np.arange(3)})
+    disk.flush()
+    pid = os.fork()
+    if pid == 0:  # the child: queue, write, exit through the normal path
+        code = 1
+        try:
+            store.save_later("mesh", "child", {"a": np.arange(4)})
+            disk.flush()
+            code = 0 if store.load("mesh", "child") is not None else 1
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    assert np.array_equal(store.load("mesh", "child")["a"], np.arange(4))
