@@ -4,8 +4,9 @@ scene, in ``.puppet-cache/`` next to the scene file, so a second open is quick.
 One entry per part, ``KIND-DIGEST.npz``: the part's arrays, and a JSON tree (the ``meta``
 member) saying how to put them together. ``DIGEST`` is a fingerprint of the part's memory
 key (which holds the content digests of every file it was built from, see
-:func:`~puppet.scene.rig.cache.file_stamp`), the kind, :data:`CODE_VERSION` and the
-package version, so a changed input or a new puppet simply asks for another entry.
+:func:`~puppet.scene.rig.cache.file_stamp`), the kind, :data:`CODE_VERSION`, the
+package version and a stamp of the modules that build parts, so a changed input or
+another puppet simply asks for another entry.
 
 Trust nothing read back: an entry whose folder or file is a symbolic link is neither read
 nor written; arrays are read with ``allow_pickle=False`` after their headers are checked
@@ -479,7 +480,7 @@ def _sane(x, seen: set) -> None:
     if not hasattr(x, "__dict__") or isinstance(x, (np.ndarray, sp.spmatrix, _Refactor)):
         return
     fields = vars(x)
-    V = fields.get("V")
+    V = fields.get("V", getattr(fields.get("mesh"), "V", None))  # a group: its merged mesh's
     if isinstance(V, np.ndarray):
         if V.ndim != 2 or V.shape[1] != 2 or not np.isfinite(V).all():
             raise ValueError("vertices not (n, 2) finite")

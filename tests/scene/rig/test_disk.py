@@ -345,11 +345,19 @@ def test_a_compressed_or_incomplete_entry_is_refused(tmp_path):
     open(entry, "wb").write(buf.getvalue())
     assert store.load("groups", "k") is None
     meta = json.loads(m["meta"].tobytes())
+    good = json.loads(json.dumps(meta))
     del meta["tree"]["list"][0]["fields"]["b"]  # a Group without its pinned vertices
     m["meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
     open(entry, "wb").write(_npz(m))
     assert store.load("groups", "k") is None
-    assert store.rejects["groups"] == 2
+    b = good["tree"]["list"][0]["fields"]["b"]["nd"]  # pinned vertices outside the group's mesh
+    m["meta"] = np.frombuffer(json.dumps(good).encode(), np.uint8)
+    m[b] = np.array([7], np.int64)
+    good["tree"]["list"][0]["fields"]["b"]["shape"] = [1]
+    m["meta"] = np.frombuffer(json.dumps(good).encode(), np.uint8)
+    open(entry, "wb").write(_npz(m))
+    assert store.load("groups", "k") is None
+    assert store.rejects["groups"] == 3
 
 
 def _entries_in(f):
