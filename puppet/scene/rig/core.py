@@ -147,20 +147,20 @@ class Rig:
                               [(p.name, p.layer, p.at) for p in data.pins if p.kind == "exterior"],
                               {n: sorted(pose) for n, pose in data.poses.items()})
         exterior = memo.get("exterior", ext_key, lambda: build_exterior(data, images, groups)[0])
-        pre, pre_keys = [], []
+        d = data.deformer
+        pre_keys, made = [], []
         for gi, g in enumerate(groups):
             bones = _group_bones(data, g)
-            d = data.deformer
             ckey = fingerprint(group_keys[gi], d.mode, [(data.layers[k].mode, data.layers[k].stiffness and file_stamp(
                 data.layers[k].stiffness)) for k in g.layers], [(p.layer, p.at, p.radius) for p in data.pins
                                                                   if p.kind == "starch"],
                                [(k.layers, k.polygons) for k in data.links if k.polygons])
             cells = memo.get("cells", ckey, lambda g=g: group_cells(data, images, g, meshes))
-            key = fingerprint(group_keys[gi], d.method, d.weights, d.alpha, bones if d.method == "mls-skeleton" else 0,
-                              *_cells_key(d, cells, g))
-            pre_keys.append(key)
-            pre.append(memo.get("precompute", key, lambda g=g, bones=bones, cells=cells: precompute_group(
-                g, d, bones, cells)))
+            pre_keys.append(fingerprint(group_keys[gi], d.method, d.weights, d.alpha,
+                                        bones if d.method == "mls-skeleton" else 0, *_cells_key(d, cells, g)))
+            made.append(lambda g=g, bones=bones, cells=cells: precompute_group(g, d, bones, cells))
+        # groups are independent: factorised side by side (QDLDL and the sparse products release the GIL)
+        pre = _parallel(len(groups), lambda gi: memo.get("precompute", pre_keys[gi], made[gi]))
         return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
                      pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
                      notes=parts.notes, regions=outlines)
