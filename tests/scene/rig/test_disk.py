@@ -417,3 +417,23 @@ def test_a_forked_child_writes_with_a_writer_of_its_own(tmp_path):
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
     assert np.array_equal(store.load("mesh", "child")["a"], np.arange(4))
+
+
+@pytest.mark.gl
+def test_a_render_from_the_cache_equals_one_without(make_scene, cached, monkeypatch):
+    import puppet
+    path = scene(make_scene)
+
+    def render():
+        s = puppet.load_scene(path)
+        try:
+            return s.render(POSE)
+        finally:
+            s.close()
+            disk.flush()
+
+    monkeypatch.setenv(disk.ENV, "off")
+    reference = render()
+    monkeypatch.setenv(disk.ENV, "on")
+    first, second = render(), render()
+    assert np.array_equal(first, reference) and np.array_equal(second, reference)
