@@ -15,6 +15,8 @@ SCENES = os.path.join(ASSETS, "scenes")
 #: the app's native file dialogs cannot be clicked by a test: the path field instead
 #: (inherited by the apps the tests start under Xvfb; see puppet/app/ui/files.py)
 os.environ["PUPPET_FILE_DIALOG"] = os.environ.get("PUPPET_TEST_FILE_DIALOG", "field")
+#: no disk cache beside the scenes tests load (assets/ included); tests/scene/rig/test_disk.py turns it on
+os.environ["PUPPET_CACHE"] = "off"
 
 
 # -- the gl and xvfb marks are kept true (``-m "not gl and not slow and not xvfb"`` is the fast subset)

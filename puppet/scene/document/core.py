@@ -32,6 +32,7 @@ from puppet.scene.format.inputs import input_files
 from puppet.scene.format.load import Ctx, _pose, parse_scene, read_json
 from puppet.scene.format.model import SceneData, Target
 from puppet.scene.format.write import map_paths, relative_to, scene_text
+from puppet.scene.rig import disk
 from puppet.scene.rig.cache import file_stamp, fingerprint
 from puppet.scene.rig.core import Built, LayerResult, Rig
 from puppet.scene.time import evaluate as ev
@@ -68,7 +69,9 @@ class Document(Edits, KeyEdits, DeformEdits):
         raw = read_json(path)
         if isinstance(raw, dict):  # paths absolute inside the model; parse_scene reports bad ones
             raw = map_paths(raw, lambda p: os.path.normpath(os.path.join(folder, p)))
-        return cls(raw, path)
+        doc = cls(raw, path)
+        doc.rig.memo.disk = disk.beside(path)  # built parts kept beside the scene file
+        return doc
 
     @classmethod
     @ck.checked(image=ck.path, layer=ck.text, scene_file=ck.optional(ck.path))

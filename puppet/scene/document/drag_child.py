@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from puppet.scene.document.core import Document
 from puppet.scene.drag.child import child_setup, messages
+from puppet.scene.rig import disk
 
 #: LayerResult fields sent back per moved layer (``rest``, ``triangles`` and ``pins`` too
 #: for a layer drawn as a proxy mesh, see :mod:`puppet.scene.rig.proxy`).
@@ -35,6 +36,8 @@ def _open(rig, serial: int, doc: dict, file: str, active: str, names, time, reco
     d = Document(doc, file)
     if rig is not None:
         d.rig = rig  # content-keyed: every part built for an earlier version is reused
+    else:  # the parts the app built are on disk beside the scene (when it has been saved)
+        d.rig.memo.disk = disk.beside(file)
     d._set(doc, active, build=False)
     return d.rig, d.drag(names, time, record=record, iterations=iterations)
 

@@ -14,7 +14,10 @@ deformed vertices and depth per layer (:meth:`Rig.evaluate`) -> the compositor.
 """
 from __future__ import annotations
 
+import os
 import threading
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -39,6 +42,9 @@ from puppet.scene.rig.stiffness import group_cells
 #: kinds of :data:`PER_LAYER` keep at least two per layer of the scene built last
 CAPACITY = {"pixels": 16, "reduced": 64, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
             "cells": 16, "links": 8}
+
+#: threads that read, mask and mesh the layers of a scene (the cores there are, at most 8)
+WORKERS = min(8, os.cpu_count() or 1)
 
 #: kinds of part built once per layer (or per group, at most one per layer)
 PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells")
@@ -98,8 +104,8 @@ class Rig:
     (layer triangulations), ``"precompute"`` (group factorisations), ``"solve"``.
     """
 
-    def __init__(self):
-        self.memo = Memo(CAPACITY)
+    def __init__(self, disk=None):
+        self.memo = Memo(CAPACITY, disk=disk)
         self._warm = threading.local()  # this thread's starts of accelerated solves, by pre key
 
     # -- building ----------------------------------------------------------------
@@ -110,19 +116,18 @@ class Rig:
         source = None
         if data.source is not None:
             source = memo.get("pixels", fingerprint(file_stamp(data.source)), lambda: build.load_source(data))
-        base_keys, bases = [], []
-        for L in data.layers:
-            key = fingerprint(file_stamp(L.image), file_stamp(data.source) if L.image is None else None,
-                              L.offset, L.mask, file_stamp(L.mask.file) if L.mask is not None else None)
-            base_keys.append(key)
-            bases.append(memo.get("layer", key, lambda L=L: build.layer_image(data, L, source)))
-        image_keys, images = [], []
+        base_keys = [fingerprint(file_stamp(L.image), file_stamp(data.source) if L.image is None else None,
+                                 L.offset, L.mask, file_stamp(L.mask.file) if L.mask is not None else None)
+                     for L in data.layers]
+        # a layer's pixels before inpainting, read only where a finished image is not found
+        bases = _Lazy(len(data.layers), lambda k: memo.get("layer", base_keys[k], lambda: build.layer_image(
+            data, data.layers[k], source)))
+        image_keys = []
         for k, L in enumerate(data.layers):
-            front = [base_keys[j] for j, im in enumerate(bases) if im.from_source and rank[j] > rank[k]]
-            key = fingerprint(base_keys[k], L.inpaint, front if L.inpaint != "none" else None)
-            image_keys.append(key)
-            images.append(memo.get("image", key, lambda k=k, L=L: build.finish_image(
-                bases[k], build.inpaint_hole(data, bases, k, rank), L.inpaint)))
+            front = [base_keys[j] for j, M in enumerate(data.layers) if M.image is None and rank[j] > rank[k]]
+            image_keys.append(fingerprint(base_keys[k], L.inpaint, front if L.inpaint != "none" else None))
+        images = _parallel(len(data.layers), lambda k: memo.get("image", image_keys[k], lambda: build.finish_image(
+            bases[k], build.inpaint_hole(data, bases, k, rank), data.layers[k].inpaint)))
         # the links clipped to the masks (a dilation per linked layer) and the layers' triangle
         # areas depend on the images and the links, not on a pose: kept, not redone every edit
         links_key = fingerprint(image_keys, [(L.name, L.mesh.max_area) for L in data.layers],
@@ -130,16 +135,15 @@ class Rig:
         areas, parts = memo.get("links", links_key, lambda: (build.layer_areas(data, images),
                                                                link_parts(data, images)))
         polylines = build.link_polylines(data, areas, parts)
-        mesh_keys, meshes, outlines = [], [], []
+        outlines = _parallel(len(data.layers), lambda k: memo.get("outline", base_keys[k], lambda: mask_regions(
+            images[k].mask, images[k].offset)))
+        mesh_keys = []
         for k, L in enumerate(data.layers):
             pins = [p.at for _, p in build.layer_pins(data, k)]
             segs = [(path, P) for li, path, P in polylines[k]]
-            key = fingerprint(base_keys[k], L.mesh, areas[k], pins, segs)
-            mesh_keys.append(key)
-            regions = memo.get("outline", base_keys[k], lambda k=k: mask_regions(images[k].mask, images[k].offset))
-            outlines.append(regions)
-            meshes.append(memo.get("mesh", key, lambda k=k, regions=regions: build.mesh_layer(
-                data, k, images[k], areas[k], polylines[k], regions)))
+            mesh_keys.append(fingerprint(base_keys[k], L.mesh, areas[k], pins, segs))
+        meshes = _parallel(len(data.layers), lambda k: memo.get("mesh", mesh_keys[k], lambda: build.mesh_layer(
+            data, k, images[k], areas[k], polylines[k], outlines[k])))
         pin_vertex = [build.pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
         groups_key = fingerprint(mesh_keys, [(k.layers, k.segments) + _link_extra(k) for k in data.links],
                                  [(p.name, p.layer, p.at, p.kind) for p in data.pins])
@@ -149,20 +153,20 @@ class Rig:
                               [(p.name, p.layer, p.at) for p in data.pins if p.kind == "exterior"],
                               {n: sorted(pose) for n, pose in data.poses.items()})
         exterior = memo.get("exterior", ext_key, lambda: build_exterior(data, images, groups)[0])
-        pre, pre_keys = [], []
+        d = data.deformer
+        pre_keys, made = [], []
         for gi, g in enumerate(groups):
             bones = _group_bones(data, g)
-            d = data.deformer
             ckey = fingerprint(group_keys[gi], d.mode, [(data.layers[k].mode, data.layers[k].stiffness and file_stamp(
                 data.layers[k].stiffness)) for k in g.layers], [(p.layer, p.at, p.radius) for p in data.pins
                                                                   if p.kind == "starch"],
                                [(k.layers, k.polygons) for k in data.links if k.polygons])
             cells = memo.get("cells", ckey, lambda g=g: group_cells(data, images, g, meshes))
-            key = fingerprint(group_keys[gi], d.method, d.weights, d.alpha, bones if d.method == "mls-skeleton" else 0,
-                              *_cells_key(d, cells, g))
-            pre_keys.append(key)
-            pre.append(memo.get("precompute", key, lambda g=g, bones=bones, cells=cells: precompute_group(
-                g, d, bones, cells)))
+            pre_keys.append(fingerprint(group_keys[gi], d.method, d.weights, d.alpha,
+                                        bones if d.method == "mls-skeleton" else 0, *_cells_key(d, cells, g)))
+            made.append(lambda g=g, bones=bones, cells=cells: precompute_group(g, d, bones, cells))
+        # groups are independent: factorised side by side (QDLDL and the sparse products release the GIL)
+        pre = _parallel(len(groups), lambda gi: memo.get("precompute", pre_keys[gi], made[gi]))
         return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
                      pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
                      notes=parts.notes, regions=outlines)
@@ -204,6 +208,38 @@ class Rig:
                                      triangles=built.meshes[k].F, depth=r + depth[idx],
                                      pins=dict(built.pin_vertex[k]), exterior=exterior, key=built.image_keys[k])
         return out
+
+
+def _parallel(n: int, make) -> list:
+    """``[make(k) for k in range(n)]`` on a thread pool (decoding, masks and outlines
+    release the GIL in OpenCV, zlib and numpy); the first failure in layer order raises,
+    as in a loop."""
+    workers = min(n, WORKERS)
+    if workers < 2:
+        return [make(k) for k in range(n)]
+    with ThreadPoolExecutor(workers, thread_name_prefix="puppet-build") as pool:
+        return list(pool.map(make, range(n)))
+
+
+class _Lazy(Sequence):
+    """``n`` items, each made on first use (once, also from several threads)."""
+
+    def __init__(self, n: int, make):
+        self._make = make
+        self._items: list = [None] * n
+        self._made = [False] * n
+        self._locks = [threading.Lock() for _ in range(n)]
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __getitem__(self, k: int):
+        if not 0 <= k < len(self._items):
+            raise IndexError(k)
+        with self._locks[k]:
+            if not self._made[k]:
+                self._items[k], self._made[k] = self._make(k), True
+        return self._items[k]
 
 
 def _link_extra(link) -> tuple:
