@@ -80,7 +80,7 @@ def stream(sink: "Sink", frames, encoders: int = 1, **run) -> int:
     frames are encoded on that many threads at once (:func:`puppet.anim.pipeline.ahead`)
     and written in order on the encoder's thread; the bytes are the same."""
     add = sink.add
-    if encoders > 1 and sink.parallel and run.get("threads", True):
+    if encoders > 1 and getattr(sink, "parallel", False) and run.get("threads", True):
         frames, add = pipeline.ahead(frames, sink.encode, encoders, run.get("timings")), sink.write
     try:
         count = pipeline.run(frames, add, **run)
