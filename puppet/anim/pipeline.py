@@ -33,6 +33,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
 
 import numpy as np
 
@@ -243,8 +245,6 @@ def ahead(source: Iterator, work: Callable, n: int, timings: Timings | None = No
     (compositing them) while the threads work, and waits for a result in short, bounded
     waits. Closing the generator (or an error) cancels what has not started and closes
     ``source``."""
-    from concurrent.futures import ThreadPoolExecutor  # lazy: only exports with several encoders
-
     timings = Timings() if timings is None else timings
 
     def timed(item):
@@ -273,12 +273,10 @@ def ahead(source: Iterator, work: Callable, n: int, timings: Timings | None = No
 
 def _result(future):
     """A future's result, waited for in 0.1 s steps (a signal is handled meanwhile)."""
-    from concurrent.futures import TimeoutError as Late  # lazy: see ahead()
-
     while True:
         try:
             return future.result(timeout=0.1)
-        except Late:
+        except FutureTimeout:
             pass
 
 
