@@ -228,7 +228,11 @@ class AVSink(Sink):
     """A video through PyAV: ``codec`` into ``container``, frames given as RGBA (or RGB
     when ``alpha`` is False) and converted by FFmpeg to ``pix_fmt``; ``pad`` makes odd
     sizes even (edge pixels); ``threads`` is the codec's thread type (e.g. ``"AUTO"``:
-    frame and slice threads), FFmpeg's default when None."""
+    frame and slice threads), FFmpeg's default when None. The conversion
+    (:meth:`encode`) may run for several frames at once; the codec takes them in order
+    (:meth:`write`)."""
+
+    parallel = True
 
     def __init__(self, tmp: str, container: str, codec: str, pix_fmt: str, size: tuple[int, int],
                  fps: float, options: dict[str, str], *, alpha: bool, pad: bool = False,
@@ -238,7 +242,7 @@ class AVSink(Sink):
         super().__init__()
         w, h = size
         self.pad = (h % 2, w % 2) if pad else (0, 0)
-        self.alpha = alpha
+        self.alpha, self.pix_fmt = alpha, pix_fmt
         self.box = av.open(tmp, mode="w", format=container, options=container_options or {})
         try:
             self.stream = self.box.add_stream(codec, rate=rate(fps))
@@ -251,13 +255,21 @@ class AVSink(Sink):
             self.box.close()
             raise
 
-    def add(self, rgba: np.ndarray) -> None:
-        import av
+    def encode(self, rgba: np.ndarray):
+        """The frame as the codec takes it (``av.VideoFrame`` in the stream's pixel format):
+        the conversion FFmpeg would make inside the encoder, here where several frames
+        can be converted at once (the same pixels: tested against PyAV converting)."""
+        import av  # lazy: PyAV, only for the video sinks
 
         pixels = np.ascontiguousarray(rgba if self.alpha else flatten(rgba))
         if any(self.pad):
             pixels = np.pad(pixels, ((0, self.pad[0]), (0, self.pad[1]), (0, 0)), mode="edge")
         frame = av.VideoFrame.from_ndarray(pixels, format="rgba" if self.alpha else "rgb24")
+        if frame.format.name == self.pix_fmt:
+            return frame
+        return frame.reformat(width=frame.width, height=frame.height, format=self.pix_fmt)
+
+    def write(self, frame) -> None:
         frame.pts = self.frames
         for pkt in self.stream.encode(frame):
             self.box.mux(pkt)

@@ -333,3 +333,54 @@ def test_parallel_sinks_write_the_same_bytes(tmp_path, transparent):
         got[n] = files(folder), (tmp_path / f"g{n}.gif").read_bytes()
     assert got[1] == got[4]
     assert np.array_equal(np.array(Image.open(tmp_path / "d4" / "frame_00005.png")), frames[5])
+
+
+def _old_av_file(tmp, make, frames) -> bytes:
+    """The video as the sinks wrote it before frames were converted apart: every frame
+    handed to PyAV as RGB(A), converted inside the encoder (the reference)."""
+    import av
+
+    sink = make(str(tmp))
+    for k, rgba in enumerate(frames):
+        pixels = np.ascontiguousarray(rgba if sink.alpha else sinks.flatten(rgba))
+        if any(sink.pad):
+            pixels = np.pad(pixels, ((0, sink.pad[0]), (0, sink.pad[1]), (0, 0)), mode="edge")
+        frame = av.VideoFrame.from_ndarray(pixels, format="rgba" if sink.alpha else "rgb24")
+        frame.pts = k
+        for pkt in sink.stream.encode(frame):
+            sink.box.mux(pkt)
+    sink.close()
+    return tmp.read_bytes()
+
+
+@pytest.mark.parametrize("kind", ["mp4", "webm", "apng"])
+def test_video_sinks_write_what_pyav_converting_wrote(tmp_path, kind):
+    """MP4 (odd size: padded), WebM with alpha and APNG, one encoding thread and three:
+    byte for byte the file of the reference (PyAV converting inside the encoder)."""
+    make = {"mp4": lambda p: sinks.mp4_sink(p, (45, 31), 12.0), "webm": lambda p: sinks.webm_sink(p, (45, 31), 12.0),
+            "apng": lambda p: sinks.apng_sink(p, (45, 31), 12.0)}[kind]
+    yy, xx = np.mgrid[0:31, 0:45]
+    frames = []
+    for k in range(9):
+        f = np.zeros((31, 45, 4), np.uint8)
+        f[..., 0], f[..., 1], f[..., 2] = (xx * 5 + 20 * k) % 256, (yy * 8) % 256, 90
+        f[..., 3] = np.where((xx - 4 * k) % 45 < 20, 255, 60)
+        frames.append(f)
+    want = _payload(kind, _old_av_file(tmp_path / f"ref.{kind}", make, frames), tmp_path / f"ref.{kind}")
+    for n in (1, 3):
+        out = tmp_path / f"new{n}.{kind}"
+        assert sinks.stream(make(str(out)), iter(frames), encoders=n) == 9
+        assert _payload(kind, out.read_bytes(), out) == want, n
+
+
+def _payload(kind, data: bytes, path):
+    """The file's bytes; for WebM (whose Matroska header holds a random segment UID) the
+    bytes of every packet of its video stream."""
+    if kind != "webm":
+        return data
+    import av
+
+    with av.open(str(path)) as box:
+        packets = [bytes(p) for p in box.demux(box.streams.video[0]) if p.size]
+    assert len(packets) == 9
+    return packets
