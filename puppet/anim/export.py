@@ -6,7 +6,8 @@ meshes) a self-contained web player, Spine 4.2 JSON or glTF 2.0 — the table
 Every frame is solved from scratch (trajectory invariance) and streamed to its output
 as soon as it is drawn, through the three-stage pipeline of :mod:`puppet.anim.pipeline`
 (solve ahead on a thread, composite with GL here, encode on a thread): memory does not
-grow with the number of frames. All writing goes through :mod:`puppet.output` (checked
+grow with the number of frames. With ``workers`` (``--workers N``), frames are solved in N
+processes side by side and encoded on N threads, the output unchanged. All writing goes through :mod:`puppet.output` (checked
 before the first frame is drawn, temporary name or folder, renamed or swapped in at the
 end, inputs never overwritten, nothing left behind on an error or a signal).
 """

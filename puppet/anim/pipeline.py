@@ -9,6 +9,11 @@ A frame goes through three stages:
 3. **encode** (the sink: PNG deflate, LZW, x264, libvpx ...): an *encoder thread* writes
    frame n-1.
 
+With several solver processes (``animate --workers N``) the solver thread only passes on
+what :class:`puppet.anim.solver.SolverPool` hands back in order, and a sink whose frames
+encode apart has them encoded on N threads (:func:`ahead`) before the encoder thread
+writes them in order.
+
 The stages hand frames over through queues of :data:`DEPTH` items, so at most a few
 frames exist at once (memory is flat in the frame count), and frames are written in
 order. Each frame is solved from its own time (trajectory invariance), so the output is
