@@ -143,8 +143,11 @@ class ProcessSolver:
 
     def ask(self, i: int) -> None:
         """Ask the child for frame ``i`` (answers come in the order asked)."""
-        self.conn.send(i)
         self.sent.append(i)
+        try:
+            self.conn.send(i)
+        except OSError:  # the child has gone: its pipe is closed
+            raise self._gone() from None
 
     def lost(self) -> bool:
         """The child has ended and nothing more is waiting to be read from it."""
@@ -170,6 +173,14 @@ class ProcessSolver:
         return SolverLost(f"a solver process {how}{at}; the export stopped and wrote nothing "
                           "(out of memory? try fewer --workers)")
 
+    def _gone(self) -> SolverLost:
+        """:meth:`ended`, once the child whose pipe closed has been waited for (2 s at most)."""
+        try:
+            self.proc.wait(timeout=2.0)
+        except subprocess.TimeoutExpired:
+            pass
+        return self.ended()
+
     def take(self):
         """Read one message the child has sent: the packed layers of the oldest frame
         asked for, or ``_READY`` (the child has built the scene); the child's error is
@@ -177,11 +188,7 @@ class ProcessSolver:
         try:
             msg = self.conn.recv()
         except (EOFError, OSError):
-            try:
-                self.proc.wait(timeout=2.0)
-            except subprocess.TimeoutExpired:
-                pass
-            raise self.ended() from None
+            raise self._gone() from None
         if msg[0] == "ready":
             return _READY
         if msg[0] == "error":

@@ -149,6 +149,23 @@ def test_frames_in_flight_stay_bounded(tmp_path):
     assert 2 <= pool.held <= 2 * WINDOW
 
 
+@pytest.mark.slow
+def test_a_child_killed_between_frames_is_one_solver_lost(tmp_path, children):
+    """Killed while idle (its pipe closed before it is asked again): SolverLost, not a
+    broken pipe, and close() leaves no process."""
+    scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=3.0))
+    pool = SolverPool(scene, 0.0, 10.0, 2)
+    assert pool.start(0)
+    try:
+        children[1].kill()
+        children[1].wait()
+        with pytest.raises(SolverLost, match=r"^a solver process was killed by signal 9 before frame \d+; "):
+            list(pool.results(list(range(30)), lambda: False))
+    finally:
+        pool.close()
+    assert all(gone(p) for p in children)
+
+
 # --- whole exports ------------------------------------------------------------------------
 
 
