@@ -401,3 +401,15 @@ def _payload(kind, data: bytes, path):
         packets = [bytes(p) for p in box.demux(box.streams.video[0]) if p.size]
     assert len(packets) == 9
     return packets
+
+
+def test_batch_animation_jobs_keep_one_solver(tmp_path, monkeypatch):
+    """A batch worker is one process per core already (and budgets its solves on its own
+    threads): its animation jobs ask for one solver."""
+    from puppet.batch import work
+
+    asked = []
+    monkeypatch.setattr(export, "animate_to", lambda scene, out, **kw: asked.append(kw))
+    job = {"kind": "animate", "output": str(tmp_path / "o" / "a.gif"), "animate": {"fps": 10}}
+    work._render(job, object(), ())
+    assert len(asked) == 1 and asked[0]["workers"] == 1
