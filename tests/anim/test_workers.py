@@ -413,3 +413,62 @@ def test_batch_animation_jobs_keep_one_solver(tmp_path, monkeypatch):
     job = {"kind": "animate", "output": str(tmp_path / "o" / "a.gif"), "animate": {"fps": 10}}
     work._render(job, object(), ())
     assert len(asked) == 1 and asked[0]["workers"] == 1
+
+
+def _children_of(pid: int) -> list[int]:
+    """Processes whose parent is ``pid`` (read from /proc)."""
+    found = []
+    for name in os.listdir("/proc"):
+        if name.isdigit():
+            try:
+                with open(f"/proc/{name}/stat") as f:
+                    if int(f.read().rsplit(")", 1)[1].split()[1]) == pid:
+                        found.append(int(name))
+            except (OSError, ValueError, IndexError):
+                pass
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as f:  # a zombie is not alive (its parent has gone: init reaps it)
+        return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_mid_export_stops_every_solver_process(tmp_path, sig):
+    """`puppet animate --workers 2` stopped mid-export: nothing written, and its two solver
+    processes end with it."""
+    import subprocess
+    import sys
+
+    from tests.cli.test_signals import _wait_for_temp
+
+    if options.worker_cap()[0] < 2:
+        pytest.skip("this machine runs one solver process")
+    scene = make_bar(tmp_path / "s", seconds=1000.0)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "puppet", "animate", scene, "-o", str(out_dir / "o.mp4"),
+                             "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONPATH=ROOT), cwd=ROOT)
+    try:
+        _wait_for_temp(proc, out_dir)
+        kids = _children_of(proc.pid)
+        assert len(kids) == 2  # the two solver processes
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode in (-sig, 130), (proc.returncode, err)
+    assert os.listdir(out_dir) == []
+    end = time.monotonic() + 10
+    while any(_alive(k) for k in kids) and time.monotonic() < end:
+        time.sleep(0.05)
+    assert not any(_alive(k) for k in kids)
