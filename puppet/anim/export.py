@@ -97,17 +97,19 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     progress : True: a progress bar on stderr; a callable: ``progress(done, total)`` after
         each frame is handed to the output (from the calling thread); False: nothing.
     threads : overlap solve, composite and encode (False: one after the other; same output).
-    solver : where frames are solved when ``threads``: ``"thread"`` (also ``"auto"``) or
-        ``"process"`` (a child process, see :mod:`puppet.anim.solver`; falls back to a thread
-        if its first frame differs). Measured on 1000 T-rex frames at 1280x720 the two are
-        as fast (49.5 and 50.2 s), the process using ~10 % more CPU: threads by default.
+    solver : where frames are solved when ``threads`` and one solver is used: ``"thread"``
+        (also ``"auto"``) or ``"process"`` (a child process, see :mod:`puppet.anim.solver`;
+        falls back to a thread if its first frame differs). Measured on 1000 T-rex frames
+        at 1280x720 the two are as fast (49.5 and 50.2 s), the process using ~10 % more
+        CPU: threads by default. ``"thread"`` also keeps ``workers`` to one.
     timings : filled with seconds per stage (see :class:`puppet.anim.pipeline.Timings`).
     workers : solver processes (1..1024; default: one per core, at most one per
         :data:`FRAMES_PER_SOLVER` frames). Frames are independent given the keys: with two
         or more, :class:`puppet.anim.solver.SolverPool` solves them side by side and hands
         them on in order, the output identical to one solver's. At most one per core and
         one per 512 MiB of available memory (as ``puppet batch`` caps its workers; a cut
-        is told to ``say``) and one per frame. 1: one solver, as ``solver`` says.
+        is told to ``say``) and one per frame. 1: one solver, as ``solver`` says. PNG, GIF
+        and video frames are encoded on as many threads (same bytes).
     say : ``say(line)`` for a note to the user (``workers`` cut to what the machine runs).
 
     The output and the files beside it are checked (writable, no input of the scene
