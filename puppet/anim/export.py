@@ -7,9 +7,10 @@ Every frame is solved from scratch (trajectory invariance) and streamed to its o
 as soon as it is drawn, through the three-stage pipeline of :mod:`puppet.anim.pipeline`
 (solve ahead on a thread, composite with GL here, encode on a thread): memory does not
 grow with the number of frames. With ``workers`` (``--workers N``), frames are solved in N
-processes side by side and encoded on N threads, the output unchanged. All writing goes through :mod:`puppet.output` (checked
-before the first frame is drawn, temporary name or folder, renamed or swapped in at the
-end, inputs never overwritten, nothing left behind on an error or a signal).
+processes side by side and encoded on N threads, the output unchanged. All writing goes
+through :mod:`puppet.output` (checked before the first frame is drawn, temporary name or
+folder, renamed or swapped in at the end, inputs never overwritten, nothing left behind
+on an error or a signal).
 """
 from __future__ import annotations
 
@@ -165,7 +166,8 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
 
     def fill(tmp: str) -> int:
         job.tmp = tmp
-        return sinks.stream(fmt.open(job), frames(), threads=threads, progress=bar, timings=timings, encoders=n_solvers)
+        return sinks.stream(fmt.open(job), frames(), threads=threads, progress=bar, timings=timings,
+                            encoders=n_solvers)
 
     written = [0]
     try:
