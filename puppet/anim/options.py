@@ -2,6 +2,7 @@
 command line's parser and by batch job lists as well as by the export itself."""
 from __future__ import annotations
 
+import numbers
 import os
 
 from puppet.errors import SceneError
@@ -85,13 +86,13 @@ def worker_cap() -> tuple[int, int, int | None]:
 
 
 def parse_workers(value, what: str = "") -> int:
-    """A worker count given by a user: a whole number 1..:data:`MAX_WORKERS` (an int or
-    its decimal text; not a bool). Raises SceneError (one line, ``what`` before the value)."""
+    """A worker count given by a user: a whole number 1..:data:`MAX_WORKERS` (an integer,
+    numpy's too, or its decimal text; not a bool). Raises SceneError (one line, ``what`` before the value)."""
     if isinstance(value, str):
         try:
             value = int(value.strip())
         except ValueError:
             raise SceneError(f"{what}{value!r} is not a whole number") from None
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_WORKERS:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not 1 <= value <= MAX_WORKERS:
         raise SceneError(f"{what}{value!r}: give a whole number of processes 1..{MAX_WORKERS}")
-    return value
+    return int(value)

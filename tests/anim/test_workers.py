@@ -261,7 +261,7 @@ def test_bad_workers_in_the_api(bar, tmp_path, value):
 
 def test_parse_workers():
     assert options.parse_workers("3") == 3 and options.parse_workers(" 12 ") == 12
-    assert options.parse_workers(1024) == 1024
+    assert options.parse_workers(1024) == 1024 and type(options.parse_workers(np.int64(2))) is int
     for bad in ("0", "-2", "", "three", 0, 1025, False, 1.0):
         with pytest.raises(SceneError):
             options.parse_workers(bad)
