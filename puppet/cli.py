@@ -15,7 +15,7 @@ import sys
 import puppet
 from puppet import __version__
 from puppet.anim import formats  # the one table of output formats (cheap: no numpy)
-from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background
+from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background, parse_workers
 from puppet.batch import command as batch
 from puppet.errors import SceneError
 from puppet.output import check_file, check_folder, remove_leftovers, save_png
@@ -79,6 +79,13 @@ def _background(text: str):
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _workers(text: str) -> int:
+    try:
+        return parse_workers(text, "")
+    except SceneError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def _threshold(text: str) -> float:
     try:
         t = float(text)
@@ -131,6 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--wireframe", action="store_true")
     a.add_argument("--background", type=_background, metavar="COLOR|transparent",
                    help="#rrggbb, #rrggbbaa, a colour name or transparent (not for MP4); default: the scene's")
+    a.add_argument("--workers", type=_workers, metavar="N",
+                   help="solver processes (default: one per core, fewer for short exports)")
 
     m = sub.add_parser("mesh", help="write the deformed meshes as JSON")
     m.add_argument("scene")
@@ -312,7 +321,7 @@ def run(argv: list[str] | None = None) -> int:
         with _gl_allocation(scene, args.size):
             animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
                        wireframe=args.wireframe, progress=sys.stderr.isatty(), background=args.background,
-                       format=args.format)
+                       format=args.format, workers=args.workers, say=_say)
     return 0
 
 

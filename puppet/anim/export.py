@@ -6,20 +6,23 @@ meshes) a self-contained web player, Spine 4.2 JSON or glTF 2.0 — the table
 Every frame is solved from scratch (trajectory invariance) and streamed to its output
 as soon as it is drawn, through the three-stage pipeline of :mod:`puppet.anim.pipeline`
 (solve ahead on a thread, composite with GL here, encode on a thread): memory does not
-grow with the number of frames. All writing goes through :mod:`puppet.output` (checked
-before the first frame is drawn, temporary name or folder, renamed or swapped in at the
-end, inputs never overwritten, nothing left behind on an error or a signal).
+grow with the number of frames. With ``workers`` (``--workers N``), frames are solved in N
+processes side by side and encoded on N threads, the output unchanged. All writing goes
+through :mod:`puppet.output` (checked before the first frame is drawn, temporary name or
+folder, renamed or swapped in at the end, inputs never overwritten, nothing left behind
+on an error or a signal).
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
 from puppet.anim import formats, pipeline, sinks
 from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (docs/api.md names export.parse_background)
-from puppet.anim.solver import ProcessSolver
+from puppet.anim.options import WORKER_BYTES, parse_workers, worker_cap
+from puppet.anim.solver import ProcessSolver, SolverPool
 from puppet.errors import SceneError
 from puppet.output import Staged, check_file, check_folder, commit_all, write_folder
 from puppet.scene.format.inputs import input_files
@@ -27,6 +30,10 @@ from puppet.scene.time import timeline
 
 #: Most frames one ``animate`` may write (duration x fps); longer exports are refused up front.
 MAX_FRAMES = 100_000
+#: Frames to solve per solver process started by default (``workers=None``): starting one
+#: (a fresh ``python`` that imports puppet and builds the scene) costs about as much as
+#: solving 20-40 T-rex frames, so a short export is solved on a thread.
+FRAMES_PER_SOLVER = 48
 
 # kept importable from here (older callers)
 flatten = sinks.flatten
@@ -74,7 +81,8 @@ def _background(scene, kind: str, output: str, background) -> tuple[object, bool
 
 def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None, wireframe=False,
                progress=False, background=None, threads: bool = True, solver: str = "auto",
-               timings: pipeline.Timings | None = None, format: str | None = None) -> int:
+               timings: pipeline.Timings | None = None, format: str | None = None, workers: int | None = None,
+               say: Callable[[str], None] | None = None) -> int:
     """Render the scene's animation to ``output``; returns the number of frames.
 
     Parameters
@@ -90,11 +98,20 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     progress : True: a progress bar on stderr; a callable: ``progress(done, total)`` after
         each frame is handed to the output (from the calling thread); False: nothing.
     threads : overlap solve, composite and encode (False: one after the other; same output).
-    solver : where frames are solved when ``threads``: ``"thread"`` (also ``"auto"``) or
-        ``"process"`` (a child process, see :mod:`puppet.anim.solver`; falls back to a thread
-        if its first frame differs). Measured on 1000 T-rex frames at 1280x720 the two are
-        as fast (49.5 and 50.2 s), the process using ~10 % more CPU: threads by default.
+    solver : where frames are solved when ``threads`` and one solver is used: ``"thread"``
+        (also ``"auto"``) or ``"process"`` (a child process, see :mod:`puppet.anim.solver`;
+        falls back to a thread if its first frame differs). Measured on 1000 T-rex frames
+        at 1280x720 the two are as fast (49.5 and 50.2 s), the process using ~10 % more
+        CPU: threads by default. ``"thread"`` also keeps ``workers`` to one.
     timings : filled with seconds per stage (see :class:`puppet.anim.pipeline.Timings`).
+    workers : solver processes (1..1024; default: one per core, at most one per
+        :data:`FRAMES_PER_SOLVER` frames). Frames are independent given the keys: with two
+        or more, :class:`puppet.anim.solver.SolverPool` solves them side by side and hands
+        them on in order, the output identical to one solver's. At most one per core and
+        one per 512 MiB of available memory (as ``puppet batch`` caps its workers; a cut
+        is told to ``say``) and one per frame. 1: one solver, as ``solver`` says. PNG, GIF
+        and video frames are encoded on as many threads (same bytes).
+    say : ``say(line)`` for a note to the user (``workers`` cut to what the machine runs).
 
     The output and the files beside it are checked (writable, no input of the scene
     overwritten), the frame count bounded (:data:`MAX_FRAMES`), options the format cannot
@@ -109,6 +126,8 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     (check_folder if fmt.folder else check_file)(output, inputs=inputs)
     for path in fmt.side(output):  # names puppet picks: never through a link
         check_file(path, inputs=inputs, follow=False)
+    if workers is not None:
+        workers = parse_workers(workers, "animate_to: workers=")
     rate = float(fps or anim.fps)
     if not MIN_FPS <= rate <= MAX_FPS:
         raise SceneError(f"{rate:g} fps is outside {MIN_FPS:g}..{MAX_FPS:g}; give --fps",
@@ -135,6 +154,7 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     cached: dict[int, np.ndarray] = job.extra.pop("cached", {})
     todo = [i for i in range(n) if i not in cached]
     remote = bar = None
+    n_solvers = solver_count(workers, len(todo), say) if threads and todo and solver != "thread" else 1
 
     def frames() -> Iterator[np.ndarray]:
         drawn = pipeline.frames(solve, composite, todo, threads=threads, timings=timings, remote=remote)
@@ -146,14 +166,13 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
 
     def fill(tmp: str) -> int:
         job.tmp = tmp
-        return sinks.stream(fmt.open(job), frames(), threads=threads, progress=bar, timings=timings)
+        return sinks.stream(fmt.open(job), frames(), threads=threads, progress=bar, timings=timings,
+                            encoders=n_solvers)
 
     written = [0]
     try:
-        if threads and todo and solver == "process":
-            remote = ProcessSolver(scene, t0, rate)
-            if not remote.start(todo[0]):
-                remote = None
+        if n_solvers > 1 or (threads and todo and solver == "process"):
+            remote = _remote(scene, t0, rate, todo[0], n_solvers)
         bar = _Callback(n, progress) if callable(progress) else pipeline.Progress(n, progress)
         if fmt.folder:
             return write_folder(output, fill, inputs=inputs)
@@ -173,6 +192,26 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
             bar.close()
         if remote is not None:
             remote.close()
+
+
+def solver_count(workers: int | None, frames: int, say: Callable[[str], None] | None = None) -> int:
+    """Solver processes for ``frames`` frames when ``workers`` are asked for (None: the
+    default), cut to what the machine runs (see :func:`animate_to`)."""
+    cap, cores, memory = worker_cap()
+    if workers is None:
+        return max(1, min(cap, frames // FRAMES_PER_SOLVER))
+    if workers > cap and say is not None:
+        gib = f", {memory / 2 ** 30:.1f} GiB of memory available" if memory else ""
+        say(f"puppet animate: --workers {workers}: starting {cap} solver processes ({cores} cores{gib}; "
+            f"one solves on one core and may need up to {WORKER_BYTES / 2 ** 30:.1f} GiB)")
+    return max(1, min(workers, cap, frames))
+
+
+def _remote(scene, t0: float, rate: float, first: int, n: int) -> ProcessSolver | SolverPool | None:
+    """``n`` solver processes started (checked on frame ``first``), or None when they
+    cannot be used (frames are then solved on a thread)."""
+    remote = ProcessSolver(scene, t0, rate) if n == 1 else SolverPool(scene, t0, rate, n)
+    return remote if remote.start(first) else None
 
 
 class _Callback:

@@ -113,8 +113,18 @@ class _Owning:
     def frames(self) -> int:
         return self.sink.frames
 
+    @property
+    def parallel(self) -> bool:
+        return getattr(self.sink, "parallel", False)
+
     def add(self, item) -> None:
         self.sink.add(item)
+
+    def encode(self, item):
+        return self.sink.encode(item)
+
+    def write(self, item) -> None:
+        self.sink.write(item)
 
     def close(self) -> None:
         try:

@@ -9,6 +9,11 @@ A frame goes through three stages:
 3. **encode** (the sink: PNG deflate, LZW, x264, libvpx ...): an *encoder thread* writes
    frame n-1.
 
+With several solver processes (``animate --workers N``) the solver thread only passes on
+what :class:`puppet.anim.solver.SolverPool` hands back in order, and a sink whose frames
+encode apart has them encoded on N threads (:func:`ahead`) before the encoder thread
+writes them in order.
+
 The stages hand frames over through queues of :data:`DEPTH` items, so at most a few
 frames exist at once (memory is flat in the frame count), and frames are written in
 order. Each frame is solved from its own time (trajectory invariance), so the output is
@@ -33,6 +38,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
 
 import numpy as np
 
@@ -47,8 +54,11 @@ class Timings(dict):
     """Seconds spent per stage: ``solve``, ``composite``, ``encode`` (work) and ``wait``
     (the calling thread waiting for a solve or for room at the encoder)."""
 
+    _lock = threading.Lock()  # several encoding threads add to "encode"
+
     def add(self, stage: str, seconds: float) -> None:
-        self[stage] = self.get(stage, 0.0) + seconds
+        with self._lock:
+            self[stage] = self.get(stage, 0.0) + seconds
 
 
 class _Stop(Exception):
@@ -231,6 +241,48 @@ def frames(solve: Callable[[int], object], composite: Callable[[object], np.ndar
         worker.halt()
     if worker.error is not None:
         raise worker.error
+
+
+def ahead(source: Iterator, work: Callable, n: int, timings: Timings | None = None) -> Iterator:
+    """``work(item)`` for each item of ``source``, in order, computed on ``n`` threads at
+    once (PNG deflate, GIF quantizing: C code that lets go of the GIL), at most ``n``
+    items taken from ``source`` and not yet handed on. The calling thread takes the items
+    (compositing them) while the threads work, and waits for a result in short, bounded
+    waits. Closing the generator (or an error) cancels what has not started and closes
+    ``source``."""
+    timings = Timings() if timings is None else timings
+
+    def timed(item):
+        t = time.perf_counter()
+        out = work(item)
+        timings.add("encode", time.perf_counter() - t)
+        return out
+
+    pool = ThreadPoolExecutor(n, thread_name_prefix="puppet-encode")
+    pending: list = []
+    try:
+        for item in source:
+            pending.append(pool.submit(timed, item))
+            if len(pending) >= n:
+                yield _result(pending.pop(0))
+        while pending:
+            yield _result(pending.pop(0))
+    finally:
+        for f in pending:
+            f.cancel()
+        pool.shutdown(wait=False, cancel_futures=True)
+        close = getattr(source, "close", None)
+        if close is not None:
+            close()
+
+
+def _result(future):
+    """A future's result, waited for in 0.1 s steps (a signal is handled meanwhile)."""
+    while True:
+        try:
+            return future.result(timeout=0.1)
+        except FutureTimeout:
+            pass
 
 
 def run(source: Iterator[np.ndarray], add: Callable[[np.ndarray], None], *, threads: bool = True,

@@ -21,6 +21,7 @@ formats (web player, Spine, glTF) have their sinks in :mod:`.web`, :mod:`.spine`
 """
 from __future__ import annotations
 
+import io
 import math
 import os
 from fractions import Fraction
@@ -70,12 +71,19 @@ def rate(fps: float) -> Fraction:
     return Fraction(fps).limit_denominator(1001)
 
 
-def stream(sink: "Sink", frames, **run) -> int:
+def stream(sink: "Sink", frames, encoders: int = 1, **run) -> int:
     """Feed ``frames`` to ``sink`` on the encoder's thread (:func:`puppet.anim.pipeline.run`,
     ``run`` its options) and finish it; on any failure let go of it (the caller removes
-    the temporary). The frames written."""
+    the temporary). The frames written.
+
+    ``encoders`` > 1 (pipelined runs, sinks whose frames encode apart: PNG frames, GIF):
+    frames are encoded on that many threads at once (:func:`puppet.anim.pipeline.ahead`)
+    and written in order on the encoder's thread; the bytes are the same."""
+    add = sink.add
+    if encoders > 1 and getattr(sink, "parallel", False) and run.get("threads", True):
+        frames, add = pipeline.ahead(frames, sink.encode, encoders, run.get("timings")), sink.write
     try:
-        count = pipeline.run(frames, sink.add, **run)
+        count = pipeline.run(frames, add, **run)
     except BaseException:
         sink.abort()
         raise
@@ -120,12 +128,26 @@ def stage_bytes(staged: list, path: str, data: bytes, inputs=()) -> None:
 
 
 class Sink:
-    """Base of every sink: counts frames."""
+    """Base of every sink: counts frames.
+
+    A sink whose frames encode apart (``parallel``) splits :meth:`add` into
+    :meth:`encode` (no state touched: may run on several threads at once) and
+    :meth:`write` (in frame order, one thread)."""
+
+    #: encode() may run for several frames at once
+    parallel = False
 
     def __init__(self) -> None:
         self.frames = 0
 
     def add(self, rgba: np.ndarray) -> None:
+        self.write(self.encode(rgba))
+
+    def encode(self, rgba: np.ndarray):
+        """What :meth:`write` takes for a frame (a parallel sink's thread-safe part)."""
+        return rgba
+
+    def write(self, item) -> None:
         raise NotImplementedError
 
     def close(self) -> None:
@@ -138,16 +160,23 @@ class Sink:
 class DirSink(Sink):
     """``frame_00000.png``, ``frame_00001.png``, ... in the folder ``tmp``."""
 
+    parallel = True
+
     def __init__(self, tmp: str, level: int = DIR_LEVEL):
         super().__init__()
         self.tmp, self.level, self.write_png = tmp, level, write_png
 
-    def add(self, rgba: np.ndarray) -> None:
-        write_png = self.write_png
+    def encode(self, rgba: np.ndarray) -> bytes:
+        """The frame's PNG file."""
         if rgba.shape[2] == 3:  # RGB frames (puppet video): opaque RGBA
             rgba = np.concatenate([rgba, np.full(rgba.shape[:2] + (1,), 255, np.uint8)], axis=2)
+        buf = io.BytesIO()
+        self.write_png(buf, rgba, self.level)
+        return buf.getvalue()
+
+    def write(self, png: bytes) -> None:
         with open(os.path.join(self.tmp, f"frame_{self.frames:05d}.png"), "wb") as f:
-            write_png(f, rgba, self.level)
+            f.write(png)
         self.frames += 1
 
 
@@ -173,17 +202,21 @@ class GifSink(Sink):
     """A looping GIF through :class:`puppet.anim.gif.GifStream`; with ``transparent``,
     pixels under half opacity are see-through and the palette has 255 colours."""
 
+    parallel = True
+
     def __init__(self, fp, size: tuple[int, int], fps: float, palette, transparent: bool):
         super().__init__()
         self.palette, self.transparent = palette, transparent
         self.stream = GifStream(fp, size, palette, fps, transparent=255 if transparent else None)
 
-    def add(self, rgba: np.ndarray) -> None:
+    def encode(self, rgba: np.ndarray) -> np.ndarray:
+        """The frame's palette indices."""
         if self.transparent:
             index = quantize(np.ascontiguousarray(rgba[..., :3]), self.palette)
-            index = np.where(rgba[..., 3] < 128, np.uint8(255), index)
-        else:
-            index = quantize(flatten(rgba), self.palette)
+            return np.where(rgba[..., 3] < 128, np.uint8(255), index)
+        return quantize(flatten(rgba), self.palette)
+
+    def write(self, index: np.ndarray) -> None:
         self.stream.add(index)
         self.frames += 1
 
@@ -195,7 +228,11 @@ class AVSink(Sink):
     """A video through PyAV: ``codec`` into ``container``, frames given as RGBA (or RGB
     when ``alpha`` is False) and converted by FFmpeg to ``pix_fmt``; ``pad`` makes odd
     sizes even (edge pixels); ``threads`` is the codec's thread type (e.g. ``"AUTO"``:
-    frame and slice threads), FFmpeg's default when None."""
+    frame and slice threads), FFmpeg's default when None. The conversion
+    (:meth:`encode`) may run for several frames at once; the codec takes them in order
+    (:meth:`write`)."""
+
+    parallel = True
 
     def __init__(self, tmp: str, container: str, codec: str, pix_fmt: str, size: tuple[int, int],
                  fps: float, options: dict[str, str], *, alpha: bool, pad: bool = False,
@@ -205,7 +242,7 @@ class AVSink(Sink):
         super().__init__()
         w, h = size
         self.pad = (h % 2, w % 2) if pad else (0, 0)
-        self.alpha = alpha
+        self.alpha, self.pix_fmt = alpha, pix_fmt
         self.box = av.open(tmp, mode="w", format=container, options=container_options or {})
         try:
             self.stream = self.box.add_stream(codec, rate=rate(fps))
@@ -218,13 +255,21 @@ class AVSink(Sink):
             self.box.close()
             raise
 
-    def add(self, rgba: np.ndarray) -> None:
-        import av
+    def encode(self, rgba: np.ndarray):
+        """The frame as the codec takes it (``av.VideoFrame`` in the stream's pixel format):
+        the conversion FFmpeg would make inside the encoder, here where several frames
+        can be converted at once (the same pixels: tested against PyAV converting)."""
+        import av  # lazy: PyAV, only for the video sinks
 
         pixels = np.ascontiguousarray(rgba if self.alpha else flatten(rgba))
         if any(self.pad):
             pixels = np.pad(pixels, ((0, self.pad[0]), (0, self.pad[1]), (0, 0)), mode="edge")
         frame = av.VideoFrame.from_ndarray(pixels, format="rgba" if self.alpha else "rgb24")
+        if frame.format.name == self.pix_fmt:
+            return frame
+        return frame.reformat(width=frame.width, height=frame.height, format=self.pix_fmt)
+
+    def write(self, frame) -> None:
         frame.pts = self.frames
         for pkt in self.stream.encode(frame):
             self.box.mux(pkt)

@@ -14,12 +14,19 @@ but ``rest`` and ``triangles``, which are taken from a frame solved here). The f
 frame is solved on both sides and compared: any difference (an edit the scene file does
 not hold) makes :meth:`ProcessSolver.start` return False, and the export solves on a
 thread instead. Results are therefore identical to an in-process solve.
+
+A :class:`SolverPool` runs several such children (``puppet animate --workers N``): frames
+are independent given the keys, so they are solved side by side and handed on in order,
+with a bounded number in flight; a child that dies stops the export with one line
+(:class:`SolverLost`).
 """
 from __future__ import annotations
 
 import dataclasses
+import subprocess
 import time
 from collections.abc import Callable, Iterator
+from multiprocessing.connection import wait
 
 import numpy as np
 
@@ -31,6 +38,7 @@ from puppet.scene.drag.child import child_setup, messages, start_child, stop_chi
 STATIC = ("rest", "triangles")
 #: Frames asked for ahead of the one being read.
 WINDOW = 3
+_READY = object()
 
 
 def _pack(layers) -> list[dict]:
@@ -71,6 +79,11 @@ def _same(a, b) -> bool:
     return a == b
 
 
+class SolverLost(SceneError):
+    """A solver process ended without being asked (killed, out of memory): the export stops
+    and writes nothing."""
+
+
 class ProcessSolver:
     """Frames ``scene.layers(time=t0 + i / rate)`` solved in a child process.
 
@@ -84,10 +97,22 @@ class ProcessSolver:
         self.scene, self.t0, self.rate = scene, t0, rate
         self.proc = self.conn = None
         self.template = None
+        self.sent: list[int] = []  # frames asked for and not yet received, in order
 
     def start(self, first: int, wait: Callable[[], bool] = lambda: False) -> bool:
         """Start the child and check it solves frame ``first`` exactly as this process
         does; False (child stopped) when it cannot be used."""
+        if not self.launch():
+            return False
+        try:
+            template = self.scene.layers(time=self.t0 + first / self.rate)  # (meanwhile the child starts)
+        except BaseException:
+            self.close()
+            raise
+        return self.check(first, template, wait)
+
+    def launch(self) -> bool:
+        """Start the child and send it the scene; False when it cannot be started."""
         try:
             self.proc, self.conn = start_child("puppet.anim.solver", "child_main")
         except OSError:
@@ -97,11 +122,17 @@ class ProcessSolver:
         except OSError:
             self.close()
             return False
-        self.template = self.scene.layers(time=self.t0 + first / self.rate)  # (meanwhile the child starts)
+        return True
+
+    def check(self, first: int, template: list, wait: Callable[[], bool] = lambda: False) -> bool:
+        """Ask the started child for frame ``first`` and compare it with ``template`` (that
+        frame solved here, whose ``rest`` and ``triangles`` the child's frames then
+        share); False (child stopped) on any difference."""
+        self.template = template
         try:
-            self.conn.send(first)
+            self.ask(first)
             there = self._receive(wait)
-        except (SceneError, RuntimeError):
+        except (SceneError, RuntimeError, OSError):
             self.close()
             return False
         if there is None or len(there) != len(self.template) or not all(
@@ -110,37 +141,82 @@ class ProcessSolver:
             return False
         return True
 
+    def ask(self, i: int) -> None:
+        """Ask the child for frame ``i`` (answers come in the order asked)."""
+        self.sent.append(i)
+        try:
+            self.conn.send(i)
+        except OSError:  # the child has gone: its pipe is closed
+            raise self._gone() from None
+
+    def lost(self) -> bool:
+        """The child has ended and nothing more is waiting to be read from it."""
+        return self.proc.poll() is not None and not self.conn.poll()
+
     def _receive(self, stop: Callable[[], bool]):
         """The next result's packed layers (None when ``stop()`` turned true while waiting)."""
-        while not self.conn.poll(0.05):
-            if stop():
-                return None
-            if self.proc.poll() is not None and not self.conn.poll():
-                raise RuntimeError(f"the solver process ended (exit status {self.proc.returncode})")
-        msg = self.conn.recv()
+        while True:
+            while not self.conn.poll(0.05):
+                if stop():
+                    return None
+                if self.lost():
+                    raise self.ended()
+            packed = self.take()
+            if packed is not _READY:
+                return packed
+
+    def ended(self) -> SolverLost:
+        """The error of a child that ended unasked (before the frames it was asked for)."""
+        code = self.proc.returncode
+        how = f"was killed by signal {-code}" if code is not None and code < 0 else f"ended (exit status {code})"
+        at = f" before frame {self.sent[0]}" if self.sent else ""
+        return SolverLost(f"a solver process {how}{at}; the export stopped and wrote nothing "
+                          "(out of memory? try fewer --workers)")
+
+    def _gone(self) -> SolverLost:
+        """:meth:`ended`, once the child whose pipe closed has been waited for (2 s at most)."""
+        try:
+            self.proc.wait(timeout=2.0)
+        except subprocess.TimeoutExpired:
+            pass
+        return self.ended()
+
+    def take(self):
+        """Read one message the child has sent: the packed layers of the oldest frame
+        asked for, or ``_READY`` (the child has built the scene); the child's error is
+        raised here."""
+        try:
+            msg = self.conn.recv()
+        except (EOFError, OSError):
+            raise self._gone() from None
         if msg[0] == "ready":
-            return self._receive(stop)
+            return _READY
         if msg[0] == "error":
             _, name, text, user = msg
             raise SceneError(text) if user else RuntimeError(f"solver process: {name}: {text}")
+        self.sent.pop(0)
         self.seconds = msg[3]
         return msg[2]
+
+    def unpack(self, packed: list) -> list:
+        """A frame's layers from what the child sent and the template's static fields."""
+        return [dataclasses.replace(r, **d) for r, d in zip(self.template, packed)]
 
     def results(self, indices: list[int], stop: Callable[[], bool]) -> Iterator[tuple[int, list, float]]:
         """``(i, layers, solve seconds)`` for each index in order, keeping :data:`WINDOW`
         frames asked for ahead; ends early when ``stop()`` turns true."""
         sent = 0
         for _ in range(min(WINDOW, len(indices))):
-            self.conn.send(indices[sent])
+            self.ask(indices[sent])
             sent += 1
         for i in indices:
             packed = self._receive(stop)
             if packed is None:
                 return
             if sent < len(indices):
-                self.conn.send(indices[sent])
+                self.ask(indices[sent])
                 sent += 1
-            yield i, [dataclasses.replace(r, **d) for r, d in zip(self.template, packed)], self.seconds
+            yield i, self.unpack(packed), self.seconds
 
     def close(self) -> None:
         """Stop the child (asked first, then terminated) and wait for it."""
@@ -148,3 +224,89 @@ class ProcessSolver:
             return
         stop_child(self.proc, self.conn)
         self.proc = None
+        self.sent = []
+
+
+class SolverPool:
+    """Frames solved in ``n`` child processes (:class:`ProcessSolver` each), handed back in
+    order: frames are independent given the keys, so which process solves a frame does not
+    change it (each child is checked on the first frame, as :meth:`ProcessSolver.start`
+    does).
+
+    Each frame goes to the child with the fewest frames asked for, up to :data:`WINDOW`
+    each; at most ``n`` x :data:`WINDOW` frames are asked for and not yet handed on
+    (solved frames waiting for an earlier one count), so memory is bounded whatever the
+    frame count and however uneven the children's speed. A child that ends unasked
+    raises :class:`SolverLost`; :meth:`close` stops every child.
+    """
+
+    def __init__(self, scene, t0: float, rate: float, n: int):
+        self.solvers = [ProcessSolver(scene, t0, rate) for _ in range(n)]
+        self.scene, self.t0, self.rate = scene, t0, rate
+        self.held = 0  # most frames asked for and not yet handed on, seen (for tests)
+
+    def start(self, first: int, wait: Callable[[], bool] = lambda: False) -> bool:
+        """Start every child and check each solves frame ``first`` as this process does;
+        False (every child stopped) when one cannot be used."""
+        try:
+            if not all(s.launch() for s in self.solvers):
+                self.close()
+                return False
+            template = self.scene.layers(time=self.t0 + first / self.rate)  # (meanwhile the children start)
+            if not all(s.check(first, template, wait) for s in self.solvers):
+                self.close()
+                return False
+        except BaseException:
+            self.close()
+            raise
+        return True
+
+    def results(self, indices: list[int], stop: Callable[[], bool]) -> Iterator[tuple[int, list, float]]:
+        """``(i, layers, solve seconds)`` for each index in order; ends early when
+        ``stop()`` turns true."""
+        solvers, limit = self.solvers, WINDOW * len(self.solvers)
+        done: dict[int, tuple] = {}  # position in indices -> (solver, packed, seconds)
+        owner: list[ProcessSolver] = []  # position -> the solver asked
+        for pos in range(len(indices)):
+            while len(owner) < len(indices) and len(owner) - pos < limit:  # ask ahead
+                s = min(solvers, key=lambda s: len(s.sent))
+                if len(s.sent) >= WINDOW:
+                    break
+                s.ask(indices[len(owner)])
+                owner.append(s)
+            self.held = max(self.held, len(owner) - pos)
+            while pos not in done:
+                if not self._collect(owner, done, pos, stop):
+                    return
+            s, packed, seconds = done.pop(pos)
+            yield indices[pos], s.unpack(packed), seconds
+
+    def _collect(self, owner: list, done: dict, pos: int, stop: Callable[[], bool]) -> bool:
+        """Read what the children have sent into ``done`` (waiting at most 50 ms); False
+        when ``stop()`` turned true."""
+        busy = [s for s in self.solvers if s.sent]
+        ready = wait([s.conn for s in busy], timeout=0.05)
+        if not ready:
+            if stop():
+                return False
+            for s in busy:
+                if s.lost():
+                    raise s.ended()
+            return True
+        for s in busy:
+            if s.conn in ready:
+                at = self._position(owner, s, pos, done)
+                packed = s.take()
+                if packed is not _READY:
+                    done[at] = (s, packed, s.seconds)
+        return True
+
+    @staticmethod
+    def _position(owner: list, s: ProcessSolver, pos: int, done: dict) -> int:
+        """The position of ``s``'s oldest frame asked for (the next it answers)."""
+        return next(p for p in range(pos, len(owner)) if owner[p] is s and p not in done)
+
+    def close(self) -> None:
+        """Stop every child (asked first, then terminated) and wait for them."""
+        for s in self.solvers:
+            s.close()

@@ -12,16 +12,12 @@ import tempfile
 import threading
 from collections.abc import Iterator
 
+from puppet.anim.options import WORKER_BYTES, default_workers, worker_cap
 from puppet.batch.reach import CONNECT_SECONDS, check_scheduler, one_line_failure
 
 #: Logging level of Dask's loggers on the client and in embedded workers (the user's
 #: DASK_LOGGING__DISTRIBUTED wins).
 DASK_LOG_LEVEL = "critical"
-#: Memory counted per embedded worker when capping ``--workers`` (a worker holding a few
-#: scenes and a GL context measured 90-400 MB; animations and large canvases need more).
-WORKER_BYTES = 512 * 1024 * 1024
-
-
 def quiet_dask() -> None:
     """Set before ``distributed`` is imported: spawned workers inherit the environment."""
     os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", DASK_LOG_LEVEL)
@@ -34,10 +30,7 @@ def quiet_dask() -> None:
 def capped_workers(asked: int | None, say) -> int:
     """The embedded cluster's worker count: ``asked`` (default: one per core), at most one per
     core and one per :data:`WORKER_BYTES` of available memory; a cut is said in one line."""
-    cores = default_workers()
-    memory = available_memory()
-    by_memory = max(1, memory // WORKER_BYTES) if memory else cores
-    cap = max(1, min(cores, by_memory))
+    cap, cores, memory = worker_cap()
     if asked is None:
         return cap
     if asked > cap:
@@ -46,37 +39,6 @@ def capped_workers(asked: int | None, say) -> int:
             f"time on one core and needs up to {WORKER_BYTES / 2 ** 30:.1f} GiB)")
         return cap
     return asked
-
-
-def available_memory() -> int | None:
-    """Bytes of memory this process may still use: the system's available memory, or the
-    cgroup's limit left when lower; None when unknown."""
-    found = []
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    found.append(int(line.split()[1]) * 1024)
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        with open("/sys/fs/cgroup/memory.max", encoding="ascii") as f:
-            limit = f.read().strip()
-        with open("/sys/fs/cgroup/memory.current", encoding="ascii") as f:
-            used = int(f.read().strip())
-        if limit != "max":
-            found.append(max(0, int(limit) - used))
-    except (OSError, ValueError):
-        pass
-    return min(found) if found else None
-
-
-def default_workers() -> int:
-    """One worker per core this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):
-        return max(1, os.cpu_count() or 1)
 
 
 @contextlib.contextmanager

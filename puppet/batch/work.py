@@ -178,7 +178,8 @@ def _render(job: dict, scene, inputs) -> None:
 
         a = job["animate"]
         animate_to(_Budgeted(scene, job.get("budget")), job["output"], fps=a.get("fps"), start=a.get("from"),
-                   end=a.get("to"), size=size, wireframe=job.get("wireframe", False))
+                   end=a.get("to"), size=size, wireframe=job.get("wireframe", False),
+                   workers=1)  # a batch worker keeps one solver: the batch runs one worker per core
         return
     with budget(job.get("budget"), "the solve"):
         layers = scene.layers(job.get("pose") if job["kind"] != "time" else None, job.get("time"))
