@@ -32,6 +32,7 @@ import numpy as np
 
 from puppet.errors import SceneError
 from puppet.scene.document.core import Document
+from puppet.scene.rig import disk
 from puppet.scene.drag.child import child_setup, messages, start_child, stop_child
 
 #: Fields sent back per layer and frame (the others come from the template frame).
@@ -59,6 +60,7 @@ def _child(conn, doc: dict, file: str, t0: float, rate: float) -> None:
     """The child's loop: frame index in, ``("ok", i, packed layers, seconds)`` out."""
     try:
         scene = Document(doc, file)
+        scene.rig.memo.disk = disk.beside(file)  # the parts the parent built, read, not made again
         scene.built  # noqa: B018
         conn.send(("ready",))
         for i in messages(conn):
