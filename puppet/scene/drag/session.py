@@ -21,6 +21,7 @@ from puppet.errors import SceneError
 from puppet.scene.drag.process import DragProcess, unpack
 from puppet.scene.format import args as ck
 from puppet.scene.rig.proxy import proxy_for, proxy_layer, proxy_solve
+from puppet.scene.rig.reduced import detailed, reduced_for, reduced_layers, reduced_solve, residual
 from puppet.scene.rig.solve import PinState, preview_group
 
 
@@ -134,6 +135,7 @@ class DragSession:
         self._where = {n: ("pin", pins[n]) if n in pins else ("ext", ext.index(n)) for n in self.names}
         self._moved = self._groups_of(self.names)
         self._U: dict = {}  # group (or ("proxy", group)) -> its previous preview frame
+        self._detail: dict = {}  # group -> its reduced model's detail residual at the drag's start
         self._stale = False
         if self._serial is None and self._solver is not None and self._solver.alive:
             self._serial = self._solver.open(doc, self.names, self.time, self.record, self.iterations)
@@ -176,12 +178,16 @@ class DragSession:
 
     def _preview(self, state) -> list:
         rig, built = self.doc.rig, self._built
-        solved, proxies = {}, {}
+        solved, proxies, reduced = {}, {}, {}
         for gi in self._moved:
             g = built.groups[gi]
             ext = built.ext_slices()[gi]
             if not len(g.pins) or not np.isnan(state.ext_to[ext, 0]).all():
                 solved[gi] = rig.solve(built, gi, state)  # no pins, or an exterior point pulls it: exact
+                continue
+            red = reduced_for(rig, built, gi)
+            if red is not None:  # a big group: its reduced model is solved and drawn
+                reduced[gi] = (red, *self._reduced(gi, red, state))
                 continue
             proxy = proxy_for(rig, built, gi) if not np.any(state.angle[g.pins]) else None
             if proxy is not None:  # a big group: its coarse proxy is solved and drawn
@@ -198,7 +204,20 @@ class DragSession:
         layers = self._evaluate(state, solved)
         for gi, (proxy, U) in proxies.items():
             layers[proxy.layer] = proxy_layer(proxy, built, gi, U, state.depth)
+        for gi, (red, U, depth) in reduced.items():
+            for k, layer in reduced_layers(red, built, gi, U, depth).items():
+                layers[k] = layer
         return layers
+
+    def _reduced(self, gi: int, red, state) -> tuple[np.ndarray, np.ndarray]:
+        """Coarse vertices and depth of group ``gi``'s reduced model in ``state``, with the
+        detail residual of the exact pose the drag started from."""
+        built, d = self._built, self._built.data.deformer
+        if gi not in self._detail:
+            Uc0, _ = reduced_solve(red, d, built.group_pose(gi, self._start))
+            self._detail[gi] = residual(red, Uc0, self.doc.rig.solve(built, gi, self._start)[0])
+        Uc, depth = reduced_solve(red, d, built.group_pose(gi, state))
+        return detailed(red, Uc, self._detail[gi]), depth
 
     def _evaluate(self, state, solved: dict) -> list:
         """The layers of ``state`` with the groups of ``solved`` as given, the other moved

@@ -1,0 +1,230 @@
+"""A reduced model of a linked group for drag previews: the same layers meshed coarser,
+merged and precomputed by the same machinery as the fine group, solved exactly (as
+:func:`~puppet.scene.rig.solve.solve_group` solves any group) while the pointer moves,
+and every fine vertex carried by barycentric coordinates in its layer's coarse mesh,
+plus a detail residual kept from the drag's start.
+
+Every layer of the group is re-meshed with bigger triangles (about
+:data:`REDUCED_VERTICES` vertices for the whole group), with the same pins, hinge points
+and link segments as vertices and edges (:func:`~puppet.scene.rig.build.mesh_layer`), the
+coarse layers merged by :func:`~puppet.scene.rig.build.build_groups` and precomputed by
+:func:`~puppet.scene.rig.solve.precompute_group` with their own cells
+(:func:`~puppet.scene.rig.stiffness.group_cells`): modes, painted stiffness, starch pins,
+patches (``couple``) and hinges come with the same code as the fine group's.
+
+A fine vertex of layer ``k`` is carried by the coarse triangle of layer ``k`` that holds
+it (the nearest one, extrapolated, where the simplified coarse outline leaves it out):
+``U_fine = B @ U_coarse``. The coarse and the fine solves differ by a detail residual
+``r = U_exact - B @ U_coarse``; it is known at the drag's start (the exact start pose is
+solved anyway), is stored in the rest frame of each fine vertex's coarse triangle and added
+back rotated by that triangle's current rotation. So a preview at the start pins is the
+exact pose, and it drifts from the exact pose only as far as the residual's shape changes
+along the drag (docs/algorithms.md, "Reduced model for drag previews", gives the measured
+distribution).
+
+The model is a pure function of (built, group): :func:`reduced_for` caches it in the rig's
+memo under a fingerprint of the group's precomputation key and the model's size.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from puppet.errors import SceneError
+from puppet.geom.triangulate import edge_length_for_area
+from puppet.scene.rig import build
+from puppet.scene.rig.cache import fingerprint
+from puppet.scene.rig.core import LayerResult
+from puppet.scene.rig.exterior import GroupExterior
+from puppet.scene.rig.links import link_parts
+from puppet.scene.rig.solve import GroupPose, GroupPre, precompute_group, solve_group
+from puppet.scene.rig.stiffness import group_cells
+
+#: Groups with more vertices than this are previewed on a reduced model (smaller ones
+#: are solved exactly on their own mesh, which costs no more).
+REDUCED_MIN = 12000
+#: About how many vertices a group's reduced model has.
+REDUCED_VERTICES = 2000
+#: Nearest coarse triangles (by centroid) searched for the one holding a fine vertex.
+CANDIDATES = 8
+RATIO, RING = 1.5, 8
+_NO_EXTERIOR = GroupExterior()
+
+
+@dataclass
+class Reduced:
+    """The coarse group of one fine group and how the two carry each other's vertices."""
+
+    group: build.Group  # coarse group: pins in the fine group's order
+    pre: GroupPre
+    meshes: list  # per group layer (fine group order): its coarse layer mesh
+    pins: list[dict[str, int]]  # per group layer: interior pin name -> coarse layer vertex
+    B: sp.csr_matrix  # (n_fine, n_coarse): fine vertices in coarse triangles (barycentric)
+    C: sp.csr_matrix  # (n_coarse, n_fine): coarse vertices in fine triangles (barycentric)
+    around: sp.csr_matrix  # (n_coarse, m_coarse): areas of the triangles around each coarse vertex
+    rest_inv: np.ndarray  # (m, 2, 2) inverse rest edge matrix of each coarse triangle
+
+
+def reduced_for(rig, built, gi: int) -> Reduced | None:
+    """The reduced model of group ``gi`` (built once per group version, kept in the rig's
+    memo), or None when the group is small, has no pins, is not solved by ARAP, or cannot
+    be meshed coarser (it is then previewed on its own mesh)."""
+    g, d = built.groups[gi], built.data.deformer
+    if len(g.mesh.V) <= REDUCED_MIN or not len(g.pins) or d.method != "arap":
+        return None
+    return rig.memo.get("precompute", fingerprint("reduced", built.pre_keys[gi], REDUCED_VERTICES),
+                        lambda: build_reduced(built, gi))
+
+
+def build_reduced(built, gi: int, vertices: int = REDUCED_VERTICES) -> Reduced | None:
+    """The reduced model of group ``gi`` with about ``vertices`` vertices (a pure function
+    of ``built``), or None when a coarse mesh cannot be made."""
+    g, data = built.groups[gi], built.data
+    sub = _coarse_data(data, g, len(g.mesh.V) / vertices, built)
+    images = [built.images[k] for k in g.layers]
+    try:
+        parts = link_parts(sub, images)
+        areas = build.layer_areas(sub, images)
+        polylines = build.link_polylines(sub, areas, parts)
+        fine = build.layer_areas(data, built.images)
+        meshes = [build.mesh_layer(sub, i, images[i], areas[i], polylines[i] + _grading(
+            sub, i, images[i], polylines[i], fine[k], areas[i]), built.regions[k]) for i, k in enumerate(g.layers)]
+        pin_vertex = [build.pin_vertices(sub, i, m) for i, m in enumerate(meshes)]
+        groups = build.build_groups(sub, meshes, pin_vertex, polylines)
+    except (SceneError, ValueError):  # (MeshTooLarge is a ValueError)
+        return None
+    if len(groups) != 1 or len(groups[0].pins) != len(g.pins):
+        return None
+    cg = groups[0]
+    pre = precompute_group(cg, data.deformer, np.zeros((0, 2), np.int64), group_cells(sub, images, cg, meshes))
+    fine = [built.meshes[k] for k in g.layers]
+    V, F = cg.mesh.V, cg.mesh.F
+    T = V[F]
+    E = np.stack([T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]], axis=2)  # (m, 2, 2): edges as columns
+    area = np.abs(np.linalg.det(E)) / 2
+    around = sp.csr_matrix((np.repeat(area, 3), (F.ravel(), np.repeat(np.arange(len(F)), 3))),
+                           shape=(len(V), len(F)))
+    return Reduced(group=cg, pre=pre, meshes=meshes, pins=pin_vertex, B=_carry(g.mesh, meshes, cg.mesh),
+                   C=_carry(cg.mesh, fine, g.mesh), around=around, rest_inv=np.linalg.inv(E))
+
+
+def _grading(data, k: int, im, polylines, fine: float, coarse: float) -> list:
+    """Extra mesh points around the pins and hinge points of layer ``k``: rings of six
+    points at radii h, 2h, 4h, ... (h the fine mesh's edge length) up to the coarse edge
+    length, so that the coarse mesh is as fine as the fine one where a point handle pulls
+    (a pinned vertex's neighbourhood stretches by an amount that depends on the mesh size
+    there), as (-1, "", (1, 2) point) entries of the layer's polylines."""
+    h, top = edge_length_for_area(fine), edge_length_for_area(coarse)
+    centres = [p.at for _, p in build.layer_pins(data, k)] + [P[0] for _, _, P in polylines if len(P) == 1]
+    radii = h * RATIO ** np.arange(max(0, int(np.ceil(np.log(max(top / h, 1.0)) / np.log(RATIO)))))
+    ang = np.linspace(0, 2 * np.pi, RING, endpoint=False)
+    out = []
+    for c in centres:
+        for j, r in enumerate(radii):
+            for a in ang + j * np.pi / RING:
+                q = np.asarray(c, float) + r * np.array([np.cos(a), np.sin(a)])
+                if im.contains(q):
+                    out.append((-1, "", q.reshape(1, 2)))
+    return out
+
+
+def _coarse_data(data, g, factor: float, built):
+    """The scene restricted to group ``g``'s layers (renumbered), each meshed ``factor``
+    times coarser, its outline simplified to an eighth of the coarse edge length."""
+    names = {data.layers[k].name for k in g.layers}
+    layers = []
+    for i, k in enumerate(g.layers):
+        L = data.layers[k]
+        area = (L.mesh.max_area or build.default_max_area(built.images[k].mask)) * factor
+        mesh = dataclasses.replace(L.mesh, max_area=area,
+                                   simplify=max(L.mesh.simplify, edge_length_for_area(area) / 8))
+        layers.append(dataclasses.replace(L, index=i, mesh=mesh))
+    return dataclasses.replace(
+        data, layers=layers, links=[k for k in data.links if k.layers[0] in names],
+        pins=[p for p in data.pins if p.layer in names and p.kind != "exterior"], bones=[])
+
+
+def _carry(src, meshes, dst) -> sp.csr_matrix:
+    """(n_src, n_dst) barycentric coordinates of the vertices of group mesh ``src`` in the
+    layer meshes ``meshes`` of group mesh ``dst`` (same layers, same order): each vertex in
+    the triangle of its own layer that holds it, or outside the layer's mesh, in the
+    nearest one (extrapolated)."""
+    n = len(src.V)
+    cols, vals = np.zeros((n, 3), np.int64), np.zeros((n, 3))
+    for li, m in enumerate(meshes):
+        idx = src.maps[li]
+        P = src.V[idx]
+        T = m.V[m.F]  # (mt, 3, 2)
+        _, cand = cKDTree(T.mean(axis=1)).query(P, k=min(CANDIDATES, len(m.F)))
+        cand = cand.reshape(len(P), -1)
+        lam = _barycentric(T[cand], P[:, None, :])  # (p, c, 3)
+        best = np.argmax(lam.min(axis=2), axis=1)
+        t = cand[np.arange(len(P)), best]
+        cols[idx] = dst.maps[li][m.F[t]]
+        vals[idx] = lam[np.arange(len(P)), best]
+    rows = np.repeat(np.arange(n), 3)
+    return sp.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(n, len(dst.V)))
+
+
+def _barycentric(T: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (..., 3) of points P (..., 2) in triangles T (..., 3, 2)."""
+    a, b, c = T[..., 0, :], T[..., 1, :], T[..., 2, :]
+    v0, v1, v2 = b - a, c - a, P - a
+    den = v0[..., 0] * v1[..., 1] - v1[..., 0] * v0[..., 1]
+    den = np.where(np.abs(den) > 1e-300, den, 1e-300)
+    l1 = (v2[..., 0] * v1[..., 1] - v1[..., 0] * v2[..., 1]) / den
+    l2 = (v0[..., 0] * v2[..., 1] - v2[..., 0] * v0[..., 1]) / den
+    return np.stack([1.0 - l1 - l2, l1, l2], axis=-1)
+
+
+def reduced_solve(red: Reduced, deformer, pose: GroupPose) -> tuple[np.ndarray, np.ndarray]:
+    """Coarse vertices (n_c, 2) and pin-depth field (n_c,) of the reduced model in
+    ``pose``: the same solve as an exact pose (exterior points aside)."""
+    ext = np.zeros((0, 2))
+    U, depth, _ = solve_group(red.pre, red.group, deformer, _NO_EXTERIOR, dataclasses.replace(pose, ext_to=ext))
+    return U, depth
+
+
+def rotations(red: Reduced, Uc: np.ndarray) -> np.ndarray:
+    """(n_c, 2, 2) rotation of the deformed coarse mesh ``Uc`` at every coarse vertex: the
+    closest rotation to the area-weighted mean deformation gradient of its triangles."""
+    T = Uc[red.group.mesh.F]
+    J = (np.stack([T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]], axis=2) @ red.rest_inv).reshape(-1, 4)
+    J = red.around @ J
+    c, s = J[:, 0] + J[:, 3], J[:, 2] - J[:, 1]
+    r = np.hypot(c, s)
+    ok = r > 0
+    r = np.where(ok, r, 1.0)
+    c, s = np.where(ok, c / r, 1.0), np.where(ok, s / r, 0.0)
+    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+
+
+def residual(red: Reduced, Uc: np.ndarray, U_exact: np.ndarray) -> np.ndarray:
+    """The detail residual (n_c, 2) of the exact fine pose ``U_exact`` at the coarse
+    vertices against the coarse pose ``Uc``, in each coarse vertex's rest frame."""
+    return np.einsum("nji,nj->ni", rotations(red, Uc), red.C @ U_exact - Uc)
+
+
+def detailed(red: Reduced, Uc: np.ndarray, detail: np.ndarray | None) -> np.ndarray:
+    """The coarse pose ``Uc`` (n_c, 2) with the ``detail`` residual (from :func:`residual`)
+    turned by each coarse vertex's rotation."""
+    if detail is None:
+        return Uc
+    return Uc + np.einsum("nij,nj->ni", rotations(red, Uc), detail)
+
+
+def reduced_layers(red: Reduced, built, gi: int, U: np.ndarray, depth: np.ndarray) -> dict:
+    """{scene layer: :class:`~puppet.scene.rig.core.LayerResult`} of the group drawn as its
+    posed coarse meshes (``U`` (n_c, 2), ``depth`` (n_c,)): texture coordinates from their
+    rest positions, as for any layer."""
+    g, data = built.groups[gi], built.data
+    out = {}
+    for li, (k, m) in enumerate(zip(g.layers, red.meshes)):
+        idx, r = red.group.mesh.maps[li], built.rank[k]
+        out[k] = LayerResult(name=data.layers[k].name, group=gi, order=r, rest=m.V, deformed=U[idx],
+                             triangles=m.F, depth=r + depth[idx], pins=dict(red.pins[li]), exterior={}, key=built.image_keys[k])
+    return out
