@@ -51,7 +51,9 @@ REDUCED_MIN = 12000
 REDUCED_VERTICES = 2000
 #: Nearest coarse triangles (by centroid) searched for the one holding a fine vertex.
 CANDIDATES = 8
-RATIO, RING = 1.5, 8
+#: Grading around pins: fine vertices kept within NEAR fine edge lengths, then rings of
+#: RING points, each RATIO times farther out.
+NEAR, RATIO, RING = 2.5, 1.5, 8
 _NO_EXTERIOR = GroupExterior()
 
 
@@ -92,7 +94,7 @@ def build_reduced(built, gi: int, vertices: int = REDUCED_VERTICES) -> Reduced |
         polylines = build.link_polylines(sub, areas, parts)
         fine = build.layer_areas(data, built.images)
         meshes = [build.mesh_layer(sub, i, images[i], areas[i], polylines[i] + _grading(
-            sub, i, images[i], polylines[i], fine[k], areas[i]), built.regions[k]) for i, k in enumerate(g.layers)]
+            sub, i, images[i], polylines[i], built.meshes[k], fine[k], areas[i]), built.regions[k]) for i, k in enumerate(g.layers)]
         pin_vertex = [build.pin_vertices(sub, i, m) for i, m in enumerate(meshes)]
         groups = build.build_groups(sub, meshes, pin_vertex, polylines)
     except (SceneError, ValueError):  # (MeshTooLarge is a ValueError)
@@ -112,24 +114,31 @@ def build_reduced(built, gi: int, vertices: int = REDUCED_VERTICES) -> Reduced |
                    C=_carry(cg.mesh, fine, g.mesh), around=around, rest_inv=np.linalg.inv(E))
 
 
-def _grading(data, k: int, im, polylines, fine: float, coarse: float) -> list:
-    """Extra mesh points around the pins and hinge points of layer ``k``: rings of six
-    points at radii h, 2h, 4h, ... (h the fine mesh's edge length) up to the coarse edge
-    length, so that the coarse mesh is as fine as the fine one where a point handle pulls
-    (a pinned vertex's neighbourhood stretches by an amount that depends on the mesh size
-    there), as (-1, "", (1, 2) point) entries of the layer's polylines."""
+def _grading(data, k: int, im, polylines, fine_mesh, fine: float, coarse: float) -> list:
+    """Extra mesh points around the pins and hinge points of layer ``k``, as
+    (-1, "", (1, 2) point) entries of its polylines: the fine mesh's own vertices within
+    :data:`NEAR` fine edge lengths h, then rings of :data:`RING` points at radii growing
+    :data:`RATIO` times up to the coarse edge length. A pinned vertex's neighbourhood
+    stretches by an amount that depends on the mesh there (a point handle is singular in
+    the continuous problem), so the coarse mesh copies the fine one where a pin pulls."""
     h, top = edge_length_for_area(fine), edge_length_for_area(coarse)
-    centres = [p.at for _, p in build.layer_pins(data, k)] + [P[0] for _, _, P in polylines if len(P) == 1]
-    radii = h * RATIO ** np.arange(max(0, int(np.ceil(np.log(max(top / h, 1.0)) / np.log(RATIO)))))
+    centres = np.array([p.at for _, p in build.layer_pins(data, k)] + [P[0] for _, _, P in polylines if len(P) == 1],
+                       float).reshape(-1, 2)
+    if not len(centres):
+        return []
+    fixed = np.concatenate([centres] + [P for _, _, P in polylines]).reshape(-1, 2)
+    tree = cKDTree(fine_mesh.V)
+    near = np.unique(np.concatenate([np.asarray(i, np.int64) for i in tree.query_ball_point(centres, NEAR * h)]))
+    pts = [fine_mesh.V[near]]
+    n_rings = max(0, int(np.ceil(np.log(max(top / (NEAR * h), 1.0)) / np.log(RATIO))))
     ang = np.linspace(0, 2 * np.pi, RING, endpoint=False)
-    out = []
-    for c in centres:
-        for j, r in enumerate(radii):
-            for a in ang + j * np.pi / RING:
-                q = np.asarray(c, float) + r * np.array([np.cos(a), np.sin(a)])
-                if im.contains(q):
-                    out.append((-1, "", q.reshape(1, 2)))
-    return out
+    for j in range(1, n_rings + 1):
+        a = ang + j * np.pi / RING
+        ring = NEAR * h * RATIO ** j * np.stack([np.cos(a), np.sin(a)], 1)
+        pts.append((centres[:, None, :] + ring[None]).reshape(-1, 2))
+    pts = np.concatenate(pts)
+    far = cKDTree(fixed).query(pts)[0] > 0.3 * h  # not onto a pin, hinge or link vertex
+    return [(-1, "", q.reshape(1, 2)) for q in pts[far] if im.contains(q)]
 
 
 def _coarse_data(data, g, factor: float, built):
@@ -150,24 +159,43 @@ def _coarse_data(data, g, factor: float, built):
 
 def _carry(src, meshes, dst) -> sp.csr_matrix:
     """(n_src, n_dst) barycentric coordinates of the vertices of group mesh ``src`` in the
-    layer meshes ``meshes`` of group mesh ``dst`` (same layers, same order): each vertex in
-    the triangle of its own layer that holds it, or outside the layer's mesh, in the
-    nearest one (extrapolated)."""
-    n = len(src.V)
-    cols, vals = np.zeros((n, 3), np.int64), np.zeros((n, 3))
+    layer meshes ``meshes`` of group mesh ``dst`` (same layers, same order), each vertex
+    in its own layer's mesh (:func:`barycentric_matrix`)."""
+    rows, cols, vals = [], [], []
     for li, m in enumerate(meshes):
-        idx = src.maps[li]
-        P = src.V[idx]
-        T = m.V[m.F]  # (mt, 3, 2)
-        _, cand = cKDTree(T.mean(axis=1)).query(P, k=min(CANDIDATES, len(m.F)))
-        cand = cand.reshape(len(P), -1)
-        lam = _barycentric(T[cand], P[:, None, :])  # (p, c, 3)
-        best = np.argmax(lam.min(axis=2), axis=1)
-        t = cand[np.arange(len(P)), best]
-        cols[idx] = dst.maps[li][m.F[t]]
-        vals[idx] = lam[np.arange(len(P)), best]
-    rows = np.repeat(np.arange(n), 3)
-    return sp.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(n, len(dst.V)))
+        W = barycentric_matrix(src.V[src.maps[li]], m.V, m.F).tocoo()
+        rows.append(src.maps[li][W.row])
+        cols.append(dst.maps[li][W.col])
+        vals.append(W.data)
+    n, nd = len(src.V), len(dst.V)
+    W = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, nd))
+    return _one_row_each(W.tocsr(), [src.maps[li] for li in range(len(meshes))])
+
+
+def _one_row_each(W: sp.csr_matrix, maps) -> sp.csr_matrix:
+    """``W`` with the rows of vertices shared by several layers (merged along a link, so
+    carried by each of those layers' meshes) averaged: every row sums to one."""
+    counts = np.zeros(W.shape[0], np.int64)
+    for m in maps:
+        counts[m] += 1
+    if counts.max(initial=0) <= 1:
+        return W
+    return (sp.diags(1.0 / np.maximum(counts, 1)) @ W).tocsr()
+
+
+def barycentric_matrix(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
+    """(p, n) barycentric coordinates of points ``P`` (p, 2) in the triangle mesh (V, F)
+    that holds each, or for a point outside the mesh, in the triangle (of the
+    :data:`CANDIDATES` nearest by centroid) it is least outside of (extrapolated). A
+    linear function of V is carried exactly: ``W @ (V A + t) = P A + t``."""
+    T = V[F]  # (m, 3, 2)
+    _, cand = cKDTree(T.mean(axis=1)).query(P, k=min(CANDIDATES, len(F)))
+    cand = cand.reshape(len(P), -1)
+    lam = _barycentric(T[cand], P[:, None, :])  # (p, c, 3)
+    best = np.argmax(lam.min(axis=2), axis=1)
+    t = cand[np.arange(len(P)), best]
+    rows = np.repeat(np.arange(len(P)), 3)
+    return sp.csr_matrix((lam[np.arange(len(P)), best].ravel(), (rows, F[t].ravel())), shape=(len(P), len(V)))
 
 
 def _barycentric(T: np.ndarray, P: np.ndarray) -> np.ndarray:
