@@ -9,14 +9,19 @@ triangles, carried by the coarse deformation) and compared with the exact pose: 
 percentile of these distances must be within 2 px, the largest within 6 px."""
 from __future__ import annotations
 
+import json
+import os
+
 import numpy as np
 import pytest
 
 from puppet.scene.document.core import Document
+from puppet.scene.drag.process import DragProcess
 from puppet.scene.drag.session import base_pose, pose_with
 from puppet.scene.rig import reduced
 from puppet.scene.rig.reduced import barycentric_matrix, reduced_for
 from tests.conftest import SCENES
+from tests.scene.drag.test_session import pin_at
 
 P95, MAX = 2.0, 6.0
 SQUEEZE = 0.7
@@ -199,3 +204,35 @@ def test_an_edit_during_the_drag_rebuilds_the_model(small_groups_reduced):
     exact = doc.layers(pose=pose_with(base_pose(doc), {"tail_tip": at + [14.0, 0.0]}))
     assert np.percentile(surface_error(after, exact, {0}), 95) <= P95
     d.cancel()
+
+
+def dense_trex(make_scene, max_area=5.0) -> str:
+    """The T-rex meshed denser (one group of more than REDUCED_MIN vertices)."""
+    scene = json.loads(open(SCENES + "/trex-layers.json").read())
+    for L in scene["layers"]:
+        L["image"] = os.path.join(SCENES, L["image"])
+        L["mesh"] = dict(L.get("mesh", {}), max_area=max_area)
+    return make_scene(scene)
+
+
+def test_the_solver_process_previews_the_reduced_model_the_same(make_scene):
+    path = dense_trex(make_scene)
+    plain, there = Document.load(path), Document.load(path)
+    assert len(plain.built.groups[0].mesh.V) > reduced.REDUCED_MIN  # no patching: the child sees the same
+    proc = DragProcess()
+    try:
+        a, b = plain.drag("tail_tip"), there.drag("tail_tip", solver=proc)
+        assert proc.wait_ready(b._serial, timeout=300)
+        at = np.asarray(pin_at(plain, "tail_tip"))
+        for k in range(1, 4):
+            x, y = a.move_layers(at + [6.0 * k, -4.0 * k]), b.move_layers(at + [6.0 * k, -4.0 * k])
+            tail = [L.name for L in plain.data.layers].index("tail")
+            assert len(x[tail].rest) < len(plain.built.meshes[tail].V)  # drawn coarse
+            for r, s in zip(x, y):
+                assert np.array_equal(r.rest, s.rest) and np.array_equal(r.triangles, s.triangles)
+                assert np.array_equal(r.deformed, s.deformed) and np.array_equal(r.depth, s.depth)
+        assert b._detail == {}  # every frame came from the child
+        for r, s in zip(a.release_layers(), b.release_layers()):
+            assert np.array_equal(r.deformed, s.deformed)
+    finally:
+        proc.close()
