@@ -78,24 +78,19 @@ def reduced_for(rig, built, gi: int) -> Reduced | None:
     g, d = built.groups[gi], built.data.deformer
     if len(g.mesh.V) <= REDUCED_MIN or not len(g.pins) or d.method != "arap":
         return None
-    return rig.memo.get("precompute", fingerprint("reduced", built.pre_keys[gi], REDUCED_VERTICES),
+    key = fingerprint("reduced", built.pre_keys[gi], REDUCED_VERTICES, NEAR, RATIO, RING)
+    return rig.memo.get("reduced model", key,
                         lambda: build_reduced(built, gi))
 
 
 def build_reduced(built, gi: int, vertices: int = REDUCED_VERTICES) -> Reduced | None:
-    """The reduced model of group ``gi`` with about ``vertices`` vertices (a pure function
-    of ``built``), or None when a coarse mesh cannot be made."""
+    """The reduced model of group ``gi`` with about ``vertices`` vertices plus the grading
+    around pins (a pure function of ``built``), or None when a coarse mesh cannot be made."""
     g, data = built.groups[gi], built.data
     sub = _coarse_data(data, g, len(g.mesh.V) / vertices, built)
     images = [built.images[k] for k in g.layers]
     try:
-        parts = link_parts(sub, images)
-        areas = build.layer_areas(sub, images)
-        polylines = build.link_polylines(sub, areas, parts)
-        fine = build.layer_areas(data, built.images)
-        meshes = [build.mesh_layer(sub, i, images[i], areas[i], polylines[i] + _grading(
-            sub, i, images[i], polylines[i], built.meshes[k], fine[k], areas[i]), built.regions[k]) for i, k in enumerate(g.layers)]
-        pin_vertex = [build.pin_vertices(sub, i, m) for i, m in enumerate(meshes)]
+        meshes, pin_vertex, polylines = _coarse_layers(built, g, sub, images)
         groups = build.build_groups(sub, meshes, pin_vertex, polylines)
     except (SceneError, ValueError):  # (MeshTooLarge is a ValueError)
         return None
@@ -103,15 +98,28 @@ def build_reduced(built, gi: int, vertices: int = REDUCED_VERTICES) -> Reduced |
         return None
     cg = groups[0]
     pre = precompute_group(cg, data.deformer, np.zeros((0, 2), np.int64), group_cells(sub, images, cg, meshes))
-    fine = [built.meshes[k] for k in g.layers]
     V, F = cg.mesh.V, cg.mesh.F
     T = V[F]
     E = np.stack([T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]], axis=2)  # (m, 2, 2): edges as columns
     area = np.abs(np.linalg.det(E)) / 2
     around = sp.csr_matrix((np.repeat(area, 3), (F.ravel(), np.repeat(np.arange(len(F)), 3))),
                            shape=(len(V), len(F)))
+    fine = [built.meshes[k] for k in g.layers]
     return Reduced(group=cg, pre=pre, meshes=meshes, pins=pin_vertex, B=_carry(g.mesh, meshes, cg.mesh),
                    C=_carry(cg.mesh, fine, g.mesh), around=around, rest_inv=np.linalg.inv(E))
+
+
+def _coarse_layers(built, g, sub, images):
+    """The coarse layer meshes of group ``g`` (``sub``: the scene cut down to it), their
+    pin vertices and link polylines."""
+    parts = link_parts(sub, images)
+    areas = build.layer_areas(sub, images)
+    polylines = build.link_polylines(sub, areas, parts)
+    fine = build.layer_areas(built.data, built.images)
+    meshes = [build.mesh_layer(sub, i, images[i], areas[i], polylines[i] + _grading(
+        sub, i, images[i], polylines[i], built.meshes[k], fine[k], areas[i]), built.regions[k])
+        for i, k in enumerate(g.layers)]
+    return meshes, [build.pin_vertices(sub, i, m) for i, m in enumerate(meshes)], polylines
 
 
 def _grading(data, k: int, im, polylines, fine_mesh, fine: float, coarse: float) -> list:
@@ -254,5 +262,6 @@ def reduced_layers(red: Reduced, built, gi: int, U: np.ndarray, depth: np.ndarra
     for li, (k, m) in enumerate(zip(g.layers, red.meshes)):
         idx, r = red.group.mesh.maps[li], built.rank[k]
         out[k] = LayerResult(name=data.layers[k].name, group=gi, order=r, rest=m.V, deformed=U[idx],
-                             triangles=m.F, depth=r + depth[idx], pins=dict(red.pins[li]), exterior={}, key=built.image_keys[k])
+                             triangles=m.F, depth=r + depth[idx], pins=dict(red.pins[li]), exterior={},
+                             key=built.image_keys[k])
     return out

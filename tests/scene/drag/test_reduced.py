@@ -193,12 +193,16 @@ def test_an_edit_during_the_drag_rebuilds_the_model(small_groups_reduced):
     d = doc.drag("tail_tip")
     at = np.asarray(doc.state().to[[p.name for p in doc.data.pins].index("tail_tip")])
     first = d.move_layers(at + [10.0, 0.0])
-    builds = doc.rig.memo.count("precompute")
+    memo = doc.rig.memo
+    builds = memo.count("reduced model"), memo.count("precompute")
     d.move_layers(at + [12.0, 0.0])
-    assert doc.rig.memo.count("precompute") == builds  # a move builds nothing
+    assert (memo.count("reduced model"), memo.count("precompute")) == builds  # a move builds nothing
+    doc.set_target("jaw", (90.0, 170.0))  # a pin target: no new model
+    d.move_layers(at + [13.0, 0.0])
+    assert memo.count("reduced model") == builds[0]
     doc.set_layer("tail", mesh={"max_area": 20})  # the tail meshed finer: a new group version
     after = d.move_layers(at + [14.0, 0.0])
-    assert doc.rig.memo.count("precompute") > builds
+    assert memo.count("reduced model") == builds[0] + 1
     tail = [L.name for L in doc.data.layers].index("tail")
     assert len(after[tail].rest) != len(first[tail].rest)
     exact = doc.layers(pose=pose_with(base_pose(doc), {"tail_tip": at + [14.0, 0.0]}))
