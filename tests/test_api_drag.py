@@ -105,12 +105,12 @@ def test_reduced_preview_looks_like_the_full_one(trex):
 
 
 def test_big_picture_path_releases_the_rendered_frame(monkeypatch):
-    """The cheap path of big pictures (a proxy mesh, frames from shrunk images), forced
-    on the horse: previews drawn from it, the release exactly ``render``."""
+    """The cheap path of big pictures (a reduced model's coarse mesh, frames from shrunk
+    images), forced on the horse: previews drawn from it, the release exactly ``render``."""
     import puppet.api
-    from puppet.scene.rig import proxy
+    from puppet.scene.rig import reduced
 
-    monkeypatch.setattr(proxy, "PROXY_MIN", 500)
+    monkeypatch.setattr(reduced, "REDUCED_MIN", 500)
     monkeypatch.setattr(puppet.api, "PREVIEW_PIXELS", 160 * 120)
     scene = puppet.load_scene(SCENES + "/horse.json")
     try:

@@ -2,9 +2,11 @@
 at a time on the timeline, and record mode, with fast previews and an exact release.
 
 While the pointer moves, only the groups holding a moved pin are re-solved (in record
-mode, every group with pins, as the others move with time too), each warm-started from
-its previous frame (:func:`~puppet.scene.rig.solve.preview_group`); the other groups
-come from the exact solve of the pose the drag started from (cached). The release
+mode, every group with pins, as the others move with time too): a big group on its
+reduced model (:mod:`puppet.scene.rig.reduced`: a coarse copy solved as an exact pose
+is, drawn in its place), a small one warm-started from its previous frame
+(:func:`~puppet.scene.rig.solve.preview_group`); the other groups come from the exact
+solve of the pose the drag started from (cached). The release
 records the targets in one undo step and returns the exact layers, solved from scratch:
 exactly what ``render(pose=...)`` (a pose drag) or ``render(time=...)`` (a key drag, a
 recording) draws, whatever path the pointer took.
@@ -20,7 +22,6 @@ import numpy as np
 from puppet.errors import SceneError
 from puppet.scene.drag.process import DragProcess, unpack
 from puppet.scene.format import args as ck
-from puppet.scene.rig.proxy import proxy_for, proxy_layer, proxy_solve
 from puppet.scene.rig.reduced import detailed, reduced_for, reduced_layers, reduced_solve, residual
 from puppet.scene.rig.solve import PinState, preview_group
 
@@ -134,7 +135,7 @@ class DragSession:
         ext = [n for ge in self._built.exterior for n in ge.names]
         self._where = {n: ("pin", pins[n]) if n in pins else ("ext", ext.index(n)) for n in self.names}
         self._moved = self._groups_of(self.names)
-        self._U: dict = {}  # group (or ("proxy", group)) -> its previous preview frame
+        self._U: dict = {}  # group -> its previous preview frame (groups without a reduced model)
         self._detail: dict = {}  # group -> its reduced model's detail residual at the drag's start
         self._stale = False
         if self._serial is None and self._solver is not None and self._solver.alive:
@@ -178,7 +179,7 @@ class DragSession:
 
     def _preview(self, state) -> list:
         rig, built = self.doc.rig, self._built
-        solved, proxies, reduced = {}, {}, {}
+        solved, reduced = {}, {}
         for gi in self._moved:
             g = built.groups[gi]
             ext = built.ext_slices()[gi]
@@ -189,12 +190,6 @@ class DragSession:
             if red is not None:  # a big group: its reduced model is solved and drawn
                 reduced[gi] = (red, *self._reduced(gi, red, state))
                 continue
-            proxy = proxy_for(rig, built, gi) if not np.any(state.angle[g.pins]) else None
-            if proxy is not None:  # a big group: its coarse proxy is solved and drawn
-                U = proxy_solve(proxy, state.to[g.pins], self._U.get(("proxy", gi)), self.iterations)
-                self._U[("proxy", gi)] = U
-                proxies[gi] = (proxy, U)
-                continue
             U0 = self._U.get(gi)
             if U0 is None:  # the first frame starts from the exact solve it moves away from
                 U0 = rig.solve(built, gi, self._start)[0]
@@ -202,8 +197,6 @@ class DragSession:
                                        built.group_pose(gi, state), U0, iterations=self.iterations)
             self._U[gi] = solved[gi][0]
         layers = self._evaluate(state, solved)
-        for gi, (proxy, U) in proxies.items():
-            layers[proxy.layer] = proxy_layer(proxy, built, gi, U, state.depth)
         for gi, (red, U, depth) in reduced.items():
             for k, layer in reduced_layers(red, built, gi, U, depth).items():
                 layers[k] = layer

@@ -80,10 +80,10 @@ def reduced_for(rig, built, gi: int) -> Reduced | None:
         return None
     key = fingerprint("reduced", built.pre_keys[gi], REDUCED_VERTICES, NEAR, RATIO, RING)
     return rig.memo.get("reduced model", key,
-                        lambda: build_reduced(built, gi))
+                        lambda: build_reduced(built, gi, REDUCED_VERTICES))
 
 
-def build_reduced(built, gi: int, vertices: int = REDUCED_VERTICES) -> Reduced | None:
+def build_reduced(built, gi: int, vertices: int) -> Reduced | None:
     """The reduced model of group ``gi`` with about ``vertices`` vertices plus the grading
     around pins (a pure function of ``built``), or None when a coarse mesh cannot be made."""
     g, data = built.groups[gi], built.data
@@ -134,19 +134,18 @@ def _grading(data, k: int, im, polylines, fine_mesh, fine: float, coarse: float)
                        float).reshape(-1, 2)
     if not len(centres):
         return []
-    fixed = np.concatenate([centres] + [P for _, _, P in polylines]).reshape(-1, 2)
-    tree = cKDTree(fine_mesh.V)
-    near = np.unique(np.concatenate([np.asarray(i, np.int64) for i in tree.query_ball_point(centres, NEAR * h)]))
+    near = np.unique(np.concatenate([np.asarray(i, np.int64) for i in
+                                     cKDTree(fine_mesh.V).query_ball_point(centres, NEAR * h)]))
     pts = [fine_mesh.V[near]]
     n_rings = max(0, int(np.ceil(np.log(max(top / (NEAR * h), 1.0)) / np.log(RATIO))))
     ang = np.linspace(0, 2 * np.pi, RING, endpoint=False)
     for j in range(1, n_rings + 1):
-        a = ang + j * np.pi / RING
-        ring = NEAR * h * RATIO ** j * np.stack([np.cos(a), np.sin(a)], 1)
-        pts.append((centres[:, None, :] + ring[None]).reshape(-1, 2))
+        a, r = ang + j * np.pi / RING, NEAR * h * RATIO ** j
+        pts.append((centres[:, None, :] + r * np.stack([np.cos(a), np.sin(a)], 1)[None]).reshape(-1, 2))
     pts = np.concatenate(pts)
-    far = cKDTree(fixed).query(pts)[0] > 0.3 * h  # not onto a pin, hinge or link vertex
-    return [(-1, "", q.reshape(1, 2)) for q in pts[far] if im.contains(q)]
+    fixed = np.concatenate([centres] + [P for _, _, P in polylines]).reshape(-1, 2)
+    keep = cKDTree(fixed).query(pts)[0] > 0.3 * h  # not onto a pin, hinge or link vertex
+    return [(-1, "", q.reshape(1, 2)) for q in pts[keep] if im.contains(q)]
 
 
 def _coarse_data(data, g, factor: float, built):
