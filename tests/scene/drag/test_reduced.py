@@ -239,3 +239,26 @@ def test_the_solver_process_previews_the_reduced_model_the_same(make_scene):
             assert np.array_equal(r.deformed, s.deformed)
     finally:
         proc.close()
+
+
+def test_record_mode(small_groups_reduced):
+    doc = trex()
+    d = doc.drag("tail_tip", time=0.25, record=True)
+    start = np.asarray(pin_at(doc, "tail_tip"))
+    for k in range(1, 5):  # the other pins move with time; the preview follows them
+        t = 0.25 + 0.1 * k
+        layers = d.move_layers(start + [3.0 * k, 0.0], time=t)
+        state = doc.state(time=t)
+        for r in layers:
+            for n, v in r.pins.items():
+                i = [p.name for p in doc.data.pins].index(n)
+                want = start + [3.0 * k, 0.0] if n == "tail_tip" else state.to[i]
+                np.testing.assert_allclose(r.deformed[v], want, atol=1e-9)
+    assert set(d._detail) == {0}
+    got = d.release_layers({0.25: {"tail_tip": start}, 0.65: {"tail_tip": start + [12, 0]}})
+    want = Document.load(SCENES + "/trex-layers.json")
+    want.set_active_pose("wave")
+    want.record_motion({0.25: {"tail_tip": list(start)}, 0.65: {"tail_tip": list(start + [12, 0])}}, start=0.25,
+                       end=0.65)
+    for a, b in zip(got, want.layers(time=0.25)):
+        assert np.array_equal(a.deformed, b.deformed) and np.array_equal(a.depth, b.depth)
