@@ -54,6 +54,8 @@ CANDIDATES = 8
 #: Grading around pins: fine vertices kept within NEAR fine edge lengths, then rings of
 #: RING points, each RATIO times farther out.
 NEAR, RATIO, RING = 2.5, 1.5, 8
+#: A detail residual smaller than this everywhere (px) is not added.
+NO_DETAIL = 1e-6
 _NO_EXTERIOR = GroupExterior()
 
 
@@ -238,10 +240,15 @@ def rotations(red: Reduced, Uc: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 
 
-def residual(red: Reduced, Uc: np.ndarray, U_exact: np.ndarray) -> np.ndarray:
+def residual(red: Reduced, Uc: np.ndarray, U_exact: np.ndarray) -> np.ndarray | None:
     """The detail residual (n_c, 2) of the exact fine pose ``U_exact`` at the coarse
-    vertices against the coarse pose ``Uc``, in each coarse vertex's rest frame."""
-    return np.einsum("nji,nj->ni", rotations(red, Uc), red.C @ U_exact - Uc)
+    vertices against the coarse pose ``Uc``, in each coarse vertex's rest frame; None
+    where it is below :data:`NO_DETAIL` px everywhere (a drag from the rest pose, where
+    both are the rest mesh)."""
+    r = red.C @ U_exact - Uc
+    if not np.abs(r).max(initial=0.0) > NO_DETAIL:
+        return None
+    return np.einsum("nji,nj->ni", rotations(red, Uc), r)
 
 
 def detailed(red: Reduced, Uc: np.ndarray, detail: np.ndarray | None) -> np.ndarray:

@@ -262,3 +262,25 @@ def test_record_mode(small_groups_reduced):
                        end=0.65)
     for a, b in zip(got, want.layers(time=0.25)):
         assert np.array_equal(a.deformed, b.deformed) and np.array_equal(a.depth, b.depth)
+
+
+def test_carrying_rotations_and_residual_by_hand(small_groups_reduced):
+    doc = trex()
+    g, red = doc.built.groups[0], reduced_for(doc.rig, doc.built, 0)
+    V, Vc = g.mesh.V, red.group.mesh.V
+    A, t = np.array([[1.2, 0.3], [-0.1, 0.9]]), np.array([5.0, -7.0])
+    # barycentric coordinates (extrapolated ones too) carry an affine map exactly, both ways
+    np.testing.assert_allclose(red.B @ (Vc @ A.T + t), V @ A.T + t, atol=1e-8)
+    np.testing.assert_allclose(red.C @ (V @ A.T + t), Vc @ A.T + t, atol=1e-8)
+    c, s = np.cos(0.4), np.sin(0.4)
+    R = np.array([[c, -s], [s, c]])
+    np.testing.assert_allclose(reduced.rotations(red, Vc @ R.T + t), np.broadcast_to(R, (len(Vc), 2, 2)), atol=1e-12)
+    np.testing.assert_allclose(reduced.rotations(red, 3.0 * Vc), np.broadcast_to(np.eye(2), (len(Vc), 2, 2)),
+                               atol=1e-12)  # a scaling turns nothing
+    assert reduced.residual(red, Vc, V) is None  # the rest pose has no detail
+    bump = np.zeros_like(V)
+    bump[:, 1] = 0.5 * np.sin(V[:, 0] / 7.0)  # a detail the coarse mesh does not have
+    detail = reduced.residual(red, Vc, V + bump)
+    np.testing.assert_allclose(reduced.detailed(red, Vc, detail), red.C @ (V + bump), atol=1e-9)
+    # turned with the coarse mesh: the detail turns with it
+    np.testing.assert_allclose(reduced.detailed(red, Vc @ R.T + t, detail), (red.C @ (V + bump)) @ R.T + t, atol=1e-9)
