@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from puppet.deform.boundary import exterior_positions
 from puppet.errors import SceneError
 from puppet.geom.triangulate import edge_length_for_area
 from puppet.scene.rig import build
@@ -262,12 +263,15 @@ def detailed(red: Reduced, Uc: np.ndarray, detail: np.ndarray | None) -> np.ndar
 def reduced_layers(red: Reduced, built, gi: int, U: np.ndarray, depth: np.ndarray) -> dict:
     """{scene layer: :class:`~puppet.scene.rig.core.LayerResult`} of the group drawn as its
     posed coarse meshes (``U`` (n_c, 2), ``depth`` (n_c,)): texture coordinates from their
-    rest positions, as for any layer."""
-    g, data = built.groups[gi], built.data
+    rest positions, as for any layer; exterior points ride on the fine vertices carried
+    from the coarse ones."""
+    g, data, ge = built.groups[gi], built.data, built.exterior[gi]
+    ext = exterior_positions(red.B @ U, ge.frame) if ge.frame is not None else np.zeros((0, 2))
     out = {}
     for li, (k, m) in enumerate(zip(g.layers, red.meshes)):
         idx, r = red.group.mesh.maps[li], built.rank[k]
+        exterior = {n: [float(x) for x in ext[j]] for j, n in enumerate(ge.names) if ge.layers[j] == k}
         out[k] = LayerResult(name=data.layers[k].name, group=gi, order=r, rest=m.V, deformed=U[idx],
-                             triangles=m.F, depth=r + depth[idx], pins=dict(red.pins[li]), exterior={},
+                             triangles=m.F, depth=r + depth[idx], pins=dict(red.pins[li]), exterior=exterior,
                              key=built.image_keys[k])
     return out

@@ -284,3 +284,34 @@ def test_carrying_rotations_and_residual_by_hand(small_groups_reduced):
     np.testing.assert_allclose(reduced.detailed(red, Vc, detail), red.C @ (V + bump), atol=1e-9)
     # turned with the coarse mesh: the detail turns with it
     np.testing.assert_allclose(reduced.detailed(red, Vc @ R.T + t, detail), (red.C @ (V + bump)) @ R.T + t, atol=1e-9)
+
+
+def dress(pose="flare"):
+    doc = Document.load(SCENES + "/dress-garment.json")
+    doc.set_active_pose(pose)
+    return doc
+
+
+def test_exterior_points(small_groups_reduced):
+    doc = dress()
+    assert doc.built.exterior[0].frame is not None and reduced_for(doc.rig, doc.built, 0) is not None
+    # a drag that pulls an exterior point solves its group exactly
+    d = doc.drag(["edge_b", "hem_c"])
+    targets = {"edge_b": (250, 515), "hem_c": (250, 480)}
+    preview = d.move_layers(targets)
+    exact = doc.layers(pose=pose_with(doc.to_dict()["poses"]["flare"], targets))
+    for a, b in zip(preview, exact):
+        assert np.array_equal(a.deformed, b.deformed) and a.exterior == b.exterior
+    d.cancel()
+    # an interior pin of that group where no pose pulls an exterior point: the reduced
+    # model, the exterior points riding along
+    doc = dress("rest")
+    check(random_drags(doc, 4, seed=8, reach=60.0))
+    name = next(p.name for p in doc.data.pins if p.kind == "interior")
+    d = doc.drag(name)
+    preview = d.move_layers(np.asarray(pin_at(doc, name)) + [20.0, -10.0])
+    exact = d.release_layers()
+    for a, b in zip(preview, exact):
+        assert a.exterior.keys() == b.exterior.keys()
+        for n in a.exterior:
+            assert np.linalg.norm(np.subtract(a.exterior[n], b.exterior[n])) <= P95
