@@ -1,29 +1,28 @@
 """A reduced model of a linked group for drag previews: the same layers meshed coarser,
-merged and precomputed by the same machinery as the fine group, solved exactly (as
-:func:`~puppet.scene.rig.solve.solve_group` solves any group) while the pointer moves,
-and every fine vertex carried by barycentric coordinates in its layer's coarse mesh,
-plus a detail residual kept from the drag's start.
+merged and precomputed by the same code as the fine group, solved as an exact pose is
+(:func:`~puppet.scene.rig.solve.solve_group`) while the pointer moves, and drawn in the
+fine layers' place, plus a detail residual kept from the drag's start.
 
-Every layer of the group is re-meshed with bigger triangles (about
+Every layer of the group is meshed again with bigger triangles (about
 :data:`REDUCED_VERTICES` vertices for the whole group), with the same pins, hinge points
-and link segments as vertices and edges (:func:`~puppet.scene.rig.build.mesh_layer`), the
-coarse layers merged by :func:`~puppet.scene.rig.build.build_groups` and precomputed by
-:func:`~puppet.scene.rig.solve.precompute_group` with their own cells
+and link segments as vertices and edges (:func:`~puppet.scene.rig.build.mesh_layer`), and
+with the fine mesh's own vertices around every pin and hinge point, graded out to the
+coarse size (:func:`_grading`: how far a point handle's neighbourhood stretches depends on
+the mesh there). The coarse layers are merged by :func:`~puppet.scene.rig.build.build_groups`
+and precomputed by :func:`~puppet.scene.rig.solve.precompute_group` with their own cells
 (:func:`~puppet.scene.rig.stiffness.group_cells`): modes, painted stiffness, starch pins,
 patches (``couple``) and hinges come with the same code as the fine group's.
 
-A fine vertex of layer ``k`` is carried by the coarse triangle of layer ``k`` that holds
-it (the nearest one, extrapolated, where the simplified coarse outline leaves it out):
-``U_fine = B @ U_coarse``. The coarse and the fine solves differ by a detail residual
-``r = U_exact - B @ U_coarse``; it is known at the drag's start (the exact start pose is
-solved anyway), is stored in the rest frame of each fine vertex's coarse triangle and added
-back rotated by that triangle's current rotation. So a preview at the start pins is the
-exact pose, and it drifts from the exact pose only as far as the residual's shape changes
-along the drag (docs/algorithms.md, "Reduced model for drag previews", gives the measured
-distribution).
+Barycentric coordinates carry vertices between the two (:func:`barycentric_matrix`, each
+vertex in its own layer's mesh, extrapolated outside it): ``B`` fine from coarse, ``C``
+coarse from fine. The coarse and the exact fine pose differ by a detail residual, known at
+the drag's start (the exact start pose is on the screen anyway): ``C @ U_exact - U_coarse``
+at the coarse vertices, kept in each coarse vertex's rest frame and added back turned by
+its current rotation (:func:`residual`, :func:`detailed`).
 
-The model is a pure function of (built, group): :func:`reduced_for` caches it in the rig's
-memo under a fingerprint of the group's precomputation key and the model's size.
+The model is a pure function of (built, group): :func:`reduced_for` keeps it in the rig's
+memo under a fingerprint of the group's precomputation key and the model's settings.
+docs/algorithms.md ("Reduced model for drag previews") gives its error, measured.
 """
 from __future__ import annotations
 
@@ -55,6 +54,9 @@ CANDIDATES = 8
 #: Grading around pins: fine vertices kept within NEAR fine edge lengths, then rings of
 #: RING points, each RATIO times farther out.
 NEAR, RATIO, RING = 2.5, 1.5, 8
+#: A model with more than this share of the fine group's vertices is not used (it would
+#: save too little: many pins, each graded).
+MAX_SHARE = 0.5
 #: A detail residual smaller than this everywhere (px) is not added.
 NO_DETAIL = 1e-6
 _NO_EXTERIOR = GroupExterior()
@@ -81,14 +83,15 @@ def reduced_for(rig, built, gi: int) -> Reduced | None:
     g, d = built.groups[gi], built.data.deformer
     if len(g.mesh.V) <= REDUCED_MIN or not len(g.pins) or d.method != "arap":
         return None
-    key = fingerprint("reduced", built.pre_keys[gi], REDUCED_VERTICES, NEAR, RATIO, RING)
+    key = fingerprint("reduced", built.pre_keys[gi], REDUCED_VERTICES, NEAR, RATIO, RING, MAX_SHARE)
     return rig.memo.get("reduced model", key,
                         lambda: build_reduced(built, gi, REDUCED_VERTICES))
 
 
 def build_reduced(built, gi: int, vertices: int) -> Reduced | None:
     """The reduced model of group ``gi`` with about ``vertices`` vertices plus the grading
-    around pins (a pure function of ``built``), or None when a coarse mesh cannot be made."""
+    around pins (a pure function of ``built``), or None when a coarse mesh cannot be made
+    or would have more than :data:`MAX_SHARE` of the fine group's vertices."""
     g, data = built.groups[gi], built.data
     sub = _coarse_data(data, g, len(g.mesh.V) / vertices, built)
     images = [built.images[k] for k in g.layers]
@@ -98,6 +101,8 @@ def build_reduced(built, gi: int, vertices: int) -> Reduced | None:
     except (SceneError, ValueError):  # (MeshTooLarge is a ValueError)
         return None
     if len(groups) != 1 or len(groups[0].pins) != len(g.pins):
+        return None
+    if len(groups[0].mesh.V) > MAX_SHARE * len(g.mesh.V):
         return None
     cg = groups[0]
     pre = precompute_group(cg, data.deformer, np.zeros((0, 2), np.int64), group_cells(sub, images, cg, meshes))

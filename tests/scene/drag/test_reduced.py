@@ -32,6 +32,7 @@ def small_groups_reduced(monkeypatch):
     """Every group with pins gets a reduced model (the bundled scenes are small; the
     T-rex's 7.7k vertices become 2.3k)."""
     monkeypatch.setattr(reduced, "REDUCED_MIN", 0)
+    monkeypatch.setattr(reduced, "MAX_SHARE", np.inf)  # (the islands' model outgrows its fine mesh)
 
 
 def surface_error(preview, exact, groups) -> np.ndarray:
