@@ -6,10 +6,10 @@ mode, every group with pins, as the others move with time too): a big group on i
 reduced model (:mod:`puppet.scene.rig.reduced`: a coarse copy solved as an exact pose
 is, drawn in its place), a small one warm-started from its previous frame
 (:func:`~puppet.scene.rig.solve.preview_group`); the other groups come from the exact
-solve of the pose the drag started from (cached). The release
-records the targets in one undo step and returns the exact layers, solved from scratch:
-exactly what ``render(pose=...)`` (a pose drag) or ``render(time=...)`` (a key drag, a
-recording) draws, whatever path the pointer took.
+solve of the pose the drag started from (cached). The release records the targets in
+one undo step and returns the exact layers, solved from scratch: exactly what
+``render(pose=...)`` (a pose drag) or ``render(time=...)`` (a key drag, a recording)
+draws, whatever path the pointer took.
 
 :func:`pose_with` is the one "this pose with those pins moved" of the code base.
 """
@@ -96,7 +96,8 @@ class DragSession:
     record : bool
         Record mode: :meth:`commit` takes the recorded keys.
     iterations : int
-        ARAP iterations per preview frame, warm-started from the previous frame.
+        ARAP iterations per preview frame, warm-started from the previous frame (groups
+        without a reduced model; a reduced model is solved as an exact pose is).
     """
 
     @ck.checked("DragSession", doc=_document, names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag,
