@@ -139,7 +139,7 @@ class Compositor:
     def render(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int], *,
                size: tuple[int, int] | None = None,
                background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0),
-               wireframe: bool = False) -> np.ndarray:
+               wireframe: bool = False, preview: bool = False) -> np.ndarray:
         """Composite ``layers`` over ``background`` and read the result back.
 
         Parameters
@@ -156,6 +156,9 @@ class Compositor:
             Straight RGBA colour, or an image stretched over the whole canvas.
         wireframe : bool
             Draw every layer's deformed mesh edges (1 px, dark, semi-opaque) on top.
+        preview : bool
+            A drag preview, not exact: the opaque pass as always, the soft edges blended
+            unsorted (method ``"blend"``), into an RGBA8 composite.
 
         Returns
         -------
@@ -170,6 +173,8 @@ class Compositor:
             # half-float composite when the background is an image or not opaque: its
             # colours then survive to the straight-alpha output within 1 grey level
             precise = background.shape[:2] != (1, 1) or int(background[0, 0, 3]) < 255
+            if preview:
+                return self._preview(draws, canvas, size, background, wireframe, precise, previous)
             targets = self._targets_for(size, dtype="f2" if precise else "f1")
             method = self._choose()
             for _attempt in range(3):
@@ -183,10 +188,19 @@ class Compositor:
             self._finish(previous)
             return out
 
+    def _preview(self, draws, canvas, size, background, wireframe, straight, previous) -> np.ndarray:
+        """:meth:`render` of a drag preview: one frame with the ``blend`` edge pass, RGBA8."""
+        targets = self._targets_for(size)
+        self._passes.frame(draws, canvas, targets, background, self._background(background), method="blend",
+                           wireframe=wireframe, flip=False)
+        out = self._passes.read(targets, straight)
+        self._finish(previous)
+        return out
+
     def draw(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int], *,
              target: moderngl.Framebuffer | moderngl.Texture,
              background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0),
-             wireframe: bool = False, flip_y: bool = False) -> None:
+             wireframe: bool = False, flip_y: bool = False, preview: bool = False) -> None:
         """Composite into ``target`` without reading back (the app's preview path).
 
         Parameters
@@ -200,6 +214,8 @@ class Compositor:
         flip_y : bool
             False: canvas top in row 0 (as :meth:`render`'s array); True: canvas top in
             the last row, the right way up on a window.
+        preview : bool
+            A drag preview: soft edges blended unsorted (as in :meth:`render`).
         """
         direct = isinstance(target, moderngl.Texture)
         if direct and (target.components != 4 or target.dtype != "f1" or target.samples):
@@ -212,7 +228,11 @@ class Compositor:
             draws = self._prepare(layers)
             targets = self._targets_for(size, target if direct else None)
             previous = self.ctx.fbo
-            self._frame(draws, canvas, targets, background, wireframe, self._choose(), flip_y)
+            if preview:
+                self._passes.frame(draws, canvas, targets, background, self._background(background),
+                                   method="blend", wireframe=wireframe, flip=flip_y)
+            else:
+                self._frame(draws, canvas, targets, background, wireframe, self._choose(), flip_y)
             if not direct:
                 self.ctx.copy_framebuffer(target, targets.write_fbo)
             self._finish(previous)
@@ -309,12 +329,14 @@ class Compositor:
 
     def _frame(self, draws: list[Draw], canvas, targets: FrameTargets, background,
                wireframe: bool, method: str, flip: bool) -> str:
-        texture = None if background.shape[:2] == (1, 1) else self._texture(BACKGROUND,
-                                                                            background)
-        method = self._passes.frame(draws, canvas, targets, background, texture,
+        method = self._passes.frame(draws, canvas, targets, background, self._background(background),
                                     method=method, wireframe=wireframe, flip=flip)
         self._pending = self.last_method = method
         return method
+
+    def _background(self, background: np.ndarray) -> moderngl.Texture | None:
+        """The texture of a background image; None for a colour."""
+        return None if background.shape[:2] == (1, 1) else self._texture(BACKGROUND, background)
 
     def _take_counters(self) -> tuple[int, int, int]:
         """Read the last frame's counters (waits for that frame) and update the hint."""
