@@ -53,7 +53,7 @@ import numpy as np
 from .context import GL_REQUIRE, create_context, is_current
 from .gpu import OWN, FrameTargets, LayerMesh
 from .layers import (ALPHA_MIN, ALPHA_OPAQUE, DrawLayer, check_background,  # noqa: F401
-                     check_layer, check_vertices, mesh_edges, premultiply)
+                     check_layer, check_vertices, mesh_edges, premultiply, unpremultiply_soft)
 from .passes import K, MAX_FRAGMENTS, WIRE_COLOR, Draw, Passes  # noqa: F401
 
 #: Render targets kept (per output size, format and caller texture).
@@ -189,13 +189,15 @@ class Compositor:
             return out
 
     def _preview(self, draws, canvas, size, background, wireframe, straight, previous) -> np.ndarray:
-        """:meth:`render` of a drag preview: one frame with the ``blend`` edge pass, RGBA8."""
+        """:meth:`render` of a drag preview: one frame with the ``blend`` edge pass, RGBA8,
+        read back premultiplied and made straight on the CPU where it is translucent
+        (cheaper than the full-screen pass when few pixels are)."""
         targets = self._targets_for(size)
         self._passes.frame(draws, canvas, targets, background, self._background(background), method="blend",
                            wireframe=wireframe, flip=False)
-        out = self._passes.read(targets, straight)
+        out = self._passes.read(targets, False)
         self._finish(previous)
-        return out
+        return unpremultiply_soft(out) if straight else out
 
     def draw(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int], *,
              target: moderngl.Framebuffer | moderngl.Texture,

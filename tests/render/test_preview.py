@@ -1,8 +1,9 @@
 """The compositor's drag-preview frames (``preview=True``: the opaque pass as always, soft
-edges blended unsorted into an RGBA8 composite) against the CPU reference where one
-translucent fragment at most covers a pixel or the layers' depths do not cross, alpha
-against it everywhere (``over`` gives
-the same alpha in any order), and exact frames unchanged by preview frames between them."""
+edges blended unsorted into an RGBA8 composite, made straight on the CPU) against the CPU
+reference where one translucent fragment at most covers a pixel or the layers' depths do
+not cross; alpha against it everywhere (``over`` gives the same alpha in any order); the
+CPU's straight alpha against the shader's rounding; exact frames unchanged by preview
+frames between them."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 moderngl = pytest.importorskip("moderngl")
 
 from puppet.render.compositor import Compositor  # noqa: E402
+from puppet.render.layers import unpremultiply_soft  # noqa: E402
 from tests.render import reference  # noqa: E402
 from tests.render.scenes import (CANVAS, crossing_scene, disc_over, random_scene,  # noqa: E402
                                  translucent_stack)
@@ -85,3 +87,32 @@ def test_draw_preview_into_a_texture_equals_render_preview(comp):
         drawn = np.frombuffer(tex.read(), np.uint8).reshape(40, 48, 4)
         tex.release()
     assert np.array_equal(drawn, comp.render(layers, (48, 40), background=bg, preview=True))
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("seed", [0, 13])
+def test_straight_alpha_on_the_cpu_equals_the_straight_pass(comp, seed):
+    # the preview makes its soft pixels straight on the CPU; the exact frames' shader does
+    # it on the GPU: the same rounding, checked on the premultiplied frame of a preview
+    layers = random_scene(seed, CANVAS)
+    with comp.ctx:
+        tex = comp.ctx.texture(CANVAS, 4)
+        comp.draw(layers, CANVAS, target=tex, background=(0, 0, 0, 0), preview=True)
+        pre = np.frombuffer(tex.read(), np.uint8).reshape(CANVAS[1], CANVAS[0], 4).copy()
+        tex.release()
+    got = comp.render(layers, CANVAS, background=(0, 0, 0, 0), preview=True)
+    a = pre[..., 3:].astype(np.float64)
+    want = np.where(a > 0, np.minimum(np.floor(pre[..., :3] * 255.0 / np.maximum(a, 1) + 0.5), 255), 0)
+    assert np.any((a > 0) & (a < 255))
+    assert np.array_equal(got[..., 3], pre[..., 3])
+    assert np.abs(got[..., :3].astype(int) - want).max() <= 1
+
+
+def test_unpremultiply_soft_by_hand():
+    frame = np.array([[[10, 20, 30, 40], [0, 0, 0, 0], [200, 100, 0, 255], [3, 0, 1, 1], [50, 60, 70, 60]]],
+                     np.uint8)
+    out = unpremultiply_soft(frame.copy())
+    # 10*255/40 = 63.75 -> 64, 20 -> 127.5 -> 128 (half to even gives 128), 30 -> 191.25 -> 191;
+    # alpha 0 and 255 untouched; 3*255/1 capped at 255; 70*255/60 = 297.5 capped
+    assert out.tolist() == [[[64, 128, 191, 40], [0, 0, 0, 0], [200, 100, 0, 255], [255, 0, 255, 1],
+                             [212, 255, 255, 60]]]
