@@ -29,6 +29,10 @@ Textures are premultiplied. A frame is:
    K-buffer overflowed, so its output is always exact; :meth:`Compositor.draw` switches
    to the A-buffer from the next frame on (and back when no pixel needs it).
 
+A drag preview (``preview=True``) replaces the edge pass by one unsorted **blend** pass
+(not exact; docs/algorithms.md section 10) and is read back premultiplied, made straight
+on the CPU at its translucent pixels only.
+
 No pass waits for the GPU: :meth:`~Compositor.render` reads back once at the end, and
 :meth:`~Compositor.draw` reads the previous frame's 16-byte counter when it starts the next.
 
@@ -79,7 +83,7 @@ class Compositor:
     Attributes
     ----------
     last_method : str or None
-        Edge method of the last frame ("kbuffer" or "abuffer").
+        Edge method of the last frame ("kbuffer" or "abuffer"; "blend" for a preview).
     last_overflow : int
         Fragments (K-buffer) or pixels (A-buffer) beyond K in the last frame that was
         checked (render: always; draw: the previous frame, when the next one starts).
@@ -193,8 +197,7 @@ class Compositor:
         read back premultiplied and made straight on the CPU where it is translucent
         (cheaper than the full-screen pass when few pixels are)."""
         targets = self._targets_for(size)
-        self._passes.frame(draws, canvas, targets, background, self._background(background), method="blend",
-                           wireframe=wireframe, flip=False)
+        self._frame(draws, canvas, targets, background, wireframe, "blend", False)
         out = self._passes.read(targets, False)
         self._finish(previous)
         return unpremultiply_soft(out) if straight else out
@@ -230,11 +233,7 @@ class Compositor:
             draws = self._prepare(layers)
             targets = self._targets_for(size, target if direct else None)
             previous = self.ctx.fbo
-            if preview:
-                self._passes.frame(draws, canvas, targets, background, self._background(background),
-                                   method="blend", wireframe=wireframe, flip=flip_y)
-            else:
-                self._frame(draws, canvas, targets, background, wireframe, self._choose(), flip_y)
+            self._frame(draws, canvas, targets, background, wireframe, "blend" if preview else self._choose(), flip_y)
             if not direct:
                 self.ctx.copy_framebuffer(target, targets.write_fbo)
             self._finish(previous)
@@ -333,7 +332,8 @@ class Compositor:
                wireframe: bool, method: str, flip: bool) -> str:
         method = self._passes.frame(draws, canvas, targets, background, self._background(background),
                                     method=method, wireframe=wireframe, flip=flip)
-        self._pending = self.last_method = method
+        self.last_method = method
+        self._pending = None if method == "blend" else method  # a preview's counters are not read
         return method
 
     def _background(self, background: np.ndarray) -> moderngl.Texture | None:

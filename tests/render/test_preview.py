@@ -86,6 +86,7 @@ def test_draw_preview_into_a_texture_equals_render_preview(comp):
         comp.draw(layers, (48, 40), target=tex, background=bg, preview=True)
         drawn = np.frombuffer(tex.read(), np.uint8).reshape(40, 48, 4)
         tex.release()
+    assert comp.last_method == "blend"
     assert np.array_equal(drawn, comp.render(layers, (48, 40), background=bg, preview=True))
 
 
