@@ -75,13 +75,15 @@ class Scene(Document):
         return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
 
     @ck.checked(layers=posed_layers, size=ck.optional(ck.size), wireframe=ck.flag,
-                background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE))
+                background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE), preview=ck.flag)
     def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None,
-                    reduce: int = 1) -> np.ndarray:
+                    reduce: int = 1, preview: bool = False) -> np.ndarray:
         """Composite already posed layers (:meth:`layers` results) into an RGBA array, over
         ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's).
         ``reduce`` > 1 draws from layer images shrunk that many times (drag previews of
-        big pictures: far fewer texels to sample; the frame is not exact)."""
+        big pictures: far fewer texels to sample; the frame is not exact). ``preview`` blends
+        the soft edges unsorted (a drag preview: one cheap pass, not exact; see
+        :meth:`~puppet.render.compositor.Compositor.render`)."""
         draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]
@@ -93,7 +95,7 @@ class Scene(Document):
             self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
         return self.compositor.render(draw, self.canvas, size=size,
                                       background=self.background() if background is None else background,
-                                      wireframe=wireframe)
+                                      wireframe=wireframe, preview=preview)
 
     def _check_drawable(self, size: tuple[int, int]) -> None:
         """Refuse, in one line, a frame size that this machine's OpenGL cannot draw (found
@@ -162,7 +164,8 @@ class Drag(DragSession):
         """Move the pins (``(x, y)`` for a one-pin drag, else ``{name: (x, y)}``); returns a
         preview frame (h, w, 4) uint8 of :attr:`preview_size`, drawn from layer images
         shrunk to about that scale when the canvas is two or more times bigger."""
-        return self.doc.draw_layers(self.move_layers(targets, time), size=self.preview_size, reduce=self.reduce)
+        return self.doc.draw_layers(self.move_layers(targets, time), size=self.preview_size, reduce=self.reduce,
+                                     preview=True)
 
     @ck.checked(keys=ck.optional(ck.timed_tables))
     def release(self, keys=None) -> np.ndarray:

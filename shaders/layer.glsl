@@ -13,6 +13,9 @@
 //   RESOLVE_PASS   edge triangles again, same early test; the first fragment at a pixel
 //                  takes its list (and empties the head), sorts it and outputs the
 //                  composite, blended over the opaque colour (ONE, ONE_MINUS_SRC_ALPHA).
+//   BLEND_PASS     drag previews only (not exact): edge triangles, same early test; the
+//                  fragments blended over the frame (ONE, ONE_MINUS_SRC_ALPHA) in drawing
+//                  order, unsorted: one cheap pass instead of the K-buffer or A-buffer.
 // Injected defines: ALPHA_MIN, ALPHA_OPAQUE, Z_MIN, Z_MAX, K, MAX_FRAGMENTS.
 // Every variant has the same vertex shader and `invariant gl_Position`, so every pass
 // computes bit-identical window depths: exact ties stay ties from pass to pass.
@@ -47,6 +50,17 @@ out vec4 f_color;
 void main() {
     vec4 color = texture(u_texture, v_uv);
     if (color.a < ALPHA_OPAQUE) discard;
+    f_color = color;
+}
+
+#elif defined FRAGMENT_SHADER && defined BLEND_PASS
+layout(early_fragment_tests) in;
+uniform sampler2D u_texture;
+in vec2 v_uv;
+out vec4 f_color;
+void main() {
+    vec4 color = texture(u_texture, v_uv);
+    if (color.a < ALPHA_MIN || color.a >= ALPHA_OPAQUE) discard;
     f_color = color;
 }
 

@@ -105,12 +105,13 @@ def test_reduced_preview_looks_like_the_full_one(trex):
 
 
 def test_big_picture_path_releases_the_rendered_frame(monkeypatch):
-    """The cheap path of big pictures (a proxy mesh, frames from shrunk images), forced
-    on the horse: previews drawn from it, the release exactly ``render``."""
+    """The cheap path of big pictures (a reduced model's coarse mesh, frames from shrunk
+    images), forced on the horse: previews drawn from it, the release exactly ``render``."""
     import puppet.api
-    from puppet.scene.rig import proxy
+    from puppet.scene.rig import reduced
 
-    monkeypatch.setattr(proxy, "PROXY_MIN", 500)
+    monkeypatch.setattr(reduced, "REDUCED_MIN", 500)
+    monkeypatch.setattr(reduced, "REDUCED_VERTICES", 300)
     monkeypatch.setattr(puppet.api, "PREVIEW_PIXELS", 160 * 120)
     scene = puppet.load_scene(SCENES + "/horse.json")
     try:
@@ -119,6 +120,7 @@ def test_big_picture_path_releases_the_rendered_frame(monkeypatch):
         at = {p.name: np.asarray(p.at) for p in scene.data.pins}
         frames = [d.move({"head": at["head"] + [4 * k, -3 * k], "tail": at["tail"] + [-2 * k, 0]}) for k in range(1, 4)]
         assert all(f.shape == (d.preview_size[1], d.preview_size[0], 4) for f in frames)
+        assert set(d._detail) == {0}  # previewed on the reduced model
         assert not np.array_equal(frames[0], frames[-1]) and frames[-1][..., 3].any()
         final = d.release()
         np.testing.assert_array_equal(final, scene.render())

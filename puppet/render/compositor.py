@@ -29,6 +29,10 @@ Textures are premultiplied. A frame is:
    K-buffer overflowed, so its output is always exact; :meth:`Compositor.draw` switches
    to the A-buffer from the next frame on (and back when no pixel needs it).
 
+A drag preview (``preview=True``) replaces the edge pass by one unsorted **blend** pass
+(not exact; docs/algorithms.md section 10) and is read back premultiplied, made straight
+on the CPU at its translucent pixels only.
+
 No pass waits for the GPU: :meth:`~Compositor.render` reads back once at the end, and
 :meth:`~Compositor.draw` reads the previous frame's 16-byte counter when it starts the next.
 
@@ -53,7 +57,7 @@ import numpy as np
 from .context import GL_REQUIRE, create_context, is_current
 from .gpu import OWN, FrameTargets, LayerMesh
 from .layers import (ALPHA_MIN, ALPHA_OPAQUE, DrawLayer, check_background,  # noqa: F401
-                     check_layer, check_vertices, mesh_edges, premultiply)
+                     check_layer, check_vertices, mesh_edges, premultiply, unpremultiply_soft)
 from .passes import K, MAX_FRAGMENTS, WIRE_COLOR, Draw, Passes  # noqa: F401
 
 #: Render targets kept (per output size, format and caller texture).
@@ -79,7 +83,7 @@ class Compositor:
     Attributes
     ----------
     last_method : str or None
-        Edge method of the last frame ("kbuffer" or "abuffer").
+        Edge method of the last frame ("kbuffer" or "abuffer"; "blend" for a preview).
     last_overflow : int
         Fragments (K-buffer) or pixels (A-buffer) beyond K in the last frame that was
         checked (render: always; draw: the previous frame, when the next one starts).
@@ -139,7 +143,7 @@ class Compositor:
     def render(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int], *,
                size: tuple[int, int] | None = None,
                background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0),
-               wireframe: bool = False) -> np.ndarray:
+               wireframe: bool = False, preview: bool = False) -> np.ndarray:
         """Composite ``layers`` over ``background`` and read the result back.
 
         Parameters
@@ -156,6 +160,9 @@ class Compositor:
             Straight RGBA colour, or an image stretched over the whole canvas.
         wireframe : bool
             Draw every layer's deformed mesh edges (1 px, dark, semi-opaque) on top.
+        preview : bool
+            A drag preview, not exact: the opaque pass as always, the soft edges blended
+            unsorted (method ``"blend"``), into an RGBA8 composite.
 
         Returns
         -------
@@ -170,6 +177,8 @@ class Compositor:
             # half-float composite when the background is an image or not opaque: its
             # colours then survive to the straight-alpha output within 1 grey level
             precise = background.shape[:2] != (1, 1) or int(background[0, 0, 3]) < 255
+            if preview:
+                return self._preview(draws, canvas, size, background, wireframe, precise, previous)
             targets = self._targets_for(size, dtype="f2" if precise else "f1")
             method = self._choose()
             for _attempt in range(3):
@@ -183,10 +192,20 @@ class Compositor:
             self._finish(previous)
             return out
 
+    def _preview(self, draws, canvas, size, background, wireframe, straight, previous) -> np.ndarray:
+        """:meth:`render` of a drag preview: one frame with the ``blend`` edge pass, RGBA8,
+        read back premultiplied and made straight on the CPU where it is translucent
+        (cheaper than the full-screen pass when few pixels are)."""
+        targets = self._targets_for(size)
+        self._frame(draws, canvas, targets, background, wireframe, "blend", False)
+        out = self._passes.read(targets, False)
+        self._finish(previous)
+        return unpremultiply_soft(out) if straight else out
+
     def draw(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int], *,
              target: moderngl.Framebuffer | moderngl.Texture,
              background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0),
-             wireframe: bool = False, flip_y: bool = False) -> None:
+             wireframe: bool = False, flip_y: bool = False, preview: bool = False) -> None:
         """Composite into ``target`` without reading back (the app's preview path).
 
         Parameters
@@ -200,6 +219,8 @@ class Compositor:
         flip_y : bool
             False: canvas top in row 0 (as :meth:`render`'s array); True: canvas top in
             the last row, the right way up on a window.
+        preview : bool
+            A drag preview: soft edges blended unsorted (as in :meth:`render`).
         """
         direct = isinstance(target, moderngl.Texture)
         if direct and (target.components != 4 or target.dtype != "f1" or target.samples):
@@ -212,7 +233,7 @@ class Compositor:
             draws = self._prepare(layers)
             targets = self._targets_for(size, target if direct else None)
             previous = self.ctx.fbo
-            self._frame(draws, canvas, targets, background, wireframe, self._choose(), flip_y)
+            self._frame(draws, canvas, targets, background, wireframe, "blend" if preview else self._choose(), flip_y)
             if not direct:
                 self.ctx.copy_framebuffer(target, targets.write_fbo)
             self._finish(previous)
@@ -309,12 +330,15 @@ class Compositor:
 
     def _frame(self, draws: list[Draw], canvas, targets: FrameTargets, background,
                wireframe: bool, method: str, flip: bool) -> str:
-        texture = None if background.shape[:2] == (1, 1) else self._texture(BACKGROUND,
-                                                                            background)
-        method = self._passes.frame(draws, canvas, targets, background, texture,
+        method = self._passes.frame(draws, canvas, targets, background, self._background(background),
                                     method=method, wireframe=wireframe, flip=flip)
-        self._pending = self.last_method = method
+        self.last_method = method
+        self._pending = None if method == "blend" else method  # a preview's counters are not read
         return method
+
+    def _background(self, background: np.ndarray) -> moderngl.Texture | None:
+        """The texture of a background image; None for a colour."""
+        return None if background.shape[:2] == (1, 1) else self._texture(BACKGROUND, background)
 
     def _take_counters(self) -> tuple[int, int, int]:
         """Read the last frame's counters (waits for that frame) and update the hint."""

@@ -68,6 +68,18 @@ def premultiply(image: np.ndarray) -> np.ndarray:
     return cv2.multiply(image, cv2.merge([a, a, a, np.full_like(a, 255)]), scale=1 / 255.0)
 
 
+def unpremultiply_soft(frame: np.ndarray) -> np.ndarray:
+    """Premultiplied RGBA uint8 ``frame`` (h, w, 4) made straight in place, as the
+    ``straight`` shader does (``min(round(c * 255 / a), 255)``), touching only the pixels
+    with 0 < alpha < 255 (a drag preview's soft edges: few); returns ``frame``."""
+    flat = frame.reshape(-1, 4)
+    soft = np.flatnonzero(flat[:, 3] - np.uint8(1) < 254)  # 0 < a < 255 (a = 0 wraps to 255)
+    if len(soft):
+        px = flat[soft].astype(np.float64)
+        flat[soft, :3] = np.minimum(np.rint(px[:, :3] * 255.0 / px[:, 3:]), 255.0)
+    return frame
+
+
 def depth_window(lo: float, hi: float) -> tuple[float, float]:
     """Uniforms ``(hi', 1 / (hi' - lo'))`` mapping depth d to window depth
     ``(hi' - d) / (hi' - lo')`` (0 = nearest), the range widened by max(5 %, 0.5) a side.

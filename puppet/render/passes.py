@@ -20,7 +20,7 @@ MAX_NODES = 1 << 23
 #: Wireframe colour, straight RGBA in 0..1.
 WIRE_COLOR = (0.08, 0.08, 0.08, 0.7)
 _PASSES = {"opaque": "OPAQUE_PASS", "kbuffer": "KBUFFER_PASS", "append": "APPEND_PASS",
-           "resolve": "RESOLVE_PASS"}
+           "resolve": "RESOLVE_PASS", "blend": "BLEND_PASS"}
 
 #: (list position, mesh, texture) of one layer in a frame
 Draw = tuple[int, LayerMesh, moderngl.Texture]
@@ -58,7 +58,8 @@ class Passes:
         """Draw one frame into ``targets.main`` (premultiplied), nothing read back.
 
         Returns the edge method used: "abuffer" also when the K-buffer's attachments
-        (32 more bytes a pixel) cannot be allocated at this size.
+        (32 more bytes a pixel) cannot be allocated at this size. ``method="blend"`` (drag
+        previews, not exact) blends the edge fragments unsorted (:meth:`_blend_edges`).
         """
         ctx = self.ctx
         cw, ch = float(canvas[0]), float(canvas[1])
@@ -78,7 +79,9 @@ class Passes:
         ctx.depth_func = "<"   # edge fragments strictly in front of the opaque depth
         self.counters.write(bytes(16))
         self.counters.bind_to_storage_buffer(0)
-        if method == "kbuffer":
+        if method == "blend":
+            self._blend_edges(live, depth, targets)
+        elif method == "kbuffer":
             try:
                 kbuffer_fbo = targets.kbuffer()
             except moderngl.Error:
@@ -90,7 +93,7 @@ class Passes:
             self._stamp = (self._stamp + K + 1) % (1 << 32) or K + 1
             set_uniform(self.programs["kbuffer"], "u_frame", self._stamp)
             self._draw_layers("kbuffer", live, depth)
-        else:
+        elif method == "abuffer":
             scale = (targets.size[0] / cw, targets.size[1] / ch)
             capacity = self.ensure_nodes(sum(m.fragment_bound(scale) for _, m, _ in live))
             append_fbo, heads = targets.abuffer()
@@ -121,6 +124,13 @@ class Passes:
                 set_uniform(program, "u_order", position << 20)
             texture.use(0)
             vao.render(moderngl.TRIANGLES)
+
+    def _blend_edges(self, live: list[Draw], depth, targets: FrameTargets) -> None:
+        """The preview edge pass: edge fragments in front of the opaque depth blended over
+        the frame, layers farthest first, no depth write, no sorting within a pixel."""
+        targets.test_fbo.use()
+        self._blend_over()
+        self._draw_layers("blend", live[::-1], depth)
 
     def _draw_background(self, targets: FrameTargets, background, texture, flip) -> None:
         targets.write_fbo.use()

@@ -281,7 +281,7 @@ class CanvasRenderer:
         if stale != "GL_NO_ERROR":
             self.stale_errors = (self.stale_errors + [stale])[-20:]  # the latest few, not one a frame forever
         # the compositor's window path: into the texture, no read-back, premultiplied RGBA
-        self.compositor.draw(draw, size, target=self.frame_tex, background=background)
+        self.compositor.draw(draw, size, target=self.frame_tex, background=background, preview=fast)
         self.ctx.error  # noqa: B018 - clear a flag the compositor left
         self.ctx.screen.use()
         self._frame_key = key

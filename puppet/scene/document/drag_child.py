@@ -12,7 +12,7 @@ from puppet.scene.drag.child import child_setup, messages
 from puppet.scene.rig import disk
 
 #: LayerResult fields sent back per moved layer (``rest``, ``triangles`` and ``pins`` too
-#: for a layer drawn as a proxy mesh, see :mod:`puppet.scene.rig.proxy`).
+#: for a layer drawn as the coarse mesh of a reduced model, see :mod:`puppet.scene.rig.reduced`).
 FIELDS = ("deformed", "depth", "exterior")
 
 
@@ -50,7 +50,7 @@ def pack(session, layers) -> dict:
         if r.group not in session._moved:
             continue
         f = {name: getattr(r, name) for name in FIELDS}
-        if r.rest is not built.meshes[k].V:  # a proxy mesh
+        if r.rest is not built.meshes[k].V:  # a coarse mesh (a reduced model's)
             f.update(rest=r.rest, triangles=r.triangles, pins=r.pins)
         out[k] = f
     return out

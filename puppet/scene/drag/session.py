@@ -2,12 +2,14 @@
 at a time on the timeline, and record mode, with fast previews and an exact release.
 
 While the pointer moves, only the groups holding a moved pin are re-solved (in record
-mode, every group with pins, as the others move with time too), each warm-started from
-its previous frame (:func:`~puppet.scene.rig.solve.preview_group`); the other groups
-come from the exact solve of the pose the drag started from (cached). The release
-records the targets in one undo step and returns the exact layers, solved from scratch:
-exactly what ``render(pose=...)`` (a pose drag) or ``render(time=...)`` (a key drag, a
-recording) draws, whatever path the pointer took.
+mode, every group with pins, as the others move with time too): a big group on its
+reduced model (:mod:`puppet.scene.rig.reduced`: a coarse copy solved as an exact pose
+is, drawn in its place), a small one warm-started from its previous frame
+(:func:`~puppet.scene.rig.solve.preview_group`); the other groups come from the exact
+solve of the pose the drag started from (cached). The release records the targets in
+one undo step and returns the exact layers, solved from scratch: exactly what
+``render(pose=...)`` (a pose drag) or ``render(time=...)`` (a key drag, a recording)
+draws, whatever path the pointer took.
 
 :func:`pose_with` is the one "this pose with those pins moved" of the code base.
 """
@@ -20,7 +22,7 @@ import numpy as np
 from puppet.errors import SceneError
 from puppet.scene.drag.process import DragProcess, unpack
 from puppet.scene.format import args as ck
-from puppet.scene.rig.proxy import proxy_for, proxy_layer, proxy_solve
+from puppet.scene.rig.reduced import detailed, reduced_for, reduced_layers, reduced_solve, residual
 from puppet.scene.rig.solve import PinState, preview_group
 
 
@@ -94,7 +96,8 @@ class DragSession:
     record : bool
         Record mode: :meth:`commit` takes the recorded keys.
     iterations : int
-        ARAP iterations per preview frame, warm-started from the previous frame.
+        ARAP iterations per preview frame, warm-started from the previous frame (groups
+        without a reduced model; a reduced model is solved as an exact pose is).
     """
 
     @ck.checked("DragSession", doc=_document, names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag,
@@ -133,7 +136,8 @@ class DragSession:
         ext = [n for ge in self._built.exterior for n in ge.names]
         self._where = {n: ("pin", pins[n]) if n in pins else ("ext", ext.index(n)) for n in self.names}
         self._moved = self._groups_of(self.names)
-        self._U: dict = {}  # group (or ("proxy", group)) -> its previous preview frame
+        self._U: dict = {}  # group -> its previous preview frame (groups without a reduced model)
+        self._detail: dict = {}  # group -> its reduced model's detail residual at the drag's start
         self._stale = False
         if self._serial is None and self._solver is not None and self._solver.alive:
             self._serial = self._solver.open(doc, self.names, self.time, self.record, self.iterations)
@@ -176,18 +180,16 @@ class DragSession:
 
     def _preview(self, state) -> list:
         rig, built = self.doc.rig, self._built
-        solved, proxies = {}, {}
+        solved, reduced = {}, {}
         for gi in self._moved:
             g = built.groups[gi]
             ext = built.ext_slices()[gi]
             if not len(g.pins) or not np.isnan(state.ext_to[ext, 0]).all():
                 solved[gi] = rig.solve(built, gi, state)  # no pins, or an exterior point pulls it: exact
                 continue
-            proxy = proxy_for(rig, built, gi) if not np.any(state.angle[g.pins]) else None
-            if proxy is not None:  # a big group: its coarse proxy is solved and drawn
-                U = proxy_solve(proxy, state.to[g.pins], self._U.get(("proxy", gi)), self.iterations)
-                self._U[("proxy", gi)] = U
-                proxies[gi] = (proxy, U)
+            red = reduced_for(rig, built, gi)
+            if red is not None:  # a big group: its reduced model is solved and drawn
+                reduced[gi] = (red, *self._reduced(gi, red, state))
                 continue
             U0 = self._U.get(gi)
             if U0 is None:  # the first frame starts from the exact solve it moves away from
@@ -196,9 +198,20 @@ class DragSession:
                                        built.group_pose(gi, state), U0, iterations=self.iterations)
             self._U[gi] = solved[gi][0]
         layers = self._evaluate(state, solved)
-        for gi, (proxy, U) in proxies.items():
-            layers[proxy.layer] = proxy_layer(proxy, built, gi, U, state.depth)
+        for gi, (red, U, depth) in reduced.items():
+            for k, layer in reduced_layers(red, built, gi, U, depth).items():
+                layers[k] = layer
         return layers
+
+    def _reduced(self, gi: int, red, state) -> tuple[np.ndarray, np.ndarray]:
+        """Coarse vertices and depth of group ``gi``'s reduced model in ``state``, with the
+        detail residual of the exact pose the drag started from."""
+        built, d = self._built, self._built.data.deformer
+        if gi not in self._detail:
+            Uc0, _ = reduced_solve(red, d, built.group_pose(gi, self._start))
+            self._detail[gi] = residual(red, Uc0, self.doc.rig.solve(built, gi, self._start)[0])
+        Uc, depth = reduced_solve(red, d, built.group_pose(gi, state))
+        return detailed(red, Uc, self._detail[gi]), depth
 
     def _evaluate(self, state, solved: dict) -> list:
         """The layers of ``state`` with the groups of ``solved`` as given, the other moved

@@ -287,11 +287,11 @@ def test_a_drag_on_the_scene_thread_gives_the_same_numbers():
     assert r.returncode == 0, r.stderr[-2000:]
 
 
-def test_a_big_group_is_previewed_on_its_proxy(monkeypatch):
-    from puppet.scene.rig import proxy
+def test_a_big_group_is_previewed_on_its_reduced_model(monkeypatch):
+    from puppet.scene.rig import reduced
 
-    monkeypatch.setattr(proxy, "PROXY_MIN", 500)  # the horse's one group counts as big
-    monkeypatch.setattr(proxy, "PROXY_VERTICES", 300)
+    monkeypatch.setattr(reduced, "REDUCED_MIN", 500)  # the horse's one group counts as big
+    monkeypatch.setattr(reduced, "REDUCED_VERTICES", 300)
     doc = Document.load(SCENES + "/horse.json")
     fine = doc.built.meshes[0]
     assert len(fine.V) > 500
@@ -300,36 +300,37 @@ def test_a_big_group_is_previewed_on_its_proxy(monkeypatch):
     for k in range(1, 5):
         targets = {"head": targets["head"] + [3.0, -2.0], "tail": targets["tail"] + [-2.0, 1.0]}
         (r,) = d.move_layers(targets)
-        assert len(r.rest) < 0.6 * len(fine.V) and len(r.triangles) < 0.6 * len(fine.F)  # the proxy
+        assert len(r.rest) < 0.8 * len(fine.V) and len(r.triangles) < 0.8 * len(fine.F)  # the coarse mesh
         for n, xy in targets.items():
             np.testing.assert_allclose(r.deformed[r.pins[n]], xy, atol=1e-9)
         assert r.deformed.shape == r.rest.shape and r.depth.shape == (len(r.rest),)
         assert set(r.pins) == {p.name for p in doc.data.pins}
-    # the proxy's shape follows the fine solve: each proxy vertex against the nearest fine one
+    # the coarse shape follows the fine solve: each coarse vertex against the nearest fine one
     exact = doc.layers(pose=pose_with(base_pose(doc), targets))[0]
     near = np.argmin(((r.rest[:, None] - exact.rest[None]) ** 2).sum(-1), axis=1)
     off = np.linalg.norm((r.deformed - r.rest) - (exact.deformed - exact.rest)[near], axis=1)
     moved = np.linalg.norm(exact.deformed - exact.rest, axis=1).max()
-    assert moved > 10 and np.median(off) < 1.0 and off.max() < 4.0  # (0.32 and 1.9 px here)
-    assert d._U.keys() == {("proxy", 0)}
+    assert moved > 10 and np.median(off) < 1.0 and off.max() < 4.0
+    assert d._U == {} and set(d._detail) == {0}
     got = d.release_layers()
     assert got[0].rest is fine.V  # the release is the fine mesh, exactly
     same_layers(got, doc.layers(pose=doc.to_dict()["poses"][doc.active_pose]))
 
 
 @pytest.mark.parametrize("mode", ["similar", "distort"])
-def test_a_big_group_in_another_mode_is_previewed_on_its_own_mesh(monkeypatch, mode):
-    from puppet.scene.rig import proxy
+def test_a_big_group_in_another_mode_is_previewed_in_that_mode(monkeypatch, mode):
+    from puppet.scene.rig import reduced
 
-    monkeypatch.setattr(proxy, "PROXY_MIN", 500)  # the horse's one group would count as big
-    monkeypatch.setattr(proxy, "PROXY_VERTICES", 300)
+    monkeypatch.setattr(reduced, "REDUCED_MIN", 500)  # the horse's one group counts as big
+    monkeypatch.setattr(reduced, "REDUCED_VERTICES", 300)
     doc = Document.load(SCENES + "/horse.json")
     doc.set_layer(doc.data.layers[0].name, deformer={"mode": mode})
     fine = doc.built.meshes[0]
     d = doc.drag(["head"])
     (r,) = d.move_layers({"head": np.asarray(pin_at(doc, "head")) + [6.0, -4.0]})
-    assert len(r.rest) == len(fine.V)  # no rigid proxy standing in for the mode
-    assert ("proxy", 0) not in d._U
+    assert len(r.rest) < len(fine.V)
+    model = reduced.reduced_for(doc.rig, doc.built, 0)
+    assert model.pre.arap.mix is not None  # the coarse cells are in the layer's mode
     d.cancel()
 
 
