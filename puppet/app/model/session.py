@@ -32,6 +32,7 @@ from puppet.app.model.snapshot import (
 )
 from puppet.errors import SceneError
 from puppet.scene.drag.process import DragProcess
+from puppet.scene.drag.session import warm
 
 _KEEP = object()
 #: the default of :attr:`SceneSession.solver` (``PUPPET_APP_SOLVER`` overrides it)
@@ -64,6 +65,7 @@ class SceneSession:
         self.shown = Shown()
         self.frames = FrameCache()
         self._drag = None  # the open puppet.scene.drag.session.DragSession
+        self._warmed = None  # the built scene whose drag previews were built ahead (_warm)
         self.blocks: dict[str, Any] = {}  # open undo blocks by key (multi-frame gestures)
         self.latest = Snapshot(0)
         self.messages: collections.deque[Message] = collections.deque(maxlen=50)
@@ -310,6 +312,16 @@ class SceneSession:
     def _loop(self) -> None:
         while True:
             with self._cv:
+                idle = not self._jobs and not self._stop
+                self._running += idle
+            if idle:  # nothing asked: build ahead what a drag's first frame needs (counted as a job)
+                try:
+                    self._guard(self._warm)
+                finally:
+                    with self._cv:
+                        self._running -= 1
+                        self._cv.notify_all()
+            with self._cv:
                 while not self._jobs and not self._stop:
                     self._cv.wait()
                 if self._stop:
@@ -322,6 +334,20 @@ class SceneSession:
                 with self._cv:
                     self._running -= 1
                     self._cv.notify_all()
+
+    def _warm(self) -> None:
+        """Once per built version of the scene: :func:`puppet.scene.drag.session.warm`
+        (a failed build says nothing here: the job that shows the scene says it)."""
+        scene = self.scene
+        if scene is None or self._drag is not None:
+            return
+        try:
+            built = scene.built
+        except SceneError:
+            return
+        if built is not self._warmed:
+            self._warmed = built
+            warm(scene)
 
     def _top(self):
         h = self.scene.history if self.scene is not None else None

@@ -47,6 +47,15 @@ def base_pose(doc, time: float | None = None) -> dict:
     return dict(doc.to_dict().get("poses", {}).get(doc.active_pose, {}))
 
 
+def warm(doc) -> int:
+    """Build ahead what the first preview frame of a drag in ``doc`` needs that a render
+    does not: the reduced models of its big groups (kept in the rig's memo, so the drag
+    finds them). Returns how many groups have one. An app runs it while it is idle, so
+    that the first pointer move of a drag on big art does not wait for them."""
+    built = doc.built
+    return sum(reduced_for(doc.rig, built, gi) is not None for gi in range(len(built.groups)))
+
+
 def _file_form(pins: Mapping) -> dict:
     """{name: [x, y]} of floats."""
     return {n: [float(xy[0]), float(xy[1])] for n, xy in pins.items()}

@@ -239,3 +239,29 @@ def test_a_solver_process_gives_the_thread_s_previews_and_release(make_scene):
     assert runs["thread"][1] is None and child is not None and not child.alive  # the child stopped
     assert child.ready >= 2  # and it had served the second drag
     assert all(same(a, b) for a, b in zip(runs["thread"][0], runs["process"][0]))
+
+
+def test_an_idle_scene_thread_builds_the_reduced_models_a_first_drag_frame_needs(make_scene, monkeypatch):
+    """While nothing is asked, the scene thread builds the reduced models of the big groups
+    once per built version; the first preview of a drag then builds none."""
+    from puppet.scene.rig import reduced
+
+    monkeypatch.setattr(reduced, "REDUCED_MIN", 50)  # the bar's group counts as big
+    doc = bar_scene()
+    path = make_scene(doc, {"bar.png": bar_image()})
+    s = SceneSession()
+    try:
+        s.open(path, picture=False)
+        wait(s)
+        memo = s.scene.rig.memo
+        assert len(s.scene.built.groups[0].mesh.V) > 50
+        built = memo.count("reduced model")
+        assert built == 1
+        s.begin_drag(["left"])
+        s.move_drag({"left": (12.0, 30.0)})
+        wait(s)
+        assert memo.count("reduced model") == built  # found, not built again
+        s.end_drag()
+        wait(s)
+    finally:
+        s.stop()
