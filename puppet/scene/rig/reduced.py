@@ -34,6 +34,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from puppet.deform.boundary import exterior_positions
+from puppet.deform.relax import relax_foldovers
 from puppet.errors import SceneError
 from puppet.geom.triangulate import edge_length_for_area
 from puppet.scene.rig import build
@@ -44,6 +45,9 @@ from puppet.scene.rig.links import link_parts
 from puppet.scene.rig.solve import GroupPose, GroupPre, precompute_group, solve_group
 from puppet.scene.rig.stiffness import group_cells
 
+#: Work units (ARAP iterations of the coarse mesh) the fold relaxation of a preview
+#: frame may spend (an exact pose: ``puppet.deform.relax.BUDGET`` and more on small meshes).
+PREVIEW_RELAX = 40.0
 #: Groups with more vertices than this are previewed on a reduced model (smaller ones
 #: are solved exactly on their own mesh, which costs no more).
 REDUCED_MIN = 12000
@@ -226,9 +230,15 @@ def _barycentric(T: np.ndarray, P: np.ndarray) -> np.ndarray:
 
 def reduced_solve(red: Reduced, deformer, pose: GroupPose) -> tuple[np.ndarray, np.ndarray]:
     """Coarse vertices (n_c, 2) and pin-depth field (n_c,) of the reduced model in
-    ``pose``: the same solve as an exact pose (exterior points aside)."""
+    ``pose``: the same solve as an exact pose (exterior points aside), but a fold
+    relaxation of at most :data:`PREVIEW_RELAX` work units (an exact pose may spend
+    seven plain solves on it: a far drag that folds the coarse mesh would cost a preview
+    frame 5-8 times an unfolded one)."""
     ext = np.zeros((0, 2))
-    U, depth, _ = solve_group(red.pre, red.group, deformer, _NO_EXTERIOR, dataclasses.replace(pose, ext_to=ext))
+    plain = dataclasses.replace(deformer, relax_foldovers=False)
+    U, depth, _ = solve_group(red.pre, red.group, plain, _NO_EXTERIOR, dataclasses.replace(pose, ext_to=ext))
+    if deformer.relax_foldovers and deformer.method == "arap" and len(red.group.pins):
+        U = relax_foldovers(red.pre.arap, U, pose.bc, budget=PREVIEW_RELAX)
     return U, depth
 
 

@@ -316,3 +316,30 @@ def test_exterior_points(small_groups_reduced):
         assert a.exterior.keys() == b.exterior.keys()
         for n in a.exterior:
             assert np.linalg.norm(np.subtract(a.exterior[n], b.exterior[n])) <= P95
+
+
+def test_a_preview_relaxes_folds_within_its_own_budget(small_groups_reduced, monkeypatch):
+    """A far drag that folds the coarse mesh: the preview's fold relaxation is given
+    PREVIEW_RELAX work units (not an exact pose's seven plain solves); the release still
+    relaxes in full (the exact solve)."""
+    from puppet.deform import relax
+
+    spent = []
+    real = relax.relax_foldovers
+
+    def counted(*a, **k):
+        info = k.setdefault("info", {})
+        out = real(*a, **k)
+        spent.append((k.get("budget"), info.get("units", 0.0), info.get("folds_in", 0)))
+        return out
+    monkeypatch.setattr(reduced, "relax_foldovers", counted)
+    doc = trex()
+    name = "tail_tip"  # pulled far across the body
+    at = np.asarray(pin_at(doc, name), float)
+    d = doc.drag(name)
+    for k in range(1, 4):
+        d.move_layers(at + k * np.array([150.0, -60.0]))
+    d.cancel()
+    assert spent and all(b == reduced.PREVIEW_RELAX for b, _, _ in spent)
+    assert any(f > 0 for _, _, f in spent)  # the coarse mesh folded: the budget was asked
+    assert all(u <= reduced.PREVIEW_RELAX + 1e-9 for _, u, _ in spent)
