@@ -186,7 +186,8 @@ def _check_size(scene, size: tuple[int, int] | None) -> None:
     flag = f"--size {w}x{h}" if size else f"the canvas ({w}x{h}; give a smaller --size)"
     if w * h > MAX_PIXELS:
         raise UsageError(f"{flag}: at most {MAX_PIXELS} pixels")
-    problem = output_size_problem(scene.compositor.ctx, (w, h))
+    comp = scene.compositor  # its targets for the frame, allocated once (kept for the render)
+    problem = output_size_problem(comp.ctx, (w, h), allocate=lambda: comp.reserve((w, h), background=scene.background()))
     if problem:
         raise UsageError(f"{flag}: {problem}")
 
