@@ -91,3 +91,19 @@ def test_a_scene_refuses_a_frame_its_targets_cannot_hold_in_one_line(tmp_path, m
         assert s.compositor._targets == {}
     finally:
         s.close()
+
+
+def test_the_kbuffer_colours_need_no_initial_contents(comp):
+    """The packed colours start undefined (not uploaded): whatever they hold, a frame whose
+    stamps are stale reads none of it. Random bytes there change nothing."""
+    if comp.render(translucent_stack(), CANVAS) is None or comp.last_method != "kbuffer":
+        pytest.skip("no K-buffer on this context")
+    want = comp.render(translucent_stack(), CANVAS)
+    (targets,) = comp._targets.values()
+    colours = targets.kbuffer_fbo.color_attachments[1]
+    assert colours.dtype == "u4" and colours.components == 4
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        colours.write(rng.integers(0, 1 << 32, CANVAS[0] * CANVAS[1] * 4, dtype=np.uint32))
+        got = comp.render(translucent_stack(), CANVAS)
+        assert comp.last_method == "kbuffer" and np.array_equal(got, want)
