@@ -107,3 +107,24 @@ def test_the_kbuffer_colours_need_no_initial_contents(comp):
         colours.write(rng.integers(0, 1 << 32, CANVAS[0] * CANVAS[1] * 4, dtype=np.uint32))
         got = comp.render(translucent_stack(), CANVAS)
         assert comp.last_method == "kbuffer" and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("channels", [4, 3])
+def test_a_saved_png_decodes_to_the_same_pixels(comp, tmp_path, channels):
+    """save_png's row filter is a choice of speed and size only: Pillow reads back every
+    pixel of a render and of noise (odd sizes, a strided view, RGB and RGBA)."""
+    from PIL import Image
+
+    from puppet.output import save_png
+
+    rng = np.random.default_rng(7)
+    frames = [comp.render(translucent_stack(), CANVAS, size=(65, 47)),
+              rng.integers(0, 256, (31, 77, 4), dtype=np.uint8),
+              rng.integers(0, 256, (20, 50, 4), dtype=np.uint8)[:, ::2]]
+    for k, frame in enumerate(frames):
+        frame = frame[..., :channels]
+        path = str(tmp_path / f"f{k}.png")
+        save_png(path, frame)
+        with Image.open(path) as im:
+            assert im.mode == ("RGBA" if channels == 4 else "RGB")
+            assert np.array_equal(np.asarray(im), frame)
