@@ -128,3 +128,12 @@ def test_a_saved_png_decodes_to_the_same_pixels(comp, tmp_path, channels):
         with Image.open(path) as im:
             assert im.mode == ("RGBA" if channels == 4 else "RGB")
             assert np.array_equal(np.asarray(im), frame)
+
+
+def test_puppet_render_allocates_its_frame_once(tmp_path, monkeypatch):
+    from puppet.cli import main
+
+    scene = make_bar(tmp_path / "s")
+    colour, depth = _counting(monkeypatch, "renderbuffer"), _counting(monkeypatch, "depth_renderbuffer")
+    assert main(["render", scene, "-o", str(tmp_path / "o.png"), "--size", "90x30"]) == 0
+    assert colour == [] and len(depth) == 1  # checked by allocating the frame's own targets
