@@ -89,18 +89,20 @@ class Scene(Document):
                 for r, im in zip(layers, self.built.images)]
         if reduce > 1:
             draw = [self._reduced(L, k, reduce) for L, k in zip(draw, self.built.image_keys)]
-        self._check_drawable(size or self.canvas)
+        background = self.background() if background is None else background
+        self._check_drawable(size or self.canvas, background)
         if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
             names = [L.name for L in self.data.layers]
             self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
         return self.compositor.render(draw, self.canvas, size=size,
-                                      background=self.background() if background is None else background,
+                                      background=background,
                                       wireframe=wireframe, preview=preview)
 
-    def _check_drawable(self, size: tuple[int, int]) -> None:
+    def _check_drawable(self, size: tuple[int, int], background) -> None:
         """Refuse, in one line, a frame size that this machine's OpenGL cannot draw (found
-        once per size; only with the scene's own compositor: a shared one's context is
-        its owner's to check)."""
+        once per size, by allocating the compositor's own targets for it, which the frame
+        then uses; only with the scene's own compositor: a shared one's context is its
+        owner's to check)."""
         size = (int(size[0]), int(size[1]))
         if size in self._drawable:
             return
@@ -108,7 +110,7 @@ class Scene(Document):
         if self._own_compositor:
             from puppet.render.context import output_size_problem  # lazy: moderngl, only once a scene draws
 
-            problem = output_size_problem(comp.ctx, size)
+            problem = output_size_problem(comp.ctx, size, allocate=lambda: comp.reserve(size, background=background))
             if problem:
                 raise SceneError(f"draw: a frame of {size[0]}x{size[1]} pixels cannot be drawn: {problem}",
                                  file=self.file)

@@ -187,15 +187,19 @@ def _output_file(path: str, exts: tuple[str, ...]) -> str:
     return path
 
 
-def _check_size(scene, size: tuple[int, int] | None) -> None:
-    """Refuse an output the machine's OpenGL cannot draw, before anything is drawn."""
+def _check_size(scene, size: tuple[int, int] | None, *, reserve: bool = False) -> None:
+    """Refuse an output the machine's OpenGL cannot draw, before anything is drawn;
+    ``reserve``: by allocating the targets the scene's own frame (its background) is then
+    drawn into, not a throwaway framebuffer."""
     from puppet.render.context import output_size_problem  # lazy: moderngl, for render and animate only
 
     w, h = size or scene.canvas
     flag = f"--size {w}x{h}" if size else f"the canvas ({w}x{h}; give a smaller --size)"
     if w * h > MAX_PIXELS:
         raise UsageError(f"{flag}: at most {MAX_PIXELS} pixels")
-    problem = output_size_problem(scene.compositor.ctx, (w, h))
+    comp = scene.compositor
+    keep = (lambda: comp.reserve((w, h), background=scene.background())) if reserve else None
+    problem = output_size_problem(comp.ctx, (w, h), allocate=keep)
     if problem:
         raise UsageError(f"{flag}: {problem}")
 
@@ -304,7 +308,7 @@ def run(argv: list[str] | None = None) -> int:
     if args.command == "render":
         inputs = input_files(scene.data)
         check_file(out, inputs=inputs)
-        _check_size(scene, args.size)
+        _check_size(scene, args.size, reserve=True)
         with _gl_allocation(scene, args.size):
             rgba = scene.render(pose=args.pose, time=args.time, size=args.size, wireframe=args.wireframe)
         save_png(out, rgba, inputs=inputs)

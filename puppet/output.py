@@ -400,16 +400,21 @@ def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = ()) 
 def save_png(path: str, rgba, *, inputs: Inputs = (), follow: bool = True) -> None:
     """Write an (h, w, 4) or (h, w, 3) uint8 array as PNG, atomically (see :func:`atomic_write`).
 
-    Encoded by OpenCV's libpng with its default settings (zlib level 1, run-length
-    strategy): a 600x500 render in ~3 ms against Pillow's ~15 ms, about as small (23.1
-    against 22.1 kB), and without importing Pillow on a command's way."""
+    Encoded by OpenCV's libpng (zlib level 1, run-length strategy) with every row
+    filtered by its difference to the row above (``IMWRITE_PNG_FILTER_UP``): a 600x500 render in
+    ~3 ms against Pillow's ~15 ms, about as small, and without importing Pillow on a
+    command's way. The "up" filter rather than OpenCV's default "sub" one: the same size
+    and time on small renders and photographs, and 3.3x faster and 5x smaller on big
+    drawn art (4000x4000 4K PSD render: 0.20 s and 1.6 MB against 0.67 s and 7.8 MB).
+    PNG is lossless: the filter changes no pixel."""
     import cv2
     import numpy as np
 
     a = np.asarray(rgba)
     if a.dtype != np.uint8 or a.ndim != 3 or a.shape[2] not in (3, 4):
         raise ValueError(f"expected an (h, w, 3|4) uint8 array, got {a.shape} {a.dtype}")
-    ok, png = cv2.imencode(".png", cv2.cvtColor(a, cv2.COLOR_RGBA2BGRA if a.shape[2] == 4 else cv2.COLOR_RGB2BGR))
+    ok, png = cv2.imencode(".png", cv2.cvtColor(a, cv2.COLOR_RGBA2BGRA if a.shape[2] == 4 else cv2.COLOR_RGB2BGR),
+                           [cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_UP])
     if not ok:
         raise ValueError(f"OpenCV could not encode a {a.shape[1]}x{a.shape[0]} PNG")
 

@@ -174,9 +174,7 @@ class Compositor:
         with self._current():
             previous = self.ctx.fbo
             draws = self._prepare(layers)
-            # half-float composite when the background is an image or not opaque: its
-            # colours then survive to the straight-alpha output within 1 grey level
-            precise = background.shape[:2] != (1, 1) or int(background[0, 0, 3]) < 255
+            precise = _precise(background)
             if preview:
                 return self._preview(draws, canvas, size, background, wireframe, precise, previous)
             targets = self._targets_for(size, dtype="f2" if precise else "f1")
@@ -237,6 +235,24 @@ class Compositor:
             if not direct:
                 self.ctx.copy_framebuffer(target, targets.write_fbo)
             self._finish(previous)
+
+    def reserve(self, size: tuple[int, int], *,
+                background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0)) -> None:
+        """Allocate now the render targets that :meth:`render` at ``size`` over
+        ``background`` draws into (kept for it, as after a frame), so that a size the
+        driver has no memory for is found before anything is drawn, without allocating a
+        frame twice. Raises ``moderngl.Error`` when the allocation fails (nothing is kept
+        then)."""
+        size = _sizes(size, None)
+        dtype = "f2" if _precise(check_background(background)) else "f1"
+        with self._current():
+            self.ctx.error  # noqa: B018 - a stale flag is not this allocation's
+            targets = self._targets_for(size, dtype=dtype)
+            error = self.ctx.error
+            if error != "GL_NO_ERROR":
+                self._targets.pop((size, dtype, None), None)
+                self._release_targets([targets])
+                raise moderngl.Error(f"cannot allocate the {size[0]}x{size[1]} targets: {error}")
 
     def forget_overflow(self) -> None:
         """Start the next frame as a fresh compositor would (``auto``: the K-buffer first,
@@ -398,6 +414,12 @@ class Compositor:
         tex.repeat_x = tex.repeat_y = False  # clamp to edge
         self._textures[key] = (image, tex)  # holding the array keeps its id unique
         return tex
+
+
+def _precise(background: np.ndarray) -> bool:
+    """Composite in half floats: the background is an image or not opaque (its colours
+    then survive to the straight-alpha output within 1 grey level)."""
+    return background.shape[:2] != (1, 1) or int(background[0, 0, 3]) < 255
 
 
 def _sizes(canvas, size) -> tuple[int, int]:

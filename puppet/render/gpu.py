@@ -141,11 +141,14 @@ class FrameTargets:
             if self.kbuffer_failed:
                 raise moderngl.Error("no memory for the K-buffer at this size")
             w, h = self.size
-            zeros = np.zeros(w * h * 4, np.uint32)  # stamp 0: stale from the first frame on
+            # the packed depths hold the stamp: 0, stale from the first frame on. The packed
+            # colours are read only under a stamp of this frame, so they start undefined:
+            # not uploading their 16 bytes a pixel saves ~0.08 s of llvmpipe at 4000x4000
+            contents = (None, np.zeros(w * h * 4, np.uint32))
             extra = []
             try:
-                for _ in range(2):
-                    extra.append(self.ctx.texture(self.size, 4, zeros, dtype="u4"))
+                for data in contents:
+                    extra.append(self.ctx.texture(self.size, 4, data, dtype="u4"))
                     self._objects.append(extra[-1])
             except moderngl.Error:
                 self.kbuffer_failed = True

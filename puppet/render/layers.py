@@ -56,16 +56,14 @@ class DrawLayer:
 def premultiply(image: np.ndarray) -> np.ndarray:
     """Premultiply straight RGBA uint8, rounding to nearest: ``round(c * a / 255)``.
 
-    OpenCV's saturating multiply with scale 1/255 gives exactly that (``c * a / 255`` is
-    never within 1/510 of a half, far beyond float error; checked on all 65 536 pairs in
-    the tests) and runs ~6x faster than the integer formula in numpy (1.6 against 10 ms
-    at 600x500), which counts at start-up: the T-rex has eight layer images.
+    OpenCV's RGBA -> mRGBA conversion gives exactly that (checked on all 65 536 pairs in
+    the tests) and runs ~3x faster than its saturating multiply with scale 1/255 (4 against
+    13 ms at 1000x1500), itself ~6x faster than the integer formula in numpy; it counts at
+    start-up: the 4K PSD scene has 20 layer images of 114 MB in all.
     """
     import cv2  # the meshing has loaded it already on every path that draws
 
-    image = np.ascontiguousarray(image)
-    a = np.ascontiguousarray(image[..., 3])
-    return cv2.multiply(image, cv2.merge([a, a, a, np.full_like(a, 255)]), scale=1 / 255.0)
+    return cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGBA2mRGBA)
 
 
 def unpremultiply_soft(frame: np.ndarray) -> np.ndarray:

@@ -236,3 +236,7 @@ def test_premultiply_rounds_to_nearest_for_every_colour_and_alpha():
     ref = np.floor(img[..., :3].astype(np.float64) * img[..., 3:] / 255 + 0.5)
     np.testing.assert_array_equal(out[..., :3], ref)
     np.testing.assert_array_equal(out[..., 3], img[..., 3])
+    mixed = np.random.default_rng(3).integers(0, 256, (37, 53, 4), dtype=np.uint8)  # channels differ, odd width
+    ref = np.floor(mixed[..., :3].astype(np.float64) * mixed[..., 3:] / 255 + 0.5)
+    np.testing.assert_array_equal(premultiply(mixed)[..., :3], ref)
+    np.testing.assert_array_equal(premultiply(mixed[:, ::2])[..., :3], ref[:, ::2])  # a strided view

@@ -41,7 +41,7 @@ from puppet.scene.rig.stiffness import group_cells
 #: how many of each kind of built part are kept (least recently used dropped first); the
 #: kinds of :data:`PER_LAYER` keep at least two per layer of the scene built last
 CAPACITY = {"pixels": 16, "reduced": 64, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
-            "cells": 16, "links": 8}
+            "pose": 16, "cells": 16, "links": 8}
 
 #: threads that read, mask and mesh the layers of a scene (the cores there are, at most 8)
 WORKERS = min(8, os.cpu_count() or 1)
@@ -106,6 +106,7 @@ class Rig:
 
     def __init__(self, disk=None):
         self.memo = Memo(CAPACITY, disk=disk)
+        self._shown: set[str] = set()  # group versions (pre keys) solved once in this rig
         self._warm = threading.local()  # this thread's starts of accelerated solves, by pre key
 
     # -- building ----------------------------------------------------------------
@@ -173,13 +174,25 @@ class Rig:
 
     # -- posing ------------------------------------------------------------------
     def solve(self, built: Built, gi: int, state: PinState):
-        """(U, depth, exterior positions) of group ``gi`` in ``state``: exact, cached by content."""
+        """(U, depth, exterior positions) of group ``gi`` in ``state``: exact, cached by content.
+
+        The first solve of a group version in this rig (the pose a scene opens with) is
+        also kept on disk (kind ``"pose"``), so a second open does not solve it again;
+        later ones (drags, animation frames) stay in memory only. A warm-started solve
+        is never read from nor written to disk."""
         d = built.data.deformer
         gp = built.group_pose(gi, state)
         key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]])
         warm = getattr(self._warm, "starts", {}).get(built.pre_keys[gi])
-        return self.memo.get("solve", key, lambda: solve_group(built.pre[gi], built.groups[gi], d,
-                                                               built.exterior[gi], gp, warm=warm))
+
+        def exact():
+            return solve_group(built.pre[gi], built.groups[gi], d, built.exterior[gi], gp, warm=warm)
+
+        def first():
+            shown = warm is None and built.pre_keys[gi] not in self._shown
+            self._shown.add(built.pre_keys[gi])
+            return self.memo.get("pose", key, exact) if shown else exact()
+        return self.memo.get("solve", key, first)
 
     @contextmanager
     def warm_started(self, built: Built, starts: dict):

@@ -80,6 +80,7 @@ def test_a_second_open_builds_nothing_and_equals_a_build_without_cache(make_scen
     second, builds, loads = results(path)
     assert not any(builds.get(k) for k in disk.KINDS), builds
     assert loads["mesh"] == 3 and loads["precompute"] == 2 and loads["image"] == 3
+    assert loads["pose"] == 2  # the pose shown, one per group: not solved again
     same(first, reference)
     same(second, reference)
 
@@ -212,8 +213,8 @@ SPOILS = {
 }
 
 
-@pytest.mark.parametrize("name", list(SPOILS))
-@pytest.mark.parametrize("kind", ["precompute", "mesh", "groups"])
+@pytest.mark.parametrize("kind, name", [(k, n) for k in ("precompute", "mesh", "groups", "pose") for n in SPOILS
+                                        if (k, n) != ("pose", "index out of the mesh")])  # a pose has no indices
 def test_a_spoiled_entry_is_ignored_rebuilt_and_written_again(make_scene, cached, monkeypatch, name, kind):
     path = scene(make_scene)
     reference = results(path)[0]
@@ -397,7 +398,8 @@ def test_a_command_writes_every_entry_before_it_exits(make_scene, cached, tmp_pa
                    check=True, capture_output=True)
     assert not [n for n in os.listdir(folder(path)) if n.endswith(".tmp")]
     _, builds, loads = results(path)
-    assert not any(builds.get(k) for k in disk.KINDS), builds
+    # every part but the pose: the command showed the scene's own pose, results() another
+    assert not any(builds.get(k) for k in disk.KINDS if k != "pose"), builds
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork here")
@@ -437,3 +439,25 @@ def test_a_render_from_the_cache_equals_one_without(make_scene, cached, monkeypa
     monkeypatch.setenv(disk.ENV, "on")
     first, second = render(), render()
     assert np.array_equal(first, reference) and np.array_equal(second, reference)
+
+
+def test_only_the_first_pose_of_a_group_version_is_kept_on_disk(make_scene, cached, monkeypatch):
+    """The pose a scene opens with is kept (one entry per group); the poses solved after it in
+    the same process (drags, animation frames) are not written, nor is a warm-started solve."""
+    path = scene(make_scene)
+    doc = Document.load(path)
+    doc.layers(POSE)
+    disk.flush()
+    kept = _entries(path, "pose")
+    assert len(kept) == 2
+    doc.layers({**POSE, "a2": [104, 10]})
+    warm = Document.load(path)  # a first solve, warm-started: not kept either
+    starts = {gi: g.mesh.V.astype(float) for gi, g in enumerate(warm.built.groups)}
+    with warm.rig.warm_started(warm.built, starts):
+        warm.layers({**POSE, "c1": [152, 60]})
+    disk.flush()
+    assert _entries(path, "pose") == kept
+    again = Document.load(path)
+    out = again.layers(POSE)
+    assert not again.rig.memo.builds.get("pose") and again.rig.memo.disk.loads["pose"] == 2
+    same(out, cold(path, monkeypatch))
