@@ -28,3 +28,16 @@ def rot(theta):
 def nearest(V, pts):
     """Index of the vertex nearest to each point."""
     return np.array([np.argmin(np.linalg.norm(V - p, axis=1)) for p in pts])
+
+
+def two_squares():
+    """Two squares meeting at a hinge of two vertices at (10, 0) (a link of strength < 1):
+    V, parts, the pins' rest points P and targets bc, distances D from the pins and DH
+    from the hinge's two sides."""
+    V = np.array([[0, 0], [10, 0], [0, 10], [20, 0], [20, 10.0], [10, 0]])
+    parts = [np.array([0, 1, 2]), np.array([5, 3, 4])]
+    P = V[[0, 2, 3]]
+    bc = np.array([[0, 0], [0, 10], [10, -10.0]])
+    D = np.linalg.norm(V[None] - P[:, None], axis=2)
+    DH = np.linalg.norm(V[None] - V[[1, 5]][:, None], axis=2)[None]
+    return V, parts, P, bc, D, DH

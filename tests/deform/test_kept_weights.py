@@ -6,7 +6,7 @@ from puppet.deform.arap import arap_precompute
 from puppet.deform.depth import depth_field
 from puppet.deform.hinge import hinge_guess, hinge_weights
 from puppet.deform.mls import distance_weights, mls_object_space
-from tests.deform.meshes import nearest, rectangle
+from tests.deform.meshes import nearest, rectangle, two_squares
 
 
 def bent_grid():
@@ -35,13 +35,7 @@ def test_kept_weights_give_the_same_depth_field():
 
 
 def test_kept_hinge_weights_give_the_same_guess():
-    # two squares meeting at the hinge vertex (10, 0) (as tests/deform/test_modes.py)
-    V = np.array([[0, 0], [10, 0], [0, 10], [20, 0], [20, 10.0], [10, 0]])
-    parts = [np.array([0, 1, 2]), np.array([5, 3, 4])]
-    P = V[[0, 2, 3]]
-    bc = np.array([[0, 0], [0, 10], [10, -10.0]])
-    D = np.linalg.norm(V[None] - P[:, None], axis=2)
-    DH = np.linalg.norm(V[None] - V[[1, 5]][:, None], axis=2)[None]
+    V, parts, P, bc, D, DH = two_squares()
     args = (np.array([0, 0, 1]), parts, np.array([[1, 5]]), DH)
     w = hinge_weights(D, *args, alpha=1.0)
     assert all(p is not None for p in w.parts)

@@ -7,7 +7,7 @@ from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.hinge import hinge_guess
 from puppet.deform.modes import (MODES, apply_similarity, cell_sigma, mode_mix, similarity_fit,
                                  stiffness_from_grey)
-from tests.deform.meshes import nearest, rectangle, rot
+from tests.deform.meshes import nearest, rectangle, rot, two_squares
 
 
 def test_similarity_fit_by_hand():
@@ -163,12 +163,7 @@ def test_folded_constants_match_the_cell_fits(mode):
 
 def test_hinge_guess_with_two_vertices_at_the_hinge():
     # the same as above, but the hinge is two vertices (a link of strength < 1)
-    V = np.array([[0, 0], [10, 0], [0, 10], [20, 0], [20, 10.0], [10, 0]])
-    parts = [np.array([0, 1, 2]), np.array([5, 3, 4])]
-    P = V[[0, 2, 3]]
-    bc = np.array([[0, 0], [0, 10], [10, -10.0]])
-    D = np.linalg.norm(V[None] - P[:, None], axis=2)
-    DH = np.linalg.norm(V[None] - V[[1, 5]][:, None], axis=2)[None]
+    V, parts, P, bc, D, DH = two_squares()
     U = hinge_guess(V, D, P, bc, np.array([0, 0, 1]), parts, np.array([[1, 5]]), DH)
     assert np.allclose(U[[1, 5]], [[10, 0], [10, 0]])
     assert np.allclose(U[4], [20, -10])

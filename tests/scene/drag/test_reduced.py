@@ -88,10 +88,15 @@ def check(errors, p95_bound=P95, max_bound=MAX):
     assert p95 <= p95_bound and top <= max_bound, (p95, top)
 
 
-def trex(pose="wave"):
-    doc = Document.load(SCENES + "/trex-layers.json")
+def opened(name: str, pose: str) -> Document:
+    """The bundled scene ``name`` showing ``pose``."""
+    doc = Document.load(f"{SCENES}/{name}.json")
     doc.set_active_pose(pose)
     return doc
+
+
+def trex(pose="wave"):
+    return opened("trex-layers", pose)
 
 
 def test_linked_layers(small_groups_reduced):
@@ -288,9 +293,7 @@ def test_carrying_rotations_and_residual_by_hand(small_groups_reduced):
 
 
 def dress(pose="flare"):
-    doc = Document.load(SCENES + "/dress-garment.json")
-    doc.set_active_pose(pose)
-    return doc
+    return opened("dress-garment", pose)
 
 
 def test_exterior_points(small_groups_reduced):
