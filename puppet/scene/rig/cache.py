@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
 import threading
 from collections import OrderedDict
 from collections.abc import Callable
@@ -55,6 +56,8 @@ def file_stamp(path: str | None):
         st = os.stat(path)
     except OSError:
         return [path]
+    if not stat.S_ISREG(st.st_mode):  # a FIFO or a device is never read here (reading could block
+        return [path, st.st_size, st.st_mtime_ns]  # forever): the scene's checks refuse it
     version = (path, st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
     with _DIGESTS_LOCK:
         digest = _DIGESTS.get(version)
