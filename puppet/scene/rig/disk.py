@@ -148,11 +148,28 @@ class DiskStore:
     def save(self, kind: str, key: str, value) -> bool:
         """Store ``value``; False when it cannot (unsupported content, unsafe or
         read-only folder, full disk): the cache is only skipped."""
+        packed = self._packed(kind, key, value)
+        return packed is not None and self._store(kind, *packed)
+
+    def save_later(self, kind: str, key: str, value) -> None:
+        """:meth:`save` with the writing on the writer thread: a build does not wait for
+        the disk (an edit in the app that re-precomputes a big group, the first open of a
+        big scene). The part is packed now, as it was built: a solve that adds fields to
+        it later (``ArapData``'s cell operators, built on first use) does not change what
+        is written."""
+        packed = self._packed(kind, key, value)
+        if packed is not None:
+            WRITER.put(lambda: self._store(kind, *packed))
+
+    def _packed(self, kind: str, key: str, value) -> tuple[str, dict] | None:
+        """(entry path, arrays) of ``value``, or None when it holds what is not cached."""
         path, digest = self.path(kind, key)
         try:
-            arrays = _pack(value, digest)
+            return path, _pack(value, digest)
         except Unsupported:
-            return False
+            return None
+
+    def _store(self, kind: str, path: str, arrays: dict) -> bool:
         if sum(a.nbytes for a in arrays.values()) > self.max_bytes or not self._folder_ok(create=True):
             return False
         try:
@@ -162,11 +179,6 @@ class DiskStore:
         self._count(self.saves, kind)
         self._prune()
         return True
-
-    def save_later(self, kind: str, key: str, value) -> None:
-        """:meth:`save` on the writer thread: a build does not wait for the disk (an edit
-        in the app that re-precomputes a big group, the first open of a big scene)."""
-        WRITER.put(lambda: self.save(kind, key, value))
 
     def _folder_ok(self, *, create: bool) -> bool:
         """The folder exists (made when ``create``), is a real folder and no link."""
