@@ -450,7 +450,10 @@ class _Deferred:
         self._factor = self._error = None
 
     def start(self, data: ArapData) -> None:
-        threading.Thread(target=self._make, args=(data,), name="puppet-refactor", daemon=True).start()
+        # not a daemon: the interpreter waits for it at exit (a command that ends before
+        # the factor is made, `puppet mesh` from the cache, would else end inside QDLDL's
+        # C++ and abort: "terminate called without an active exception")
+        threading.Thread(target=self._make, args=(data,), name="puppet-refactor", daemon=False).start()
 
     def _make(self, data: ArapData) -> None:
         try:

@@ -402,6 +402,23 @@ def test_a_command_writes_every_entry_before_it_exits(make_scene, cached, tmp_pa
     assert not any(builds.get(k) for k in disk.KINDS if k != "pose"), builds
 
 
+def test_a_command_from_the_cache_ends_cleanly_while_its_factor_is_made_again(make_scene, cached, tmp_path):
+    """A second `puppet mesh` reads the precomputation, whose factor is made again on a
+    thread, and may end before that thread: the interpreter waits for it (a daemon thread
+    inside QDLDL at exit aborted the process: "terminate called without an active
+    exception", exit status -6)."""
+    import subprocess
+    import sys
+
+    from tests.batch.conftest import copy_scene
+    path = copy_scene("trex-layers.json", tmp_path)  # 7.7k vertices: its factor takes a while
+    env = dict(os.environ, PUPPET_CACHE="on")
+    for _ in range(3):
+        p = subprocess.run([sys.executable, "-m", "puppet", "mesh", path, "-o", str(tmp_path / "m.json")], env=env,
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0 and "terminate" not in p.stderr, (p.returncode, p.stderr[-500:])
+
+
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork here")
 def test_a_forked_child_writes_with_a_writer_of_its_own(tmp_path):
     store = disk.DiskStore(str(tmp_path / "c"))
