@@ -14,7 +14,6 @@ import threading
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 #: Number of sparse factorisations done by this module (a drag must not add any).
 FACTORIZATIONS = 0
@@ -88,6 +87,8 @@ class _SpluFactor:
 
     def __init__(self, A: sp.csc_matrix):
         self.n = A.shape[0]
+        import scipy.sparse.linalg as spla  # lazy: the fallback only; 0.1 s of every command's start-up
+
         self._lu = spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A",
                              diag_pivot_thresh=0.0, options={"SymmetricMode": True})
 

@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
 from puppet.deform.boundary import exterior_positions
 from puppet.deform.relax import relax_foldovers
@@ -78,6 +77,13 @@ class Reduced:
     C: sp.csr_matrix  # (n_coarse, n_fine): coarse vertices in fine triangles (barycentric)
     around: sp.csr_matrix  # (n_coarse, m_coarse): areas of the triangles around each coarse vertex
     rest_inv: np.ndarray  # (m, 2, 2) inverse rest edge matrix of each coarse triangle
+
+
+def _tree(points):
+    """A k-d tree of ``points``."""
+    from scipy.spatial import cKDTree  # lazy: scipy.spatial costs 0.17 s of every command's start-up
+
+    return cKDTree(points)
 
 
 def reduced_for(rig, built, gi: int) -> Reduced | None:
@@ -147,7 +153,7 @@ def _grading(data, k: int, im, polylines, fine_mesh, fine: float, coarse: float)
     if not len(centres):
         return []
     near = np.unique(np.concatenate([np.asarray(i, np.int64) for i in
-                                     cKDTree(fine_mesh.V).query_ball_point(centres, NEAR * h)]))
+                                     _tree(fine_mesh.V).query_ball_point(centres, NEAR * h)]))
     pts = [fine_mesh.V[near]]
     n_rings = max(0, int(np.ceil(np.log(max(top / (NEAR * h), 1.0)) / np.log(RATIO))))
     ang = np.linspace(0, 2 * np.pi, RING, endpoint=False)
@@ -156,7 +162,7 @@ def _grading(data, k: int, im, polylines, fine_mesh, fine: float, coarse: float)
         pts.append((centres[:, None, :] + r * np.stack([np.cos(a), np.sin(a)], 1)[None]).reshape(-1, 2))
     pts = np.concatenate(pts)
     fixed = np.concatenate([centres] + [P for _, _, P in polylines]).reshape(-1, 2)
-    keep = cKDTree(fixed).query(pts)[0] > 0.3 * h  # not onto a pin, hinge or link vertex
+    keep = _tree(fixed).query(pts)[0] > 0.3 * h  # not onto a pin, hinge or link vertex
     return [(-1, "", q.reshape(1, 2)) for q in pts[keep] if im.contains(q)]
 
 
@@ -208,7 +214,7 @@ def barycentric_matrix(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> sp.csr_ma
     :data:`CANDIDATES` nearest by centroid) it is least outside of (extrapolated). A
     linear function of V is carried exactly: ``W @ (V A + t) = P A + t``."""
     T = V[F]  # (m, 3, 2)
-    _, cand = cKDTree(T.mean(axis=1)).query(P, k=min(CANDIDATES, len(F)))
+    _, cand = _tree(T.mean(axis=1)).query(P, k=min(CANDIDATES, len(F)))
     cand = cand.reshape(len(P), -1)
     lam = _barycentric(T[cand], P[:, None, :])  # (p, c, 3)
     best = np.argmax(lam.min(axis=2), axis=1)
