@@ -58,12 +58,30 @@ MAX_HELD = 40_000_000
 def flatten(rgba: np.ndarray, over=(255, 255, 255)) -> np.ndarray:
     """Composite straight-alpha RGBA over an opaque colour (white by default), for formats
     without alpha: (h, w, 4) -> (h, w, 3) uint8. Opaque frames are only sliced; RGB
-    frames (h, w, 3) pass as they are."""
-    if rgba.shape[2] == 3 or rgba[..., 3].min() == 255:
+    frames (h, w, 3) pass as they are.
+
+    Each pixel is ``rint(c a + over (1 - a))`` in float32 with ``a`` = alpha / 255. That
+    is ``c`` where alpha is 255 and ``over`` where it is 0, so only the translucent pixels
+    (an animation's edges: a few percent of a frame) are computed; the rest are copied.
+    The bytes equal computing every pixel (tested), at a tenth of the time on a 1280x720
+    frame (5 ms against 50), which matters when 16 solver processes feed one encoder."""
+    if rgba.shape[2] == 3:
+        return rgba
+    import cv2  # lazy: OpenCV's copies are 10-20x numpy's masked and broadcast ones here
+
+    alpha = cv2.extractChannel(rgba, 3)
+    if alpha.min() == 255:
         return rgba[..., :3]
-    a = rgba[..., 3:4].astype(np.float32) / 255.0
-    rgb = rgba[..., :3].astype(np.float32) * a + np.asarray(over, np.float32) * (1.0 - a)
-    return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    out = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+    h, w = alpha.shape
+    cv2.copyTo(cv2.merge([np.full((h, w), v, np.uint8) for v in over]), (alpha == 0).view(np.uint8), out)
+    part = np.flatnonzero((alpha.ravel() - np.uint8(1)) < np.uint8(254))  # 0 < alpha < 255
+    if part.size:
+        px = rgba.reshape(-1, 4)[part]
+        a = px[:, 3:4].astype(np.float32) / 255.0
+        rgb = px[:, :3].astype(np.float32) * a + np.asarray(over, np.float32) * (1.0 - a)
+        out.reshape(-1, 3)[part] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    return out
 
 
 def rate(fps: float) -> Fraction:
@@ -290,7 +308,7 @@ class AVSink(Sink):
 
 
 def mp4_sink(tmp: str, size, fps: float) -> AVSink:
-    return AVSink(tmp, "mp4", "libx264", "yuv420p", size, fps, MP4_OPTIONS, alpha=False, pad=True)
+    return AVSink(tmp, "mp4", "libx264", "yuv420p", size, fps, MP4_OPTIONS, alpha=False, pad=True, threads="AUTO")
 
 
 def webm_sink(tmp: str, size, fps: float) -> AVSink:
