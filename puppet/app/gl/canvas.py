@@ -16,6 +16,7 @@ import time
 
 import moderngl
 import numpy as np
+from pyglet import gl
 
 from puppet.render.compositor import Compositor
 from puppet.render.layers import DrawLayer, mesh_edges
@@ -282,6 +283,10 @@ class CanvasRenderer:
             self.stale_errors = (self.stale_errors + [stale])[-20:]  # the latest few, not one a frame forever
         # the compositor's window path: into the texture, no read-back, premultiplied RGBA
         self.compositor.draw(draw, size, target=self.frame_tex, background=background, preview=fast)
+        # Wait for the GL's work here, through ctypes, which lets go of the GIL: moderngl keeps
+        # it in every call, so the first call that needs this frame (the quad sampling it)
+        # would otherwise hold the scene thread's solve while llvmpipe rasterizes
+        gl.glFinish()
         self.ctx.error  # noqa: B018 - clear a flag the compositor left
         self.ctx.screen.use()
         self._frame_key = key

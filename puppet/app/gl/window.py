@@ -46,6 +46,12 @@ SWITCH_INTERVAL = 0.001
 #: marker is drawn from the pointer, so it follows the pointer event by event while a solve
 #: lags (a 60 Hz cap beat against 60 Hz pointer events and drew ~47 of their 60 frames)
 MAX_FPS = 120.0
+#: most frames a second for input alone while a canvas gesture waits for the scene thread (a
+#: drag's solve in flight): a window frame holds the GIL through its GL calls (moderngl
+#: keeps it), and on a 2-core machine drawing the pointer's pin marker at MAX_FPS starved
+#: the solve (4K PSD: 233 ms a drag step in the app against 20 ms alone); new snapshots
+#: are still drawn at once
+DRAG_FPS = 30.0
 #: frames a second that move the playhead while playing or recording (new frames: at once)
 PLAY_FPS = 30.0
 FIXED = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_move
@@ -398,7 +404,8 @@ class AppWindow:
         if touched or new:
             self._settle = 3
         gap = now - self._last_frame
-        due = new or (self._settle > 0 and gap >= 1.0 / MAX_FPS) or gap > 0.25
+        fps = DRAG_FPS if self._gesture is not None and app.busy else MAX_FPS
+        due = new or (self._settle > 0 and gap >= 1.0 / fps) or gap > 0.25
         if not due:
             return False
         self._settle -= 1
