@@ -11,6 +11,9 @@ the app's loop alone reaches.
 
     .venv/bin/python benchmarks/bench_app.py [--steps 120] [--only real|headless] [--scenes trex,garment,psd4k]
 
+CPU/update: the app process's CPU time during the drag (every thread: the window, the
+scene thread, llvmpipe's rasterizers) over the canvas updates shown, a figure the load of
+the machine changes less than the rates: 2 cores give at most 2000 / it updates a second.
 Release is the time from the mouse-up to the last canvas change (the exact pose shown).
 How far the last preview stands from the release: in the real window, the optical flow
 (Farneback) from the last canvas frame captured before the mouse-up to the settled one,
@@ -253,6 +256,13 @@ def xdotool_drag(app: RealApp, names, steps: int) -> tuple[list, list[str], list
     return routes, select if len(select) > 1 else [], cmd + ["mouseup", "1"]
 
 
+def cpu_seconds(pid: int) -> float:
+    """CPU seconds (user + system, every thread) process ``pid`` has used."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def real_drag(app: RealApp, names, steps: int, after: float = 2.5) -> dict:
     info = app.settle()
     routes, select, cmd = xdotool_drag(app, names, steps)
@@ -261,9 +271,9 @@ def real_drag(app: RealApp, names, steps: int, after: float = 2.5) -> dict:
         info = app.settle()
     cap = Capture(app.x, app.origin, info["area"], path_mask(routes))
     time.sleep(0.5)
-    t0 = time.time()
+    t0, c0 = time.time(), cpu_seconds(app.proc.pid)
     app.x.run(*cmd)
-    t_up = time.time()
+    t_up, cpu = time.time(), cpu_seconds(app.proc.pid) - c0
     time.sleep(after)
     cap.stop()
     app.settle()
@@ -275,7 +285,8 @@ def real_drag(app: RealApp, names, steps: int, after: float = 2.5) -> dict:
     jump = release_jump(before[-1], cap.last, cap.mask) if before and cap.last is not None else None
     return {"jump_px": jump, "canvas_per_s": sum(f[1] for f in during) / span, "marker_per_s": sum(f[2] for f in during) / span,
             "captured_per_s": len(during) / span, "gap_p95_ms": float(np.percentile(gaps, 95)) if len(gaps) else None,
-            "release_ms": max(0.0, (max(changes) - t_up) * 1000) if changes else None, "drag_s": span}
+            "release_ms": max(0.0, (max(changes) - t_up) * 1000) if changes else None, "drag_s": span,
+            "cpu_ms_per_update": 1000 * cpu / max(sum(f[1] for f in during), 1)}
 
 
 def grab(app: RealApp, path: str) -> None:
@@ -361,6 +372,7 @@ def headless_drag(scene: str, names, pose, t, steps: int) -> dict:
         d.press(*starts[-1], mods=pyglet.window.key.MOD_SHIFT if len(names) > 1 else 0)
         shown, last, preview = [], app.snap.version, None
         t_start = next_event = time.perf_counter()
+        c0 = time.process_time()
         k = 0
         while k < len(path):  # the app's own loop (window.run), pointer events at 60 Hz
             now = time.perf_counter()
@@ -377,13 +389,14 @@ def headless_drag(scene: str, names, pose, t, steps: int) -> dict:
                     last, preview = app.snap.version, app.snap.layers
             else:
                 time.sleep(0.004)
-        elapsed = time.perf_counter() - t_start
+        elapsed, cpu = time.perf_counter() - t_start, time.process_time() - c0
         d.release()
         t0 = time.perf_counter()
         d.settle()
         release = time.perf_counter() - t0
         gap = pose_gap(preview, app.snap.layers, names[-1]) if preview else None
         return {"canvas_per_s": len(shown) / elapsed, "release_ms": release * 1000,
+                "cpu_ms_per_update": 1000 * cpu / max(len(shown), 1),
                 "gap_p95": None if gap is None else float(np.percentile(gap, 95)),
                 "gap_max": None if gap is None else float(gap.max())}
     finally:
@@ -443,13 +456,14 @@ def main() -> None:
     if a.only != "real":
         rows += headless_runs(groups, a.steps)
     print(f"{'scene':<10}{'drag':<15}{'window':<13}{'canvas/s':>9}{'marker/s':>9}{'frames/s':>9}"
-          f"{'gap p95':>9}{'release':>9}   last preview to release (px)")
+          f"{'gap p95':>9}{'release':>9}{'CPU/update':>11}   last preview to release (px)")
     for r in rows:
         jump = f"flow p95 {fmt(r.get('jump_px'), '.1f')}" if r["where"] == "real window" else \
             f"vertices p95 {fmt(r.get('gap_p95'), '.1f')} / max {fmt(r.get('gap_max'), '.1f')}"
         print(f"{r['scene']:<10}{r['kind']:<15}{r['where']:<13}{r['canvas_per_s']:>9.1f}"
               f"{fmt(r.get('marker_per_s'), '.1f'):>9}{fmt(r.get('captured_per_s'), '.1f'):>9}"
-              f"{fmt(r.get('gap_p95_ms')):>7}ms{fmt(r['release_ms']):>7}ms   {jump}")
+              f"{fmt(r.get('gap_p95_ms')):>7}ms{fmt(r['release_ms']):>7}ms{fmt(r.get('cpu_ms_per_update')):>9}ms"
+              f"   {jump}")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
     print(json.dumps(rows))
 
