@@ -13,13 +13,21 @@ from puppet.app.gl import window as window_mod
 pytestmark = pytest.mark.gl
 
 
-def _drag_frames(d, seconds: float, busy: bool) -> int:
-    """Frames the loop draws while the pointer drags for ``seconds`` (``busy``: the scene
-    thread holds a job the whole time)."""
+def _grab(d):
+    """Pose 'bend' active, the right pin pressed and dragged a little; its screen point."""
+    d.app.edit(lambda s: s.set_active_pose("bend"))
+    d.settle()
     start = d.pin_screen("right")
     d.press(*start)
     d.drag(start[0], start[1] - 4)
     d.settle()
+    return start
+
+
+def _drag_frames(d, seconds: float, busy: bool) -> int:
+    """Frames the loop draws while the pointer drags for ``seconds`` (``busy``: the scene
+    thread holds a job the whole time)."""
+    start = _grab(d)
     gate = threading.Event()
     if busy:
         d.app.session._post(lambda: gate.wait(30), publish=False)
@@ -42,8 +50,6 @@ def _drag_frames(d, seconds: float, busy: bool) -> int:
 
 def test_a_drag_waiting_for_its_solve_draws_at_most_drag_fps(bar_app):
     d = bar_app
-    d.app.edit(lambda s: s.set_active_pose("bend"))
-    d.settle()
     seconds = 0.6
     drawn = _drag_frames(d, seconds, busy=True)
     # the first frame may come at once; then one per 1/DRAG_FPS at most, and one more 0.25 s tick
@@ -53,12 +59,7 @@ def test_a_drag_waiting_for_its_solve_draws_at_most_drag_fps(bar_app):
 
 def test_a_new_snapshot_is_drawn_at_once_during_a_drag(bar_app):
     d = bar_app
-    d.app.edit(lambda s: s.set_active_pose("bend"))
-    d.settle()
-    start = d.pin_screen("right")
-    d.press(*start)
-    d.drag(start[0], start[1] - 4)
-    d.settle()
+    _grab(d)
     gate = threading.Event()
     d.app.session._post(lambda: gate.wait(30), publish=False)
     d.w.step()  # an input frame just drawn: the next input-only one is not due for 1/DRAG_FPS s
