@@ -67,3 +67,18 @@ def test_a_pin_past_the_edge_can_be_dragged_back(bar_out):
     xy = got["to"] if isinstance(got, dict) else got
     assert abs(xy[0] - 100) < 1.5 and abs(xy[1] - 20) < 1.5, got
     assert np.abs(colour_at(d, (135, 20)) - PASTEBOARD).max() <= 2  # nothing left out there
+
+
+def test_the_posed_bounds_are_computed_once_a_snapshot(bar_out):
+    """The content rect's bounds (a reduction over every vertex) are kept from frame to
+    frame of one snapshot, and follow a new pose."""
+    d = bar_out
+    canvas = d.w.canvas
+    d.frame()
+    key, box = canvas._bounds
+    d.frame(3)
+    assert canvas._bounds[0] == key and canvas._bounds[1] is box
+    assert box[1][0] == pytest.approx(150, abs=6)  # the bar's right end, posed past the edge
+    d.app.edit(lambda s: s.set_active_pose("rest"))
+    d.settle()
+    assert canvas._bounds[0] != key and canvas._bounds[1][1][0] < box[1][0] - 20
