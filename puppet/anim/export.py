@@ -228,7 +228,7 @@ def _draw_there(remote, sink, composite: Callable, drawing: Drawing) -> bool:
     ship = getattr(sink, "shipper", lambda: None)()
     if not isinstance(remote, SolverPool) or ship is None:
         return False
-    return remote.draw(dataclasses.replace(drawing, ship=ship), remote.first, composite(remote.template))
+    return remote.draw(dataclasses.replace(drawing, ship=ship), composite)
 
 
 def _remote(scene, t0: float, rate: float, first: int, n: int) -> ProcessSolver | SolverPool | None:

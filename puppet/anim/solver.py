@@ -340,14 +340,16 @@ class SolverPool:
             raise
         return True
 
-    def draw(self, drawing: Drawing, first: int, rgba: np.ndarray, wait: Callable[[], bool] = lambda: False) -> bool:
+    def draw(self, drawing: Drawing, composite: Callable[[list], np.ndarray],
+             wait: Callable[[], bool] = lambda: False) -> bool:
         """Have every child draw and encode its frames with ``drawing`` (:meth:`results`
-        then gives encoded frames) when each draws frame ``first`` as ``rgba`` (that
-        frame drawn here) and encodes it as ``drawing.ship`` does here; False (every
-        child sending layers, as before) otherwise."""
+        then gives encoded frames) when each draws the frame it was checked on as
+        ``composite(template)`` draws it here (meanwhile) and encodes it as
+        ``drawing.ship`` does here; False (every child sending layers, as before) otherwise."""
+        for s in self.solvers:  # all at once: they draw side by side, and while this process does
+            s.draw(drawing, self.first)
+        rgba = composite(self.template)
         want = drawing.ship(rgba)
-        for s in self.solvers:  # all at once: they draw side by side
-            s.draw(drawing, first)
         got = [s._receive(wait) for s in self.solvers]
         if all(g is not None and _same(g[0], rgba) and _same(g[1], want) for g in got):
             for s in self.solvers:

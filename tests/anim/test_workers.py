@@ -171,7 +171,7 @@ def test_frames_in_flight_stay_bounded(tmp_path, draw):
     drawing = Drawing((64, 48), False, scene.background(), sinks.PngFile(1))
     try:
         if draw:
-            assert pool.draw(drawing, 0, drawing.composite(scene, pool.template))
+            assert pool.draw(drawing, lambda layers: drawing.composite(scene, layers))
         seen = []
         for k, (i, item, times) in enumerate(pool.results(list(range(200)), lambda: False)):
             if draw and k % 50 == 7:
