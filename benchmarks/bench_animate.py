@@ -23,7 +23,10 @@ process and the solver process. Part 2 runs ``python -m
 puppet animate`` in fresh processes and reads the peak RSS from ``wait4``.
 
 ``--workers 1 2`` runs each pipelined export with that many solver processes
-(``animate_to(workers=N)``; 1: the solver thread). Part 0, ``--solve-rate 1 2``, measures
+(``animate_to(workers=N)``; 1: the solver thread). With two or more, the processes also
+draw and encode the frames (their ``composite`` and ``encode`` are summed over them, as
+``solve`` is); ``--drawing there here`` also times each such export drawn here as before
+issue 31's part X (the processes only solve), in the same run (path ``.../2p/here``). Part 0, ``--solve-rate 1 2``, measures
 the solve alone (no drawing, no encoding): the frames are solved by a
 :class:`puppet.anim.solver.SolverPool` of N processes (started and warmed up first) and
 handed back in order; it prints frames per second, the ratio to the first N of the same
@@ -100,11 +103,21 @@ def solve_rate(path: str, n: int, frames: int) -> tuple[float, float, float, flo
 
 
 def speed(path: str, out: str, size: tuple[int, int], threads: bool, solver: str = "auto",
-          workers: int | None = None) -> tuple[int, float, float, dict]:
-    """(frames, wall seconds, CPU seconds, per-stage seconds) of one in-process export."""
+          workers: int | None = None, here: bool = False) -> tuple[int, float, float, dict]:
+    """(frames, wall seconds, CPU seconds, per-stage seconds) of one in-process export
+    (``here``: solver processes only solve, the frames are drawn in this process)."""
     import puppet
-    from puppet.anim.export import animate_to
+    from puppet.anim import export
     from puppet.anim.pipeline import Timings
+
+    def animate_to(*a, **k):
+        real = export._draw_there
+        if here:
+            export._draw_there = lambda *a: False
+        try:
+            return export.animate_to(*a, **k)
+        finally:
+            export._draw_there = real
 
     scene = puppet.load_scene(path)
     scene.render(time=0.0, size=size)  # GL context, textures, solver precomputation
@@ -133,6 +146,8 @@ def main() -> None:
     ap.add_argument("--solvers", nargs="+", default=["auto"], choices=["auto", "thread", "process"],
                     help="pipelined runs: where frames are solved (auto: a thread)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1], help="solver processes of the pipelined runs")
+    ap.add_argument("--drawing", nargs="+", default=["there"], choices=["there", "here"],
+                    help="with 2+ workers: frames drawn and encoded in the solver processes, or here")
     ap.add_argument("--solve-rate", type=int, nargs="*", default=[1, 2], help="solver processes (none: skip)")
     ap.add_argument("--repeat", type=int, default=2, help="rounds of the solve-rate table")
     ap.add_argument("--memory", type=int, nargs="*", default=[1000, 10000], help="frame counts (none: skip)")
@@ -159,17 +174,19 @@ def main() -> None:
                     print(f"{r + 1:>5} {k:>3} {fps:>9.1f} {fps / first:>8.2f} {1e3 * cpu:>20.1f} "
                           f"{1e3 * mine:>18.1f} {start:>8.2f} {os.getloadavg()[0]:>5.2f}", flush=True)
         print(f"\n{args.frames} frames of {os.path.relpath(args.scene, ROOT)} at {args.size}")
-        print(f"{'format':>6} {'path':>12} {'seconds':>8} {'frames/s':>8} {'CPU s':>6} | ms/frame:"
+        print(f"{'format':>6} {'path':>17} {'seconds':>8} {'frames/s':>8} {'CPU s':>6} | ms/frame:"
               + " ".join(f"{s:>9}" for s in STAGES) + f" {'load':>5}")
-        runs = [(True, s, w) for s in args.solvers for w in args.workers] \
-            + ([(False, "-", 1)] if args.sequential else [])
+        runs = [(True, s, w, d == "here") for s in args.solvers for w in args.workers
+                for d in (args.drawing if w > 1 else ["there"])] \
+            + ([(False, "-", 1, False)] if args.sequential else [])
         for fmt in args.formats:
-            for threads, solver, workers in runs:
+            for threads, solver, workers, here in runs:
                 out = os.path.join(work, "frames/" if fmt == "dir" else f"out.{fmt}")
-                n, wall, cpu, tm = speed(path, out, size, threads, solver if threads else "auto", workers)
+                n, wall, cpu, tm = speed(path, out, size, threads, solver if threads else "auto", workers, here)
                 stages = " ".join(f"{1e3 * tm.get(s, 0.0) / n:>9.1f}" for s in STAGES) + f" {os.getloadavg()[0]:>5.2f}"
-                name = (f"pipe/{solver}" + (f"/{workers}p" if workers > 1 else "")) if threads else "sequential"
-                print(f"{fmt:>6} {name:>12} {wall:>8.1f} {n / wall:>8.1f} "
+                name = (f"pipe/{solver}" + (f"/{workers}p" if workers > 1 else "") + ("/here" if here else "")) \
+                    if threads else "sequential"
+                print(f"{fmt:>6} {name:>17} {wall:>8.1f} {n / wall:>8.1f} "
                       f"{cpu:>6.1f} | {stages}", flush=True)
                 shutil.rmtree(out, ignore_errors=True) if fmt == "dir" else os.remove(out)
         if args.memory:

@@ -14,6 +14,7 @@ on an error or a signal).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Iterator
 
@@ -22,7 +23,7 @@ import numpy as np
 from puppet.anim import formats, pipeline, sinks
 from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (docs/api.md names export.parse_background)
 from puppet.anim.options import WORKER_BYTES, parse_workers, worker_cap
-from puppet.anim.solver import ProcessSolver, SolverPool
+from puppet.anim.solver import Drawing, ProcessSolver, SolverPool
 from puppet.errors import SceneError
 from puppet.output import Staged, check_file, check_folder, commit_all, write_folder
 from puppet.scene.format.inputs import input_files
@@ -156,18 +157,27 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     remote = bar = None
     n_solvers = solver_count(workers, len(todo), say) if threads and todo and solver != "thread" else 1
 
-    def frames() -> Iterator[np.ndarray]:
-        drawn = pipeline.frames(solve, composite, todo, threads=threads, timings=timings, remote=remote)
+    def frames(encode: Callable | None) -> Iterator[np.ndarray]:
+        """The frames in order; with ``encode`` (the solver processes draw and encode),
+        encoded: the cached ones here by ``encode``."""
+        drawn = pipeline.frames(solve, _as_is if encode else composite, todo, threads=threads, timings=timings,
+                                remote=remote)
         try:
             for i in range(n):
-                yield cached.pop(i) if i in cached else next(drawn)
+                yield (encode(cached.pop(i)) if encode else cached.pop(i)) if i in cached else next(drawn)
         finally:
             drawn.close()
 
     def fill(tmp: str) -> int:
         job.tmp = tmp
-        return sinks.stream(fmt.open(job), frames(), threads=threads, progress=bar, timings=timings,
-                            encoders=n_solvers)
+        sink = fmt.open(job)
+        try:
+            there = fmt.pixels and _draw_there(remote, sink, composite, Drawing(size, wireframe, bg, None))
+        except BaseException:
+            sink.abort()
+            raise
+        return sinks.stream(sink, frames(sink.encode if there else None), threads=threads, progress=bar,
+                            timings=timings, encoders=n_solvers, encoded=there)
 
     written = [0]
     try:
@@ -205,6 +215,20 @@ def solver_count(workers: int | None, frames: int, say: Callable[[str], None] | 
         say(f"puppet animate: --workers {workers}: starting {cap} solver processes ({cores} cores{gib}; "
             f"one solves on one core and may need up to {WORKER_BYTES / 2 ** 30:.1f} GiB)")
     return max(1, min(workers, cap, frames))
+
+
+def _as_is(item):
+    return item
+
+
+def _draw_there(remote, sink, composite: Callable, drawing: Drawing) -> bool:
+    """Whether the frames are drawn and encoded in the solver processes (a pool, and a
+    sink that can encode elsewhere, :meth:`puppet.anim.sinks.Sink.shipper`), checked on
+    the pool's first frame drawn here (see :meth:`puppet.anim.solver.SolverPool.draw`)."""
+    ship = getattr(sink, "shipper", lambda: None)()
+    if not isinstance(remote, SolverPool) or ship is None:
+        return False
+    return remote.draw(dataclasses.replace(drawing, ship=ship), composite)
 
 
 def _remote(scene, t0: float, rate: float, first: int, n: int) -> ProcessSolver | SolverPool | None:

@@ -123,6 +123,9 @@ class _Owning:
     def encode(self, item):
         return self.sink.encode(item)
 
+    def shipper(self):
+        return self.sink.shipper()
+
     def write(self, item) -> None:
         self.sink.write(item)
 

@@ -169,12 +169,14 @@ class Progress:
 def _solver(solve: Callable[[int], object], indices: list[int], out: queue.Queue, timings: Timings,
             remote=None):
     """A thread that puts ``(i, solve(i))`` for each index, then the end mark; with
-    ``remote`` (a :class:`puppet.anim.solver.ProcessSolver`), the frames are solved there
-    and this thread only passes them on."""
+    ``remote`` (a :class:`puppet.anim.solver.ProcessSolver` or pool), the frames are solved
+    (and maybe drawn) there and this thread only passes them on, adding the seconds each
+    stage took there to ``timings``."""
     def body():
         if remote is not None:
-            for i, item, seconds in remote.results(indices, worker.stop.is_set):
-                timings.add("solve", seconds)
+            for i, item, times in remote.results(indices, worker.stop.is_set):
+                for stage, seconds in times.items():
+                    timings.add(stage, seconds)
                 worker.put(out, (i, item))
         else:
             for i in indices:

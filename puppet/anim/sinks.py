@@ -24,6 +24,7 @@ from __future__ import annotations
 import io
 import math
 import os
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
@@ -89,16 +90,18 @@ def rate(fps: float) -> Fraction:
     return Fraction(fps).limit_denominator(1001)
 
 
-def stream(sink: "Sink", frames, encoders: int = 1, **run) -> int:
+def stream(sink: "Sink", frames, encoders: int = 1, encoded: bool = False, **run) -> int:
     """Feed ``frames`` to ``sink`` on the encoder's thread (:func:`puppet.anim.pipeline.run`,
     ``run`` its options) and finish it; on any failure let go of it (the caller removes
     the temporary). The frames written.
 
     ``encoders`` > 1 (pipelined runs, sinks whose frames encode apart: PNG frames, GIF):
     frames are encoded on that many threads at once (:func:`puppet.anim.pipeline.ahead`)
-    and written in order on the encoder's thread; the bytes are the same."""
-    add = sink.add
-    if encoders > 1 and getattr(sink, "parallel", False) and run.get("threads", True):
+    and written in order on the encoder's thread; the bytes are the same. ``encoded``:
+    the frames are already what :meth:`Sink.write` takes (made by :meth:`Sink.shipper`'s
+    function in the solver processes) and are only written."""
+    add = sink.write if encoded else sink.add
+    if not encoded and encoders > 1 and getattr(sink, "parallel", False) and run.get("threads", True):
         frames, add = pipeline.ahead(frames, sink.encode, encoders, run.get("timings")), sink.write
     try:
         count = pipeline.run(frames, add, **run)
@@ -145,6 +148,81 @@ def stage_bytes(staged: list, path: str, data: bytes, inputs=()) -> None:
     staged.append(Staged(path, write, inputs=inputs, follow=False))
 
 
+@dataclass(frozen=True)
+class PngFile:
+    """A frame -> its PNG file (Up filter, zlib ``level``; RGB frames as opaque RGBA)."""
+
+    level: int
+
+    def __call__(self, rgba: np.ndarray) -> bytes:
+        if rgba.shape[2] == 3:  # RGB frames (puppet video): opaque RGBA
+            rgba = np.concatenate([rgba, np.full(rgba.shape[:2] + (1,), 255, np.uint8)], axis=2)
+        buf = io.BytesIO()
+        write_png(buf, rgba, self.level)
+        return buf.getvalue()
+
+
+@dataclass(frozen=True)
+class GifIndex:
+    """A frame -> its palette indices (``transparent``: pixels under half opacity are index 255)."""
+
+    palette: object
+    transparent: bool
+
+    def __call__(self, rgba: np.ndarray) -> np.ndarray:
+        if self.transparent:
+            index = quantize(np.ascontiguousarray(rgba[..., :3]), self.palette)
+            return np.where(rgba[..., 3] < 128, np.uint8(255), index)
+        return quantize(flatten(rgba), self.palette)
+
+
+#: Pixel formats PyAV turns into one array and back (``to_ndarray``/``from_ndarray``).
+ARRAY_FORMATS = ("yuv420p", "rgba", "rgb24")
+
+
+@dataclass(frozen=True)
+class VideoPixels:
+    """A frame -> the video's pixels: flattened over white without ``alpha``, edges
+    repeated by ``pad`` (rows, columns), converted to ``pix_fmt``. :meth:`frame` gives the
+    ``av.VideoFrame``; called, the array of its planes (the RGB(A) pixels when PyAV
+    cannot make one array of ``pix_fmt``), which :meth:`unship` turns into the same frame."""
+
+    alpha: bool
+    pad: tuple
+    pix_fmt: str
+
+    def pixels(self, rgba: np.ndarray) -> np.ndarray:
+        pixels = np.ascontiguousarray(rgba if self.alpha else flatten(rgba))
+        if any(self.pad):
+            pixels = np.pad(pixels, ((0, self.pad[0]), (0, self.pad[1]), (0, 0)), mode="edge")
+        return pixels
+
+    def converted(self, pixels: np.ndarray):
+        """The ``av.VideoFrame`` of RGB(A) ``pixels`` in ``pix_fmt``."""
+        import av  # lazy: PyAV, only for the video sinks
+
+        frame = av.VideoFrame.from_ndarray(pixels, format="rgba" if self.alpha else "rgb24")
+        if frame.format.name == self.pix_fmt:
+            return frame
+        return frame.reformat(width=frame.width, height=frame.height, format=self.pix_fmt)
+
+    def frame(self, rgba: np.ndarray):
+        return self.converted(self.pixels(rgba))
+
+    def __call__(self, rgba: np.ndarray) -> np.ndarray:
+        if self.pix_fmt not in ARRAY_FORMATS:
+            return self.pixels(rgba)
+        return self.frame(rgba).to_ndarray()
+
+    def unship(self, array: np.ndarray):
+        """The ``av.VideoFrame`` of what :meth:`__call__` gave."""
+        if self.pix_fmt not in ARRAY_FORMATS:
+            return self.converted(array)
+        import av  # lazy: PyAV, only for the video sinks
+
+        return av.VideoFrame.from_ndarray(array, format=self.pix_fmt)
+
+
 class Sink:
     """Base of every sink: counts frames.
 
@@ -165,6 +243,12 @@ class Sink:
         """What :meth:`write` takes for a frame (a parallel sink's thread-safe part)."""
         return rgba
 
+    def shipper(self):
+        """A picklable function ``rgba -> item`` whose item :meth:`write` takes, for
+        another process to encode frames in (:mod:`puppet.anim.solver`), or None
+        (this sink encodes here only)."""
+        return None
+
     def write(self, item) -> None:
         raise NotImplementedError
 
@@ -182,15 +266,14 @@ class DirSink(Sink):
 
     def __init__(self, tmp: str, level: int = DIR_LEVEL):
         super().__init__()
-        self.tmp, self.level, self.write_png = tmp, level, write_png
+        self.tmp, self.level = tmp, level
 
     def encode(self, rgba: np.ndarray) -> bytes:
         """The frame's PNG file."""
-        if rgba.shape[2] == 3:  # RGB frames (puppet video): opaque RGBA
-            rgba = np.concatenate([rgba, np.full(rgba.shape[:2] + (1,), 255, np.uint8)], axis=2)
-        buf = io.BytesIO()
-        self.write_png(buf, rgba, self.level)
-        return buf.getvalue()
+        return self.shipper()(rgba)
+
+    def shipper(self) -> "PngFile":
+        return PngFile(self.level)
 
     def write(self, png: bytes) -> None:
         with open(os.path.join(self.tmp, f"frame_{self.frames:05d}.png"), "wb") as f:
@@ -229,10 +312,10 @@ class GifSink(Sink):
 
     def encode(self, rgba: np.ndarray) -> np.ndarray:
         """The frame's palette indices."""
-        if self.transparent:
-            index = quantize(np.ascontiguousarray(rgba[..., :3]), self.palette)
-            return np.where(rgba[..., 3] < 128, np.uint8(255), index)
-        return quantize(flatten(rgba), self.palette)
+        return self.shipper()(rgba)
+
+    def shipper(self) -> "GifIndex":
+        return GifIndex(self.palette, self.transparent)
 
     def write(self, index: np.ndarray) -> None:
         self.stream.add(index)
@@ -277,17 +360,16 @@ class AVSink(Sink):
         """The frame as the codec takes it (``av.VideoFrame`` in the stream's pixel format):
         the conversion FFmpeg would make inside the encoder, here where several frames
         can be converted at once (the same pixels: tested against PyAV converting)."""
-        import av  # lazy: PyAV, only for the video sinks
+        return self.shipper().frame(rgba)
 
-        pixels = np.ascontiguousarray(rgba if self.alpha else flatten(rgba))
-        if any(self.pad):
-            pixels = np.pad(pixels, ((0, self.pad[0]), (0, self.pad[1]), (0, 0)), mode="edge")
-        frame = av.VideoFrame.from_ndarray(pixels, format="rgba" if self.alpha else "rgb24")
-        if frame.format.name == self.pix_fmt:
-            return frame
-        return frame.reformat(width=frame.width, height=frame.height, format=self.pix_fmt)
+    def shipper(self) -> "VideoPixels":
+        return VideoPixels(self.alpha, self.pad, self.pix_fmt)
 
     def write(self, frame) -> None:
+        """Encode ``frame``: an ``av.VideoFrame`` (:meth:`encode`) or the array a
+        :class:`VideoPixels` made (in a solver process)."""
+        if isinstance(frame, np.ndarray):
+            frame = self.shipper().unship(frame)
         frame.pts = self.frames
         for pkt in self.stream.encode(frame):
             self.box.mux(pkt)

@@ -19,6 +19,15 @@ A :class:`SolverPool` runs several such children (``puppet animate --workers N``
 are independent given the keys, so they are solved side by side and handed on in order,
 with a bounded number in flight; a child that dies stops the export with one line
 (:class:`SolverLost`).
+
+A pool's children can also draw their frames (:meth:`SolverPool.draw`): each composites
+the frame it solved with its own GL context (created on its first frame), exactly as
+the export draws it here, and encodes it with the sink's :class:`Drawing.ship` function
+(a frame's PNG file, its GIF palette indices, its video planes), so that this process
+only writes what comes back, in order. Each child's first drawn frame is compared with
+the frame drawn here, and its encoding with the encoding made here; any difference (or a
+child that cannot draw) turns drawing off in every child, and the export draws here as
+before.
 """
 from __future__ import annotations
 
@@ -30,8 +39,8 @@ from multiprocessing.connection import wait
 
 import numpy as np
 
+from puppet.api import Scene
 from puppet.errors import SceneError
-from puppet.scene.document.core import Document
 from puppet.scene.rig import disk
 from puppet.scene.drag.child import child_setup, messages, start_child, stop_child
 
@@ -46,6 +55,21 @@ def _pack(layers) -> list[dict]:
     return [{f.name: getattr(r, f.name) for f in dataclasses.fields(r) if f.name not in STATIC} for r in layers]
 
 
+@dataclasses.dataclass(frozen=True)
+class Drawing:
+    """How a solver process draws and encodes a frame (sent to it once, pickled): the
+    export's ``draw_layers`` options and ``ship``, a picklable ``rgba -> item`` whose
+    item the sink writes (:meth:`puppet.anim.sinks.Sink.shipper`)."""
+
+    size: tuple | None
+    wireframe: bool
+    background: object
+    ship: Callable
+
+    def composite(self, scene, layers) -> np.ndarray:
+        return scene.draw_layers(layers, size=self.size, wireframe=self.wireframe, background=self.background)
+
+
 def child_main(fd: int) -> None:
     """The child process: ``python -c "...child_main(FD)"`` with one end of a socket pair."""
     conn = child_setup(fd)
@@ -57,21 +81,54 @@ def child_main(fd: int) -> None:
 
 
 def _child(conn, doc: dict, file: str, t0: float, rate: float) -> None:
-    """The child's loop: frame index in, ``("ok", i, packed layers, seconds)`` out."""
+    """The child's loop: frame index in, ``("ok", i, packed layers, {stage: seconds})``
+    out; while drawing, the frame's encoded item instead of its layers. ``("draw",
+    Drawing, i)`` turns drawing on (answered by frame ``i``'s ``(rgba, item)``, or None
+    when it cannot be drawn here: drawing stays off); ``("draw", None, None)`` turns it off."""
     try:
-        scene = Document(doc, file)
+        scene = Scene(doc, file)  # (its compositor, and GL, only once it draws)
         scene.rig.memo.disk = disk.beside(file)  # the parts the parent built, read, not made again
         scene.built  # noqa: B018
         conn.send(("ready",))
-        for i in messages(conn):
+        drawing = None
+        for msg in messages(conn):
+            if isinstance(msg, tuple):
+                drawing = _first_drawn(conn, scene, msg[1], msg[2], t0 + msg[2] / rate) if msg[1] else None
+                continue
             t = time.perf_counter()
-            layers = scene.layers(time=t0 + i / rate)
-            conn.send(("ok", i, _pack(layers), time.perf_counter() - t))
+            layers = scene.layers(time=t0 + msg / rate)
+            times = {"solve": time.perf_counter() - t}
+            conn.send(("ok", msg, _pack(layers) if drawing is None else _drawn(scene, layers, drawing, times), times))
     except BaseException as e:  # noqa: BLE001 - reported to the parent, which raises it
         try:
             conn.send(("error", type(e).__name__, str(e), isinstance(e, SceneError)))
         except (OSError, ValueError):
             pass
+
+
+def _drawn(scene, layers, drawing: Drawing, times: dict):
+    """The frame of ``layers`` drawn and encoded; the seconds each took added to ``times``."""
+    t = time.perf_counter()
+    rgba = drawing.composite(scene, layers)
+    t1 = time.perf_counter()
+    item = drawing.ship(rgba)
+    times.update(composite=t1 - t, encode=time.perf_counter() - t1)
+    return item
+
+
+def _first_drawn(conn, scene, drawing: Drawing, i: int, at: float) -> Drawing | None:
+    """Answer ``("draw", drawing, i)``: send frame ``i`` drawn and encoded, ``(rgba,
+    item)``, and return ``drawing``; or send None and return None when it cannot be
+    drawn here (no GL, a size this GL cannot draw)."""
+    t = time.perf_counter()
+    try:
+        layers = scene.layers(time=at)
+        rgba = drawing.composite(scene, layers)
+        got = (rgba, drawing.ship(rgba))
+    except Exception:  # noqa: BLE001 - the export draws in the parent instead
+        got = drawing = None
+    conn.send(("ok", i, got, {"solve": time.perf_counter() - t}))
+    return drawing
 
 
 def _same(a, b) -> bool:
@@ -100,6 +157,8 @@ class ProcessSolver:
         self.proc = self.conn = None
         self.template = None
         self.sent: list[int] = []  # frames asked for and not yet received, in order
+        self.drawing = False  # the child sends frames drawn and encoded, not layers
+        self.times: dict[str, float] = {}  # the last frame's seconds per stage, there
 
     def start(self, first: int, wait: Callable[[], bool] = lambda: False) -> bool:
         """Start the child and check it solves frame ``first`` exactly as this process
@@ -197,16 +256,32 @@ class ProcessSolver:
             _, name, text, user = msg
             raise SceneError(text) if user else RuntimeError(f"solver process: {name}: {text}")
         self.sent.pop(0)
-        self.seconds = msg[3]
+        self.times = msg[3]
         return msg[2]
 
     def unpack(self, packed: list) -> list:
-        """A frame's layers from what the child sent and the template's static fields."""
+        """A frame's layers from what the child sent and the template's static fields
+        (while drawing: the encoded frame it sent)."""
+        if self.drawing:
+            return packed
         return [dataclasses.replace(r, **d) for r, d in zip(self.template, packed)]
 
-    def results(self, indices: list[int], stop: Callable[[], bool]) -> Iterator[tuple[int, list, float]]:
-        """``(i, layers, solve seconds)`` for each index in order, keeping :data:`WINDOW`
-        frames asked for ahead; ends early when ``stop()`` turns true."""
+    def draw(self, drawing: Drawing | None, first: int | None = None) -> None:
+        """Ask the child to draw its frames with ``drawing`` (its first frame ``first``,
+        answered ``(rgba, item)`` or None; read it with :meth:`take`), or, with None, to
+        send layers again."""
+        self.drawing = False
+        if drawing is not None:
+            self.sent.append(first)
+        try:
+            self.conn.send(("draw", drawing, first))
+        except OSError:
+            raise self._gone() from None
+
+    def results(self, indices: list[int], stop: Callable[[], bool]) -> Iterator[tuple[int, list, dict]]:
+        """``(i, layers, {stage: seconds})`` for each index in order (while drawing, the
+        encoded frame instead of its layers), keeping :data:`WINDOW` frames asked for
+        ahead; ends early when ``stop()`` turns true."""
         sent = 0
         for _ in range(min(WINDOW, len(indices))):
             self.ask(indices[sent])
@@ -218,7 +293,7 @@ class ProcessSolver:
             if sent < len(indices):
                 self.ask(indices[sent])
                 sent += 1
-            yield i, self.unpack(packed), self.seconds
+            yield i, self.unpack(packed), self.times
 
     def close(self) -> None:
         """Stop the child (asked first, then terminated) and wait for it."""
@@ -245,6 +320,7 @@ class SolverPool:
     def __init__(self, scene, t0: float, rate: float, n: int):
         self.solvers = [ProcessSolver(scene, t0, rate) for _ in range(n)]
         self.scene, self.t0, self.rate = scene, t0, rate
+        self.first, self.template = None, None  # the frame each child was checked on, solved here
         self.held = 0  # most frames asked for and not yet handed on, seen (for tests)
 
     def start(self, first: int, wait: Callable[[], bool] = lambda: False) -> bool:
@@ -255,6 +331,7 @@ class SolverPool:
                 self.close()
                 return False
             template = self.scene.layers(time=self.t0 + first / self.rate)  # (meanwhile the children start)
+            self.first, self.template = first, template
             if not all(s.check(first, template, wait) for s in self.solvers):
                 self.close()
                 return False
@@ -263,11 +340,30 @@ class SolverPool:
             raise
         return True
 
-    def results(self, indices: list[int], stop: Callable[[], bool]) -> Iterator[tuple[int, list, float]]:
-        """``(i, layers, solve seconds)`` for each index in order; ends early when
-        ``stop()`` turns true."""
+    def draw(self, drawing: Drawing, composite: Callable[[list], np.ndarray],
+             wait: Callable[[], bool] = lambda: False) -> bool:
+        """Have every child draw and encode its frames with ``drawing`` (:meth:`results`
+        then gives encoded frames) when each draws the frame it was checked on as
+        ``composite(template)`` draws it here (meanwhile) and encodes it as
+        ``drawing.ship`` does here; False (every child sending layers, as before) otherwise."""
+        for s in self.solvers:  # all at once: they draw side by side, and while this process does
+            s.draw(drawing, self.first)
+        rgba = composite(self.template)
+        want = drawing.ship(rgba)
+        got = [s._receive(wait) for s in self.solvers]
+        if all(g is not None and _same(g[0], rgba) and _same(g[1], want) for g in got):
+            for s in self.solvers:
+                s.drawing = True
+            return True
+        for s in self.solvers:
+            s.draw(None)
+        return False
+
+    def results(self, indices: list[int], stop: Callable[[], bool]) -> Iterator[tuple[int, list, dict]]:
+        """``(i, layers, {stage: seconds})`` for each index in order (while drawing, the
+        encoded frame instead of its layers); ends early when ``stop()`` turns true."""
         solvers, limit = self.solvers, WINDOW * len(self.solvers)
-        done: dict[int, tuple] = {}  # position in indices -> (solver, packed, seconds)
+        done: dict[int, tuple] = {}  # position in indices -> (solver, packed, {stage: seconds})
         owner: list[ProcessSolver] = []  # position -> the solver asked
         for pos in range(len(indices)):
             while len(owner) < len(indices) and len(owner) - pos < limit:  # ask ahead
@@ -280,8 +376,8 @@ class SolverPool:
             while pos not in done:
                 if not self._collect(owner, done, pos, stop):
                     return
-            s, packed, seconds = done.pop(pos)
-            yield indices[pos], s.unpack(packed), seconds
+            s, packed, times = done.pop(pos)
+            yield indices[pos], s.unpack(packed), times
 
     def _collect(self, owner: list, done: dict, pos: int, stop: Callable[[], bool]) -> bool:
         """Read what the children have sent into ``done`` (waiting at most 50 ms); False
@@ -300,7 +396,7 @@ class SolverPool:
                 at = self._position(owner, s, pos, done)
                 packed = s.take()
                 if packed is not _READY:
-                    done[at] = (s, packed, s.seconds)
+                    done[at] = (s, packed, s.times)
         return True
 
     @staticmethod

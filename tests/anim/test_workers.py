@@ -5,6 +5,7 @@ process that dies stops the export with one line, nothing written and no process
 frames in flight stay bounded."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -16,7 +17,7 @@ from PIL import Image
 
 import puppet
 from puppet.anim import export, options, pipeline, sinks, solver
-from puppet.anim.solver import WINDOW, SolverLost, SolverPool
+from puppet.anim.solver import WINDOW, Drawing, SolverLost, SolverPool
 from puppet.cli import main
 from puppet.errors import SceneError
 from tests.cli.outputs_helpers import make_bar
@@ -64,6 +65,35 @@ def gif_frames(path) -> list[np.ndarray]:
 def cap(monkeypatch):
     """The machine runs up to 8 worker processes (so that 3 are started on 2 cores)."""
     monkeypatch.setattr(export, "worker_cap", lambda: (8, 8, 8 << 30))
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """What each SolverPool.draw answered (True: the solver processes draw and encode)."""
+    said = []
+    real = SolverPool.draw
+
+    def spy(self, *a, **k):
+        said.append(real(self, *a, **k))
+        return said[-1]
+    monkeypatch.setattr(SolverPool, "draw", spy)
+    return said
+
+
+@dataclasses.dataclass(frozen=True)
+class ShipsOtherwiseThere(sinks.PngFile):
+    """A PNG folder's frame encoder that, in any process but ``parent`` (a solver process
+    that unpickled it), encodes otherwise (``how``: "differs") or cannot (``"raises"``)."""
+
+    parent: int = 0
+    how: str = "differs"
+
+    def __call__(self, rgba):
+        if os.getpid() == self.parent:
+            return super().__call__(rgba)
+        if self.how == "raises":
+            raise RuntimeError("no encoder here")
+        return super().__call__(rgba[::-1].copy())
 
 
 @pytest.fixture
@@ -122,23 +152,31 @@ def test_pool_solves_every_frame_as_this_process_in_order(tmp_path, children):
         pool.close()
     assert len(children) == 3 and all(gone(p) for p in children)
     assert [i for i, _, _ in got] == order
-    for i, layers, seconds in got:
+    for i, layers, times in got:
         want = scene.layers(time=i / rate)
-        assert seconds > 0 and len(layers) == len(want) == 8
+        assert set(times) == {"solve"} and times["solve"] > 0 and len(layers) == len(want) == 8
         assert all(same(a, b) for a, b in zip(layers, want)), i
     assert not same(got[0][1][1], got[2][1][1])  # frames 5 and 29 differ: the check can fail
 
 
 @pytest.mark.slow
-def test_frames_in_flight_stay_bounded(tmp_path):
+@pytest.mark.parametrize("draw", [False, pytest.param(True, marks=pytest.mark.gl)])
+def test_frames_in_flight_stay_bounded(tmp_path, draw):
     """200 frames through 2 processes read slowly at first: at most 2 x WINDOW frames are
-    ever asked for and not handed on."""
+    ever asked for and not handed on; also while the processes draw and encode them (PNG
+    files, each that frame drawn and encoded here)."""
     scene = puppet.load_scene(make_bar(tmp_path / "s", seconds=20.0))
     pool = SolverPool(scene, 0.0, 10.0, 2)
     assert pool.start(0)
+    drawing = Drawing((64, 48), False, scene.background(), sinks.PngFile(1))
     try:
+        if draw:
+            assert pool.draw(drawing, lambda layers: drawing.composite(scene, layers))
         seen = []
-        for k, (i, _, _) in enumerate(pool.results(list(range(200)), lambda: False)):
+        for k, (i, item, times) in enumerate(pool.results(list(range(200)), lambda: False)):
+            if draw and k % 50 == 7:
+                assert item == drawing.ship(drawing.composite(scene, scene.layers(time=i / 10.0)))
+                assert set(times) == {"solve", "composite", "encode"}
             seen.append(i)
             if k < 5:
                 time.sleep(0.2)  # the children finish what they were asked for meanwhile
@@ -171,22 +209,72 @@ def test_a_child_killed_between_frames_is_one_solver_lost(tmp_path, children):
 
 @pytest.mark.gl
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["f/", "a.gif", "a.mp4"])
-def test_workers_2_and_3_write_what_one_solver_writes(tmp_path, cap, children, name):
-    """PNG frames and the GIF byte for byte, the MP4 file byte for byte, on the T-rex with
-    a key every 0.1 s: one solver on a thread, then 2 and 3 processes (and encoders)."""
+@pytest.mark.parametrize("name", ["f/", "a.gif", "a.mp4", "a.apng"])
+def test_workers_2_and_3_write_what_one_solver_writes(tmp_path, cap, children, drawn, name):
+    """PNG frames and the GIF byte for byte, the MP4 and APNG files byte for byte, on the
+    T-rex with a key every 0.1 s: one solver on a thread (drawn and encoded here), then 2
+    and 3 processes that draw and encode the frames themselves; the solve stages' seconds
+    counted."""
     scene = puppet.load_scene(trex_keys(tmp_path / "s", frames=40))
     outs = []
     for w in (1, 2, 3):
         (tmp_path / str(w)).mkdir()
         out = os.path.join(tmp_path, str(w), name)
-        assert export.animate_to(scene, out, size=(160, 90), workers=w) == 40
+        tm = pipeline.Timings()
+        assert export.animate_to(scene, out, size=(160, 90), workers=w, timings=tm) == 40
+        assert tm["solve"] > 0 and tm["composite"] > 0 and tm["encode"] > 0
         outs.append(files(out) if name.endswith("/") else [open(out, "rb").read()])
     assert len(children) == 5 and all(gone(p) for p in children)  # none for 1, then 2 + 3
+    assert drawn == [True, True]  # the processes drew
     assert outs[0] == outs[1] == outs[2]
     if name == "a.gif":
         frames = gif_frames(os.path.join(tmp_path, "1", name))
         assert len(frames) > 10 and not all(np.array_equal(frames[0], f) for f in frames)
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+@pytest.mark.parametrize("how", ["differs", "raises"])
+def test_processes_that_draw_otherwise_leave_the_drawing_here(tmp_path, cap, children, drawn, monkeypatch, how):
+    """Solver processes whose first frame is encoded otherwise than here (or cannot be):
+    drawing stays here, they only solve, and the PNG frames are those of one solver."""
+    scene = puppet.load_scene(trex_keys(tmp_path / "s", frames=24))
+    one = str(tmp_path / "one") + "/"
+    assert export.animate_to(scene, one, size=(96, 54), workers=1) == 24
+    monkeypatch.setattr(sinks.DirSink, "shipper", lambda self: ShipsOtherwiseThere(self.level, os.getpid(), how))
+    two = str(tmp_path / "two") + "/"
+    assert export.animate_to(scene, two, size=(96, 54), workers=2) == 24
+    assert drawn == [False] and len(children) == 2 and all(gone(p) for p in children)
+    assert files(one) == files(two)
+
+
+def test_what_a_sink_ships_is_written_as_its_own_frames(tmp_path):
+    """Each parallel sink writes, byte for byte, the same file from the items its
+    shipper made (pickled there and back, as from a solver process) as from frames it
+    encodes itself: PNG folder, GIF, MP4 (odd size: padded), WebM (packets), APNG."""
+    import pickle
+
+    rng = np.random.default_rng(9)
+    frames = [rng.integers(0, 256, (31, 45, 4), dtype=np.uint8) for _ in range(6)]
+    frames[2][..., 3] = 255
+    palette = sinks.gif_palette(lambda i: frames[i], len(frames), True)[0]
+    makers = {"dir": lambda p: (os.mkdir(p), sinks.DirSink(p))[1],
+              "gif": lambda p: sinks.GifSink(open(p, "wb"), (45, 31), 12.0, palette, True),
+              **{k: (lambda p, k=k: getattr(sinks, f"{k}_sink")(p, (45, 31), 12.0)) for k in ("mp4", "webm", "apng")}}
+    for kind, make in makers.items():
+        got = []
+        for way in ("here", "there"):
+            path = str(tmp_path / f"{way}.{kind}")
+            sink = make(path)
+            ship = pickle.loads(pickle.dumps(sink.shipper()))
+            for f in frames:
+                sink.write(sink.encode(f) if way == "here" else pickle.loads(pickle.dumps(ship(f))))
+            sink.close()
+            if kind == "gif":
+                sink.stream.fp.close()
+            got.append(files(path) if kind == "dir" else _payload(kind, open(path, "rb").read(), path, len(frames)))
+        assert got[0] == got[1], kind
+    assert sinks.mp4_sink(str(tmp_path / "x.mp4"), (45, 31), 12.0).shipper()(frames[0]).shape == (48, 46)  # YUV 4:2:0
 
 
 @pytest.mark.gl
@@ -202,7 +290,7 @@ def test_cli_workers_writes_the_same_frames(tmp_path, cap):
 @pytest.mark.gl
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["f/", "a.mp4"])
-def test_a_solver_process_that_dies_stops_the_export(tmp_path, cap, children, name):
+def test_a_solver_process_that_dies_stops_the_export(tmp_path, cap, children, drawn, name):
     """A child killed mid-export: one SceneError naming it, no output, no temporary left,
     every child ended and waited for."""
     scene = puppet.load_scene(trex_keys(tmp_path / "s", frames=60))
@@ -214,6 +302,7 @@ def test_a_solver_process_that_dies_stops_the_export(tmp_path, cap, children, na
             os.kill(children[1].pid, signal.SIGKILL)
     with pytest.raises(SolverLost) as e:
         export.animate_to(scene, out, size=(96, 54), workers=2, progress=kill)
+    assert drawn == [True]  # killed while drawing and encoding
     assert "solver process was killed by signal 9" in str(e.value) and "\n" not in str(e.value)
     assert os.listdir(os.path.dirname(out)) == []
     assert len(children) == 2 and all(gone(p) for p in children)
@@ -391,7 +480,7 @@ def test_video_sinks_write_what_pyav_converting_wrote(tmp_path, kind):
         assert _payload(kind, out.read_bytes(), out) == want, n
 
 
-def _payload(kind, data: bytes, path):
+def _payload(kind, data: bytes, path, frames: int = 9):
     """The file's bytes; for WebM (whose Matroska header holds a random segment UID) the
     bytes of every packet of its video stream."""
     if kind != "webm":
@@ -400,7 +489,7 @@ def _payload(kind, data: bytes, path):
 
     with av.open(str(path)) as box:
         packets = [bytes(p) for p in box.demux(box.streams.video[0]) if p.size]
-    assert len(packets) == 9
+    assert len(packets) == frames
     return packets
 
 
