@@ -192,7 +192,7 @@ class ProcessSolver:
         self.template = template
         try:
             self.ask(first)
-            there = self._receive(wait)
+            there = self.receive(wait)
         except (SceneError, RuntimeError, OSError):
             self.close()
             return False
@@ -214,7 +214,7 @@ class ProcessSolver:
         """The child has ended and nothing more is waiting to be read from it."""
         return self.proc.poll() is not None and not self.conn.poll()
 
-    def _receive(self, stop: Callable[[], bool]):
+    def receive(self, stop: Callable[[], bool]):
         """The next result's packed layers (None when ``stop()`` turned true while waiting)."""
         while True:
             while not self.conn.poll(0.05):
@@ -287,7 +287,7 @@ class ProcessSolver:
             self.ask(indices[sent])
             sent += 1
         for i in indices:
-            packed = self._receive(stop)
+            packed = self.receive(stop)
             if packed is None:
                 return
             if sent < len(indices):
@@ -350,7 +350,7 @@ class SolverPool:
             s.draw(drawing, self.first)
         rgba = composite(self.template)
         want = drawing.ship(rgba)
-        got = [s._receive(wait) for s in self.solvers]
+        got = [s.receive(wait) for s in self.solvers]
         if all(g is not None and _same(g[0], rgba) and _same(g[1], want) for g in got):
             for s in self.solvers:
                 s.drawing = True
