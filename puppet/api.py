@@ -7,7 +7,6 @@ import dataclasses
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.render.layers import DrawLayer
 from puppet.scene.document.core import Document, PoseLike
 from puppet.scene.drag.session import DragSession, drag_solver, drag_targets
 from puppet.scene.format import args as ck
@@ -84,6 +83,8 @@ class Scene(Document):
         big pictures: far fewer texels to sample; the frame is not exact). ``preview`` blends
         the soft edges unsorted (a drag preview: one cheap pass, not exact; see
         :meth:`~puppet.render.compositor.Compositor.render`)."""
+        from puppet.render.layers import DrawLayer  # lazy: drawing only (mesh and check draw nothing)
+
         draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
                           triangles=r.triangles, depth=r.depth)
                 for r, im in zip(layers, self.built.images)]

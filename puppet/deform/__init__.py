@@ -1,14 +1,17 @@
 """Deformers: numpy in, numpy out (no GL, no scene objects)."""
-from puppet.deform.anderson import AndersonInfo, arap_solve_anderson
-from puppet.deform.arap import ArapData, arap_energy, arap_precompute, arap_solve
-from puppet.deform.boundary import exterior_frame, exterior_positions, fine_deform
-from puppet.deform.depth import depth_field
-from puppet.deform.igarashi import IgarashiData, igarashi_precompute, igarashi_solve
-from puppet.deform.mls import mls_deform, mls_from_weights, mls_object_space
-from puppet.deform.mls_lines import mls_deform_lines
-from puppet.deform.relax import folded_triangles, relax_foldovers
-from puppet.deform.rotate import arap_solve_rotated, rotation_initial_guess
-from puppet.deform.skeleton import SkeletonData, mls_skeleton, skeleton_precompute, skeleton_solve
+import importlib
+
+_WHERE = {  # name -> submodule
+    "AndersonInfo": "anderson", "arap_solve_anderson": "anderson", "ArapData": "arap",
+    "arap_energy": "arap", "arap_precompute": "arap", "arap_solve": "arap",
+    "exterior_frame": "boundary", "exterior_positions": "boundary", "fine_deform": "boundary",
+    "depth_field": "depth", "IgarashiData": "igarashi", "igarashi_precompute": "igarashi",
+    "igarashi_solve": "igarashi", "mls_deform": "mls", "mls_from_weights": "mls",
+    "mls_object_space": "mls", "mls_deform_lines": "mls_lines", "folded_triangles": "relax",
+    "relax_foldovers": "relax", "arap_solve_rotated": "rotate", "rotation_initial_guess": "rotate",
+    "SkeletonData": "skeleton", "mls_skeleton": "skeleton", "skeleton_precompute": "skeleton",
+    "skeleton_solve": "skeleton",
+}
 
 __all__ = [
     "ArapData", "arap_precompute", "arap_solve", "arap_energy",
@@ -21,3 +24,16 @@ __all__ = [
     "exterior_frame", "exterior_positions", "fine_deform",
     "depth_field",
 ]
+
+
+def __getattr__(name: str):
+    # lazy: a command imports only the deformers its scene uses (each costs its share of the start)
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f"{__name__}.{_WHERE[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

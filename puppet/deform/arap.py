@@ -29,7 +29,6 @@ from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import csgraph
 
 from puppet.deform import factor
 from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
@@ -305,6 +304,8 @@ def arap_precompute(V, F, b, *, weights: str = "cotangent", alpha: float = 1.0,
 
 def _free_vertices(W, b):
     """free, held (components without a pin) and the maps vertex -> free / pin index."""
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     n = W.shape[0]
     graph = sp.csr_matrix((np.ones(len(W.indices)), W.indices, W.indptr), shape=(n, n))
     ncomp, labels = csgraph.connected_components(graph, directed=False)
@@ -323,6 +324,8 @@ def _free_vertices(W, b):
 
 def _arap_data(V, F, b, weights, alpha, W, P, L, free, held, fmap, bmap) -> ArapData:
     """Operators, edge lists and geodesic distances (while the factorisation runs)."""
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     n, nf, k = len(V), len(free), len(b)
     z = V[:, 0] + 1j * V[:, 1]
     e = z[P.wrows] - z[W.indices]  # e_ij = v_i - v_j on W's entries

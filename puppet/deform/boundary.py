@@ -53,7 +53,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy.sparse import csgraph
 
 from puppet.deform.mls import KINDS, inverse_distance_weights, mls_from_weights
 from puppet.deform.threads import blas_capped
@@ -304,6 +303,8 @@ def fine_deform(
         ``ext_target == ext_rest`` returns ``V_rest`` unchanged. Large inward drags
         can fold triangles near the dragged point (relax them afterwards).
     """
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     V, F, p, q = _check_fine(V_rest, F, ext_rest, ext_target, mode, distance, kind)
     U = V.copy()
     if len(p) == 0 or np.array_equal(p, q) or len(F) == 0:
@@ -360,6 +361,8 @@ def _controls(V, F, p, q, pins, front, falloff, mode, segments, line_spacing):
 def _band(V, F, G, b_anchor, falloff):
     """Free vertices (within ``falloff`` of the boundary, not pins), the pins, and the
     deep vertices that share an edge with the band (the anchor front)."""
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     depth = csgraph.dijkstra(G, indices=np.unique(boundary_edges(F)), min_only=True)
     held = np.zeros(len(V), bool)
     held[np.asarray(b_anchor, np.int64).reshape(-1)] = True
@@ -372,6 +375,8 @@ def _band(V, F, G, b_anchor, falloff):
 
 def _control_distances(V, G, cp, anchors, free, distance):
     """(k, n_free) distances from the controls (anchors last) to the free vertices."""
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     if distance == "euclidean":
         return np.hypot(cp[:, 0, None] - V[None, free, 0], cp[:, 1, None] - V[None, free, 1])
     kc = len(cp) - len(anchors)

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components as graph_components
 
 from puppet.deform.factor import factorize
 from puppet.geom.geodesic import connected_components
@@ -194,6 +193,9 @@ def interp_precompute(V, F, fixed=(), *, solver: str = "qdldl", couple=None) -> 
 
 def _with_springs(K, F, pairs, kappa):
     """K plus the springs' Laplacian, and the components of the mesh joined by them."""
+    # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+    from scipy.sparse.csgraph import connected_components as graph_components
+
     n = K.shape[0]
     S = spring_weights(n, pairs, kappa)
     edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]], np.asarray(pairs, np.int64).reshape(-1, 2)])

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import csgraph
 
 from puppet.deform import budget as cost
 from puppet.deform.arap import ArapData
@@ -276,6 +275,8 @@ def _similarity_rounds(data: ArapData, U, bc, bad, rings, s_min, s_max, iteratio
 
 def _hops(data: ArapData, bad, limit: int) -> np.ndarray:
     """Rings (edge hops) from the folded triangles' vertices, ``inf`` beyond ``limit``."""
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     W = data.W
     G = sp.csr_matrix((np.ones(len(W.indices)), W.indices, W.indptr), shape=W.shape)
     seed = np.unique(data.F[bad])

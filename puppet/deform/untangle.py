@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from puppet.deform import budget as cost
 from puppet.deform.budget import Budget
@@ -238,6 +237,8 @@ class _Solver:
                 return p
         except (ImportError, ValueError, RuntimeError, TypeError):
             self._q = None
+        import scipy.sparse.linalg as spla  # lazy: the fallback only; it loads scipy.linalg
+
         full = A + sp.triu(A, 1, format="csc").T
         return spla.spsolve(full.tocsc(), g)
 

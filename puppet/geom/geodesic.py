@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import csgraph
 
 from puppet.geom.mesh import check_faces, edges
 
@@ -57,6 +56,8 @@ def geodesic_distances(V: np.ndarray, F: np.ndarray, sources) -> np.ndarray:
         ``D[s, v]`` = length of the shortest edge path from ``sources[s]`` to ``v``;
         ``0`` at the source itself, ``inf`` where ``v`` is not reachable.
     """
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     V = np.asarray(V, dtype=np.float64)
     n = V.shape[0]
     src = np.asarray(sources, dtype=np.int64).reshape(-1)
@@ -86,6 +87,8 @@ def connected_components(n: int, F: np.ndarray) -> tuple[int, np.ndarray]:
     labels : (n,) int
         Component index of every vertex, in ``0 .. ncomp-1``.
     """
+    from scipy.sparse import csgraph  # lazy: csgraph loads scipy.linalg, 0.1 s of each start
+
     E = edges(check_faces(F, n))
     A = sp.csr_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
     ncomp, labels = csgraph.connected_components(A, directed=False)

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from puppet.imaging.grabcut import grabcut
 
 
 def has_transparency(rgba: np.ndarray) -> bool:
@@ -167,6 +166,8 @@ def rect_mask(shape: tuple[int, int], rect, offset=(0.0, 0.0)) -> np.ndarray:
 def grabcut_mask(rgba: np.ndarray, rect, offset=(0.0, 0.0), iterations: int = 5) -> np.ndarray:
     """Foreground of a photo inside ``[x, y, w, h]`` by GrabCut, with bounded work on any
     picture and any rectangle (:func:`puppet.imaging.grabcut.grabcut`)."""
+    from puppet.imaging.grabcut import grabcut  # lazy: scenes masked by GrabCut only
+
     x0 = int(round(rect[0] - offset[0]))
     y0 = int(round(rect[1] - offset[1]))
     rw, rh = int(round(rect[2])), int(round(rect[3]))

@@ -37,7 +37,6 @@ from puppet.scene.rig.cache import file_stamp, fingerprint
 from puppet.scene.rig.core import Built, LayerResult, Rig
 from puppet.scene.time import evaluate as ev
 from puppet.scene.time import timeline
-from puppet.scene.time.inbetween import layers_at
 from puppet.scene.time.tracks import Tracks, build_tracks, state_at
 
 PoseLike = str | dict | None
@@ -272,6 +271,8 @@ class Document(Edits, KeyEdits, DeformEdits):
         """Deformed meshes and depths of every layer in a pose or at a time (the
         animation's in-between: see :mod:`puppet.scene.time.inbetween`)."""
         if time is not None and pose is None:
+            from puppet.scene.time.inbetween import layers_at  # lazy: in-betweens (and their solver) for times only
+
             time = self._check_time(time)
             return layers_at(self.rig, self.built, self.tracks(), time)
         return self.rig.evaluate(self.built, self.state(pose, time))

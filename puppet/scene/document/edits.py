@@ -17,7 +17,6 @@ from puppet.errors import SceneError
 from puppet.imaging.io import load_rgba
 from puppet.scene.document.files import mask_rgba
 from puppet.scene.document.history import Event
-from puppet.scene.document.split import split_layer
 from puppet.scene.format import args as ck
 from puppet.scene.format.extensions import underlay_json
 from puppet.scene.format.load import EXTERIOR_NAME
@@ -243,6 +242,8 @@ class Edits:
         ``region`` (a polygon, list of [x, y] canvas points, or an (H, W) bool mask of the
         canvas) become a new layer ``name`` in front of it; a cut takes them out of
         ``layer``, refilling it where the part covered its body (:mod:`puppet.scene.document.split`)."""
+        from puppet.scene.document.split import split_layer  # lazy: the split and its inpainting, for this edit only
+
         with self.pending.staged():  # a refused split leaves none of its PNGs behind
             return split_layer(self, layer, region, name, cut)
 

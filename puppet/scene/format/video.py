@@ -15,14 +15,17 @@ picture; ``puppet video`` re-poses every frame (:mod:`puppet.video`).
 """
 from __future__ import annotations
 
-from puppet.imaging.frames import FrameSource, is_video
 from puppet.scene.format.schema import Ctx, expect_number, expect_object, join
 
 
 def parse_video(c: Ctx, raw: dict, source: str | None, canvas) -> dict | None:
     """The validated ``video`` settings ``{"start", "fps", "size", "count"}``, or None for a
     still scene. The source is opened and probed here (an unreadable video fails now)."""
-    if "video" not in raw and (source is None or not is_video(source)):
+    if "video" not in raw and source is None:
+        return None
+    from puppet.imaging.frames import FrameSource, is_video  # lazy: scenes with a source picture or clip only
+
+    if "video" not in raw and not is_video(source):
         return None
     v = expect_object(c, raw.get("video", {}), "video", optional=("start", "fps"))
     if source is None:
@@ -41,5 +44,7 @@ def parse_video(c: Ctx, raw: dict, source: str | None, canvas) -> dict | None:
 
 def start_frame(data):
     """The start frame of a video scene's source (its template picture): (H, W, 4) uint8."""
+    from puppet.imaging.frames import FrameSource  # lazy: video scenes only
+
     v = data.video
     return FrameSource(data.source, scene_file=data.file, json_path="source", fps=v["fps"]).frame(v["start"])

@@ -10,7 +10,6 @@ import numpy as np
 from puppet.deform.boundary import ExteriorFrame, exterior_frame
 from puppet.errors import SceneError
 from puppet.geom.contour import mask_regions, ring_area
-from puppet.geom.curvature import curvature_maxima
 from puppet.scene.format.load import EXTERIOR_NAME
 
 
@@ -27,6 +26,8 @@ class GroupExterior:
 def auto_points(mask: np.ndarray, offset, beta: float) -> np.ndarray:
     """Curvature-maxima points of every outer contour, largest component first, each in
     contour order from its topmost point. (j, 2) canvas coordinates."""
+    from puppet.geom.curvature import curvature_maxima  # lazy: scenes with automatic exterior points only
+
     regions = sorted(mask_regions(mask, offset, grow=0), key=lambda r: -abs(ring_area(r.outer)))
     pts = []
     for reg in regions:

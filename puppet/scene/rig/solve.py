@@ -12,17 +12,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.deform.anderson import arap_solve_anderson
 from puppet.deform.arap import arap_precompute, arap_solve
 from puppet.deform.boundary import exterior_positions, fine_deform
 from puppet.deform.depth import depth_field
 from puppet.deform.hinge import HingeWeights, hinge_guess, hinge_weights
-from puppet.deform.igarashi import igarashi_precompute, igarashi_solve
 from puppet.deform.mls import DistanceWeights, distance_weights, mls_object_space
 from puppet.deform.modes import SCALE_SPAN, apply_similarity, mode_mix, similarity_fit, stiffness_from_grey
 from puppet.deform.relax import relax_foldovers
-from puppet.deform.rotate import arap_solve_rotated, mode_solve_rotated
-from puppet.deform.skeleton import skeleton_precompute, skeleton_solve
 from puppet.geom.geodesic import geodesic_distances
 from puppet.scene.format.model import Deformer
 from puppet.scene.rig.build import Group
@@ -102,7 +98,11 @@ def precompute_group(g: Group, deformer: Deformer, bones: np.ndarray, cells=None
         DH = geodesic_distances(V, F, H).reshape(-1, 2, len(V)) if len(H) else None
         return GroupPre(D=a.D, arap=a, prefit=mix is not None and all(m == "similar" for m in modes), DH=DH)
     if deformer.method == "igarashi":
+        from puppet.deform.igarashi import igarashi_precompute  # lazy: only scenes of this method load it
+
         return GroupPre(D=geodesic_distances(V, F, b), igarashi=igarashi_precompute(V, F, b))
+    from puppet.deform.skeleton import skeleton_precompute  # lazy: only scenes of this method load it
+
     sk = skeleton_precompute(V, F, b, bones)
     return GroupPre(D=sk.D, skeleton=sk)
 
@@ -117,11 +117,8 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
     if len(g.pins) == 0:
         U = V.copy()
     elif deformer.method == "arap":
-        if np.any(pose.angle != 0) and pre.arap.mix is not None:
-            U = mode_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations,
-                                   scale=scale_bounds(pre, g, bc))
-        elif np.any(pose.angle != 0):
-            U = arap_solve_rotated(pre.arap, bc, pose.angle, iterations=deformer.iterations)
+        if np.any(pose.angle != 0):
+            U = _rotated_pose(pre, g, deformer, bc, pose.angle)
         else:
             U = _arap_pose(pre, g, deformer, bc, warm)
         if deformer.relax_foldovers:
@@ -131,10 +128,23 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
                              weights=pre.weights(deformer.alpha))
         U[pre.arap.held] = V[pre.arap.held]
     elif deformer.method == "igarashi":
+        from puppet.deform.igarashi import igarashi_solve  # lazy: only scenes of this method load it
+
         U = igarashi_solve(pre.igarashi, bc)
     else:
+        from puppet.deform.skeleton import skeleton_solve  # lazy: only scenes of this method load it
+
         U = skeleton_solve(pre.skeleton, bc)
     return _finish(pre, g, deformer, ext, pose, U)
+
+
+def _rotated_pose(pre: GroupPre, g: Group, deformer: Deformer, bc, angle) -> np.ndarray:
+    """ARAP with pin angles (cells with modes: the rotated mode solve)."""
+    from puppet.deform.rotate import arap_solve_rotated, mode_solve_rotated  # lazy: pins with an angle only
+
+    if pre.arap.mix is not None:
+        return mode_solve_rotated(pre.arap, bc, angle, iterations=deformer.iterations, scale=scale_bounds(pre, g, bc))
+    return arap_solve_rotated(pre.arap, bc, angle, iterations=deformer.iterations)
 
 
 def _arap_pose(pre: GroupPre, g: Group, deformer: Deformer, bc, warm) -> np.ndarray:
@@ -146,6 +156,8 @@ def _arap_pose(pre: GroupPre, g: Group, deformer: Deformer, bc, warm) -> np.ndar
     else:
         U0 = initial_guess(pre, g, bc, deformer.alpha) if deformer.init == "mls" else g.mesh.V
     if accelerate:
+        from puppet.deform.anderson import arap_solve_anderson  # lazy: scenes that opt in only
+
         return arap_solve_anderson(pre.arap, bc, iterations=deformer.iterations, tolerance=deformer.tolerance,
                                    U0=U0)[0]
     return arap_solve(pre.arap, bc, iterations=deformer.iterations, U0=U0, scale=scale_bounds(pre, g, bc))
