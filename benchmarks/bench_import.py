@@ -25,13 +25,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 
-def make_psd(path: str, size: int, layers: int) -> None:
-    from PIL import Image
-    from psd_tools import PSDImage
-
+def psd_parts(size: int, layers: int):
+    """(index, RGBA (h, w, 4) uint8, x, y) of each part :func:`make_psd` draws (seeded)."""
     rng = np.random.default_rng(1)
-    psd = PSDImage.new("RGBA", (size, size), color=(0, 0, 0, 0))
-    group = None
     for i in range(layers):
         w, h = int(size * rng.uniform(0.2, 0.3)), int(size * rng.uniform(0.3, 0.4))
         yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
@@ -42,6 +38,16 @@ def make_psd(path: str, size: int, layers: int) -> None:
             a[..., c] = np.clip(base[c] + 40 * (yy / h - 0.5) + 8 * np.sin(xx / 9.0 + c), 0, 255)
         a[..., 3] = np.clip((1 - r) * 60, 0, 1) * 255
         x, y = int(rng.uniform(0, size - w)), int(rng.uniform(0, size - h))
+        yield i, a, x, y
+
+
+def make_psd(path: str, size: int, layers: int) -> None:
+    from PIL import Image
+    from psd_tools import PSDImage
+
+    psd = PSDImage.new("RGBA", (size, size), color=(0, 0, 0, 0))
+    group = None
+    for i, a, x, y in psd_parts(size, layers):
         parent = psd
         if i in (8, 9):
             group = group or psd.create_group(name="legs")

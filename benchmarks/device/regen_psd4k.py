@@ -1,21 +1,16 @@
 """Re-make the 4K PSD scene's layer PNGs (bench_import.make_psd's pixels, cropped as init cropped them):
     python3 benchmarks/device/regen_psd4k.py FOLDER   (FOLDER holds s.json and shapes.json)"""
-import json, os, sys, numpy as np
+import json
+import os
+import sys
+
 from PIL import Image
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+from benchmarks.bench_import import psd_parts  # noqa: E402
+
 d = os.path.abspath(sys.argv[1])
-rng = np.random.default_rng(1)
-size, parts = 4000, {}
-for i in range(20):
-    w, h = int(size * rng.uniform(0.2, 0.3)), int(size * rng.uniform(0.3, 0.4))
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-    r = ((xx - w / 2) / (w / 2)) ** 2 + ((yy - h / 2) / (h / 2)) ** 2
-    a = np.zeros((h, w, 4), np.uint8)
-    base = rng.integers(40, 215, 3)
-    for c in range(3):
-        a[..., c] = np.clip(base[c] + 40 * (yy / h - 0.5) + 8 * np.sin(xx / 9.0 + c), 0, 255)
-    a[..., 3] = np.clip((1 - r) * 60, 0, 1) * 255
-    x, y = int(rng.uniform(0, size - w)), int(rng.uniform(0, size - h))
-    parts[f"part{i}"] = (a, x, y)
+parts = {f"part{i}": (a, x, y) for i, a, x, y in psd_parts(4000, 20)}
 scene = json.load(open(os.path.join(d, "s.json")))
 shapes = json.load(open(os.path.join(d, "shapes.json")))
 os.makedirs(os.path.join(d, "s-layers"), exist_ok=True)
