@@ -26,6 +26,7 @@ class Panels:
         self.pin_name = ""
         self.underlay_path = ""
         self._auto_area: dict[str, float] = {}
+        self._sizes: dict[str, tuple[int, int]] = {}  # layer -> (vertices, triangles) of its exact mesh
         self._had_underlay = False
 
     def draw(self) -> None:
@@ -75,7 +76,10 @@ class Panels:
             imgui.image(*self.thumbs.ref(snap.image_keys[k], im.rgba))
             imgui.same_line()
             r = snap.layers[k]
-            clicked, _ = imgui.selectable(f"{name}\n{len(r.rest)} vertices, {len(r.triangles)} triangles",
+            if not snap.preview or name not in self._sizes:  # a big drag's previews are coarse meshes
+                self._sizes[name] = (len(r.rest), len(r.triangles))
+            nv, nt = self._sizes[name]
+            clicked, _ = imgui.selectable(f"{name}\n{nv} vertices, {nt} triangles",
                                          app.selected_layer == name, 0, imgui.ImVec2(0, THUMB))
             imgui.set_item_tooltip("select; drag onto another layer to move it there in the stacking order")
             note(f"layer:{name}")

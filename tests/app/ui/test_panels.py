@@ -232,3 +232,30 @@ def test_every_button_has_a_tooltip():
             for m in re.finditer(r"imgui\.(checkbox|radio_button|slider_float|combo|drag_float2?)\(", text):
                 after = text[m.end():m.end() + 400]
                 assert "set_item_tooltip" in after, f"{name}: {m.group(0)} without a tooltip"
+
+
+def test_the_layers_panel_keeps_the_exact_mesh_sizes_during_a_coarse_preview(monkeypatch):
+    """A big group's drag previews are its reduced model's coarse meshes: the Layers panel
+    still names the exact meshes' vertices and triangles while the pin is held."""
+    from puppet.scene.rig import reduced
+    from tests.app.harness import Driver
+
+    monkeypatch.setattr(reduced, "REDUCED_MIN", 0)  # the T-rex's 7.7k vertices count as big
+    monkeypatch.setattr(reduced, "MAX_SHARE", np.inf)
+    d = Driver(os.path.join(ROOT, "assets", "scenes", "trex-layers.json"), size=(1100, 700))
+    try:
+        exact = {r.name: (len(r.rest), len(r.triangles)) for r in d.app.snap.layers}
+        start = d.pin_screen("hand_front")
+        d.press(*start)
+        for k in range(1, 4):
+            d.drag(start[0] + 4 * k, start[1] - 4 * k)
+        d.settle()
+        shown = {r.name: len(r.rest) for r in d.app.snap.layers}
+        assert d.app.snap.preview and any(shown[n] < exact[n][0] for n in exact)  # coarse meshes drawn
+        d.frame()
+        assert d.w.panels._sizes == exact
+        d.release()
+        d.settle()
+        assert d.w.panels._sizes == exact
+    finally:
+        d.close()
