@@ -82,6 +82,11 @@ def draw_heat(dl, S: np.ndarray, F: np.ndarray, g: np.ndarray) -> None:
     ctypes.memmove(vb.data_address() + (vb.size() - nv) * _VERT.itemsize, vtx.ctypes.data, vtx.nbytes)
     ctypes.memmove(ib.data_address() + (ib.size() - ni) * 4, idx.ctypes.data, idx.nbytes)
     dl._vtx_current_idx = base + nv
+    # the copies did not move the write pointers that ImGui's own writes advance, and
+    # imgui.render asserts that they stand at the buffers' ends (a crash whenever nothing
+    # else was drawn into this list after the heat map, e.g. with pins and links hidden):
+    # an empty reservation puts them there
+    dl.prim_reserve(0, 0)
 
 
 def draw_hinges(dl, app) -> None:

@@ -160,6 +160,32 @@ def test_stiffness_brush_paints_one_step_and_stiffens_the_band(arm_app):
     assert load_rgba(d.scene().data.layers[1].stiffness)[25, 115, 0] == 255
 
 
+def test_the_heat_map_drawn_last_does_not_crash_the_frame(arm_app):
+    """A brush stroke, then H with the pointer over the panel: nothing is drawn over the
+    canvas after the heat map, whose direct buffer copies must leave ImGui's draw list
+    consistent (before: ``RuntimeError: IM_ASSERT(draw_list->VtxBuffer...)`` from
+    ``imgui.render`` on the next frame)."""
+    d = arm_app
+    d.app.edit(lambda s: s.add_pin("root", "arm", (70, 55)))
+    d.settle()
+    d.click(*widget("layer:arm"))
+    tool(d, "brush")
+    d.app.deform.brush = 40.0
+    path = [d.screen_of((x, 55.0)) for x in (150.0, 165.0, 180.0)]
+    d.drag_path(path)
+    d.settle()
+    assert d.scene().data.layers[1].stiffness is not None
+    d.move(*widget("deform-tool:brush"))  # over the panel: no brush cursor on the canvas
+    before = d.pixels()
+    d.key(key.H)
+    d.frame(3)
+    assert not d.app.show_pins
+    x, y = map(int, d.screen_of((165.0, 55.0)))
+    px = d.pixels()
+    assert int(px[y, x, 0]) - int(px[y, x, 2]) > 40  # the heat map is still drawn, in red
+    assert np.abs(px.astype(int) - before).max() > 0  # and the pins went
+
+
 def test_hinge_keeps_the_body_still_where_a_segment_drags_it(arm_app):
     d = arm_app
     d.app.edit(lambda s: s.add_link("body", "arm", [[66, 50], [94, 60]]))
