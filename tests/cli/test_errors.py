@@ -224,6 +224,45 @@ def test_unreadable_scene(tmp_path, capsys, text, words):
     assert "scene.json" in line and words in line, line
 
 
+@pytest.mark.parametrize("fmt,name,kind", [("PNG", "picture.png", "a PNG image"), ("JPEG", "photo.jpg", "a JPEG image"),
+                                             ("GIF", "anim.gif", "a GIF image"), ("WEBP", "p.webp", "a WebP image"),
+                                             ("BMP", "p.bmp", "a BMP image"), ("TIFF", "p.tif", "a TIFF image"),
+                                             ("PSD", "art.psd", "a Photoshop document"),
+                                             ("ORA", "art.ora", "an OpenRaster document")])
+@pytest.mark.parametrize("command", ["render", "check"])
+def test_a_picture_given_as_the_scene_is_named_with_the_command_that_makes_one(tmp_path, capsys, fmt, name, kind,
+                                                                                command):
+    """``puppet render picture.png``: one line naming the file as a picture and pointing at
+    ``puppet init`` (before: "not a text (UTF-8) file", "invalid JSON at line 1 column 1" for
+    a GIF, "too large for a scene file" for a big PSD)."""
+    from PIL import Image
+
+    p = tmp_path / name
+    if fmt == "PSD":  # a real one: from the bundled art if present, else the signature suffices
+        p.write_bytes(b"8BPS\x00\x01" + bytes(20))
+    elif fmt == "ORA":
+        import zipfile
+
+        with zipfile.ZipFile(p, "w") as z:
+            z.writestr("mimetype", "image/openraster")
+    else:
+        Image.new("RGB", (8, 8), (200, 40, 40)).save(p, fmt)
+    out = tmp_path / "out.png"
+    rc, err = run_cli(capsys, [command, str(p)] + (["-o", str(out)] if command == "render" else []))
+    assert rc == 2 and not out.exists()
+    line, = err.strip().splitlines()
+    assert name in line and f"is {kind}, not a scene file" in line and f"puppet init {p}" in line, line
+
+
+def test_a_json_scene_is_not_taken_for_a_picture(tmp_path):
+    from puppet.scene.format.reader import picture_kind
+
+    for text in ("{}", "[]", "  {", "BM"[:1] + "{"):
+        (tmp_path / "s.json").write_text(text)
+        assert picture_kind(str(tmp_path / "s.json")) is None
+    assert picture_kind(str(tmp_path)) is None and picture_kind(str(tmp_path / "missing")) is None
+
+
 def test_missing_scene(tmp_path, capsys):
     rc, err = run_cli(capsys, ["check", str(tmp_path / "nope.json")])
     assert rc == 2 and "nope.json" in err and "no such scene file" in err

@@ -37,8 +37,46 @@ class _Refused(ValueError):
 
 def read_text(path: str) -> str:
     """The text of a scene file, refusing anything that is not a readable regular
-    UTF-8 file of at most MAX_SCENE_BYTES (a leading byte-order mark is allowed)."""
+    UTF-8 file of at most MAX_SCENE_BYTES (a leading byte-order mark is allowed); a
+    picture given where a scene belongs is named as one, with the command that makes a
+    scene of it."""
+    kind = picture_kind(path)
+    if kind is not None:
+        raise SceneError(f"is {kind}, not a scene file: make a scene of it with "
+                         f"`puppet init {path} -o scene.json`", file=path)
     return read_file(path, what="scene file", max_bytes=MAX_SCENE_BYTES)
+
+
+#: Leading bytes of the pictures and layered art ``puppet init`` reads: (offset, bytes, name).
+_SIGNATURES = ((0, b"\x89PNG\r\n\x1a\n", "a PNG image"), (0, b"\xff\xd8\xff", "a JPEG image"),
+               (0, b"GIF87a", "a GIF image"), (0, b"GIF89a", "a GIF image"), (8, b"WEBP", "a WebP image"),
+               (0, b"BM", "a BMP image"), (0, b"II*\x00", "a TIFF image"), (0, b"MM\x00*", "a TIFF image"),
+               (0, b"8BPS", "a Photoshop document"))
+#: Zip containers recognised by their name: OpenRaster and Krita documents.
+_ZIPPED = {".ora": "an OpenRaster document", ".kra": "a Krita document"}
+
+
+def picture_kind(path: str) -> str | None:
+    """What picture format ``path`` holds ("a PNG image", ...), read from its first bytes
+    (a regular file only, never blocking), or None: not one, or not readable."""
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return None
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except (OSError, ValueError):
+        return None
+    try:
+        head = os.read(fd, 16) if stat.S_ISREG(os.fstat(fd).st_mode) else b""
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+    for at, sig, name in _SIGNATURES:
+        if head[at:at + len(sig)] == sig:
+            return name
+    if head.startswith(b"PK\x03\x04"):
+        return _ZIPPED.get(os.path.splitext(path)[1].lower())
+    return None
 
 
 def parse_text(text: str, file: str):
