@@ -31,6 +31,7 @@ class DeformState:
 
     tool: str | None = None  # None (the mode's tool) or one of TOOLS
     step: str | None = None  # the task-script step it was chosen in
+    mode: str | None = None  # the mode (pin / pose) it was chosen in
     brush: float = 30.0  # stiffness brush diameter, canvas px
     value: int = 255  # grey the brush paints (0 normal .. 255 stiffest)
     draft: list = field(default_factory=list)  # patch points so far (rest canvas xy)
@@ -54,7 +55,7 @@ def choose(app, tool: str | None) -> None:
     script step's tool (the Link step's pencil, the Layers step's lasso) until a step or
     a step's tool is chosen again (:func:`sync`)."""
     st = state(app)
-    st.tool, st.step = tool, app.script.step
+    st.tool, st.step, st.mode = tool, app.script.step, app.mode
     cancel_patch(app)
     if tool is not None:
         app.script.tool = None
@@ -62,9 +63,11 @@ def choose(app, tool: str | None) -> None:
 
 def sync(app) -> str | None:
     """The Deform panel's tool, given back (None) once a task-script step or a step's tool
-    was chosen after it: the last tool chosen is the canvas's."""
+    was chosen after it, or the mode was switched (Pin / Pose: a click then does what the
+    mode does): the last tool chosen is the canvas's."""
     st = state(app)
-    if st.tool is not None and (app.script.tool is not None or (st.step is not None and app.script.step != st.step)):
+    if st.tool is not None and (app.script.tool is not None or (st.step is not None and app.script.step != st.step)
+                                or (st.mode is not None and st.mode != app.mode)):
         st.tool = None
         cancel_patch(app)
     return st.tool
@@ -92,19 +95,29 @@ def layers_at(app, xy) -> list[tuple[int, tuple[float, float]]]:
 
 
 def pair_at(app, xy):
-    """(layer a, layer b, rest point) for a link at canvas point ``xy``: the selected layer
-    and the front-most other layer there, or the two front-most; None when fewer than two
-    layers cover the point."""
+    """(layer a, layer b, rest point) for a link at canvas point ``xy``: in the Link step
+    its layer A and B boxes' layers where both cover the point; elsewhere the selected
+    layer and the front-most other layer there, or the two front-most; None when fewer
+    than two (or not those two) layers cover the point."""
     found = layers_at(app, xy)
+    names = [app.snap.data.layers[k].name for k, _ in found]
+    if app.script.step == "link":
+        a, b = app.script.link_pair(app)
+        return (a, b, found[names.index(a)][1]) if a in names and b in names else None
     if len(found) < 2:
         return None
-    names = [app.snap.data.layers[k].name for k, _ in found]
     if app.selected_layer in names:
         i = names.index(app.selected_layer)
         j = 0 if i != 0 else 1
     else:
         i, j = 0, 1
     return names[i], names[j], found[i][1]
+
+
+def overlap_hint(app) -> str:
+    """Which layers a hinge or patch links here, for messages."""
+    a, b = app.script.link_pair(app) if app.script.step == "link" else (None, None)
+    return f"{a} and {b} (the Link step's layers A and B)" if a is not None else "two layers"
 
 
 # -- scene-thread job ------------------------------------------------------------------
@@ -164,7 +177,7 @@ def hinge_tool(app, press):
         return
     pair = pair_at(app, press.xy)
     if pair is None:
-        app.say("click where two layers overlap to hinge them", "error")
+        app.say(f"click where {overlap_hint(app)} overlap to hinge them", "error")
         return
     a, b, at = pair
     state(app).link = (a, b)
@@ -191,7 +204,7 @@ def patch_tool(app, press):
     if not st.draft:
         pair = pair_at(app, press.xy)
         if pair is None:
-            app.say("start a patch where two layers overlap", "error")
+            app.say(f"start a patch where {overlap_hint(app)} overlap", "error")
             return
         st.draft_pair, st.draft_screen = pair[:2], []
     k = app.layer_index(st.draft_pair[0])

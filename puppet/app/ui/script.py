@@ -191,15 +191,25 @@ def _link(app, thumbs) -> None:
             sc.link_preview = None
     imgui.text("links:")
     for L in snap.data.links:
-        la, lb = L.layers
-        for j, seg in enumerate(L.segments):
-            imgui.push_id(f"link-{la}-{lb}-{j}")
-            if button("x", "remove this segment", small=True):
-                app.edit(lambda s, la=la, lb=lb, j=j: s.remove_link(la, lb, j))
+        for kind, j, text in link_parts(L):
+            la, lb = L.layers
+            imgui.push_id(f"link-{la}-{lb}-{kind}-{j}")
+            if button("x", f"remove this {text.split(' ')[0]}", small=True):
+                app.edit(lambda s, la=la, lb=lb, kind=kind, j=j: s.remove_link_part(la, lb, kind, j))
+            note(f"remove-link:{la}-{lb}:{kind}:{j}")
             imgui.same_line()
-            (x0, y0), (x1, y1) = seg
-            imgui.text(f"{la}-{lb}: ({x0:.0f},{y0:.0f})-({x1:.0f},{y1:.0f})")
+            imgui.text(f"{la}-{lb}: {text}")
             imgui.pop_id()
+
+
+def link_parts(link) -> list[tuple[str, int, str]]:
+    """(kind, index, label) of every part of ``link``: its segments, hinges and patches."""
+    out = [("segments", j, f"segment ({x0:.0f},{y0:.0f})-({x1:.0f},{y1:.0f})")
+           for j, ((x0, y0), (x1, y1)) in enumerate(link.segments)]
+    out += [("points", j, f"hinge ({q[0]:.0f},{q[1]:.0f})") for j, q in enumerate(link.points)]
+    out += [("polygons", j, f"patch of {len(P)} corners at ({np.mean(P, axis=0)[0]:.0f},{np.mean(P, axis=0)[1]:.0f})")
+            for j, P in enumerate(link.polygons)]
+    return out
 
 
 def _pins(app, thumbs) -> None:

@@ -77,6 +77,24 @@ class DeformEdits:
             self._link_of(doc, a, b, True).setdefault("polygons", []).append(poly)
         return self._edit(Event("link", f"{a}+{b}", "mesh", f"patch {a} and {b}"), m)
 
+    @ck.checked(a=ck.text, b=ck.text, kind=ck.choice(("segments", "points", "polygons")), index=ck.INDEX)
+    def remove_link_part(self, a: str, b: str, kind: str, index: int) -> bool:
+        """Remove part ``index`` of ``kind`` ("segments", "points": a hinge, "polygons": a
+        patch) of the link between ``a`` and ``b``; the link goes with its last part."""
+        what = {"segments": "segment", "points": "hinge", "polygons": "patch"}[kind]
+
+        def m(doc):
+            k = self._link_of(doc, a, b, False)
+            parts = k.get(kind, [])
+            if not 0 <= index < len(parts):
+                raise self._fail(f"the link {a}-{b} has no {what} {index}")
+            del parts[index]
+            if not parts:
+                k.pop(kind, None)
+            if not any(k.get(x) for x in ("segments", "points", "polygons")):
+                doc["links"].remove(k)
+        return self._edit(Event("link", f"{a}+{b}", "mesh", f"remove {what} of {a} and {b}"), m)
+
     @ck.checked(a=ck.text, b=ck.text, strength=ck.number(0, 1))
     def set_link_strength(self, a: str, b: str, strength: float) -> bool:
         """The coupling across the link between ``a`` and ``b``, 0..1 (1: the default)."""
