@@ -23,6 +23,10 @@ from puppet.scene.rig.stiffness import layer_grey, stiffness_image
 #: a click this close to a patch's first point (window pixels) closes the patch
 CLOSE_RADIUS = 9.0
 TOOLS = ("stiffness", "hinge", "patch")
+#: The stiffness brush's grey at first (25 %: a cell weighs 100^0.25 = 3.2 times more, a
+#: quarter of it rigid). At 255 one stroke across a garment fitted in `similar` mode kept
+#: the band at its size while the rest shrank round it (issue 32).
+VALUE = 64
 
 
 @dataclass
@@ -33,7 +37,7 @@ class DeformState:
     step: str | None = None  # the task-script step it was chosen in
     mode: str | None = None  # the mode (pin / pose) it was chosen in
     brush: float = 30.0  # stiffness brush diameter, canvas px
-    value: int = 255  # grey the brush paints (0 normal .. 255 stiffest)
+    value: int = VALUE  # grey the brush paints (0 normal .. 255 stiffest)
     draft: list = field(default_factory=list)  # patch points so far (rest canvas xy)
     draft_screen: list = field(default_factory=list)  # the same as clicked (shown canvas xy)
     draft_pair: tuple | None = None  # the patch's two layers

@@ -57,8 +57,12 @@ def panel(app) -> None:
                                          imgui.SliderFlags_.logarithmic)
         imgui.set_item_tooltip("the stiffness brush's diameter, canvas pixels")
         note("slider:stiffness brush")
-        _, st.value = imgui.slider_int("stiffness##value", st.value, 0, 255)
-        imgui.set_item_tooltip("grey the brush paints: 0 normal .. 255 stiffest (Alt-drag erases to 0)")
+        pct = int(round(st.value * 100 / 255))
+        changed, pct = imgui.slider_int("strength##stiffness", pct, 0, 100, "%d %%")
+        if changed:
+            st.value = int(round(pct * 255 / 100))
+        imgui.set_item_tooltip("how much the painted part resists the pins: 0 % normal, 100 % rigid (it then "
+                               "keeps its size even in a similar fit); Alt-drag erases to 0 %")
         note("slider:stiffness value")
         k = app.layer_index(app.selected_layer)
         if button("Clear stiffness", "remove the selected layer's painted stiffness",

@@ -124,6 +124,9 @@ def test_stiffness_brush_paints_one_step_and_stiffens_the_band(arm_app):
     d.click(*widget("layer:arm"))
     tool(d, "brush")
     d.app.deform.brush = 60.0
+    assert d.app.deform.value == 64  # the default strength, 25 %
+    drag_slider(d, "slider:stiffness value", 0.25, 1.0)  # to 100 %, as a user drags it
+    assert d.app.deform.value == 255
     n = steps(d)
     shown = layer(d, "arm")
     from puppet.app.model.pick import shown_point as shown_at
@@ -170,7 +173,7 @@ def test_the_heat_map_drawn_last_does_not_crash_the_frame(arm_app):
     d.settle()
     d.click(*widget("layer:arm"))
     tool(d, "brush")
-    d.app.deform.brush = 40.0
+    d.app.deform.brush, d.app.deform.value = 40.0, 255  # the strongest red, to find it below
     path = [d.screen_of((x, 55.0)) for x in (150.0, 165.0, 180.0)]
     d.drag_path(path)
     d.settle()
