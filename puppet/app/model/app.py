@@ -55,6 +55,7 @@ class App:
         self.recover_path: str | None = None
         self._markers: list[pick.Marker] = []
         self._marker_version = -1
+        self._spacing, self._spacing_version = math.inf, -2  # markers' median nearest distance, canvas px
         self._layer_names: dict[str, int] = {}
         self.script = Script()  # the task script's step, tool and drafts
         self.timeline = Timeline(self)  # playhead, keys, record mode, onion skin
@@ -150,6 +151,15 @@ class App:
             self._layer_names = {L.name: k for k, L in enumerate(self.snap.data.layers)} if self.snap.loaded else {}
         return self._markers
 
+    def marker_scale(self) -> float:
+        """How big the markers are drawn and picked (1: full size; smaller where the view
+        puts them closer than :data:`~puppet.app.model.pick.MARKER_SPACING` window px)."""
+        ms = self.markers()
+        if self._spacing_version != self._marker_version:
+            self._spacing = pick.spacing(np.array([m.xy for m in ms]).reshape(-1, 2))
+            self._spacing_version = self._marker_version
+        return pick.marker_scale(self._spacing, self.view.scale)
+
     def marker_xy(self, m: pick.Marker) -> tuple[float, float]:
         return self.overrides.get(m.name, m.xy)
 
@@ -173,7 +183,7 @@ class App:
         if not ms:
             return None
         pts = self.view.to_screen(np.array([self.marker_xy(m) for m in ms]))
-        return pick.marker_at(ms, pts, cursor, radius)
+        return pick.marker_at(ms, pts, cursor, max(radius * self.marker_scale(), 4.0))
 
     def starch_at(self, cursor) -> pick.Marker | None:
         """The starch pin marker under ``cursor`` (window pixels), in any mode."""

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 
@@ -58,6 +60,34 @@ def markers(data, layers) -> list[Marker]:
             if name not in kinds:
                 out.append(Marker(name, "auto", k, (float(xy[0]), float(xy[1]))))
     return out
+
+
+#: Markers are drawn full size where their neighbours are at least this far apart on
+#: screen (window px); closer, they shrink in proportion, down to MIN_MARKER_SCALE.
+MARKER_SPACING = 22.0
+MIN_MARKER_SCALE = 0.4
+
+
+def spacing(points: np.ndarray) -> float:
+    """Median distance from each of ``points`` (n, 2) to its nearest other point (inf for
+    fewer than two)."""
+    P = np.asarray(points, float).reshape(-1, 2)
+    if len(P) < 2:
+        return math.inf
+    nearest = np.empty(len(P))
+    for i0 in range(0, len(P), 256):  # blocks: n^2 / 256 distances at a time
+        d = np.hypot(*(P[i0:i0 + 256, None, :] - P[None, :, :]).transpose(2, 0, 1))
+        d[np.arange(len(d)), np.arange(i0, i0 + len(d))] = math.inf
+        nearest[i0:i0 + len(d)] = d.min(axis=1)
+    return float(np.median(nearest))
+
+
+def marker_scale(canvas_spacing: float, view_scale: float) -> float:
+    """How big markers are drawn (a fraction of full size) when their median spacing on
+    the canvas is ``canvas_spacing`` px and the view shows a canvas px as ``view_scale``
+    window px: a big character fitted to a small window keeps its art visible between its
+    pins instead of being covered by them."""
+    return float(np.clip(canvas_spacing * view_scale / MARKER_SPACING, MIN_MARKER_SCALE, 1.0))
 
 
 def marker_at(found: list[Marker], screen_points: np.ndarray, cursor, radius: float = 9.0) -> Marker | None:

@@ -29,33 +29,35 @@ def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
     view = app.view
     dark = col((0.0, 0.0, 0.0, 0.85))
     light = col((1.0, 1.0, 1.0, 0.85))
+    s = app.marker_scale()  # smaller where the view crowds them (a big character in a small window)
+    w = max(1.0, 1.5 * s)  # outline width
     for m in app.markers():
         x, y = view.to_screen(app.marker_xy(m))
         c = col(COLOURS[m.kind])
-        r = 4.0 if m.kind == "auto" else 5.5
+        r = (4.0 if m.kind == "auto" else 5.5) * s
         if m.kind == "auto":
-            dl.add_circle(imgui.ImVec2(x, y), r + 1, dark, 0, 3.0)
-            dl.add_circle(imgui.ImVec2(x, y), r, c, 0, 2.0)
+            dl.add_circle(imgui.ImVec2(x, y), r + s, dark, 0, 2 * w)
+            dl.add_circle(imgui.ImVec2(x, y), r, c, 0, 4 * w / 3)
         elif m.kind == "starch":  # a square: it stiffens, it holds no position
             dl.add_rect_filled(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), c)
-            dl.add_rect(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), dark, 0.0, 1.5)
+            dl.add_rect(imgui.ImVec2(x - r, y - r), imgui.ImVec2(x + r, y + r), dark, 0.0, w)
         elif m.kind == "exterior":  # a diamond
-            pts = [imgui.ImVec2(x, y - r - 1), imgui.ImVec2(x + r + 1, y), imgui.ImVec2(x, y + r + 1),
-                   imgui.ImVec2(x - r - 1, y)]
+            pts = [imgui.ImVec2(x, y - r - s), imgui.ImVec2(x + r + s, y), imgui.ImVec2(x, y + r + s),
+                   imgui.ImVec2(x - r - s, y)]
             dl.add_quad_filled(*pts, c)
-            dl.add_quad(*pts, dark, 1.5)
+            dl.add_quad(*pts, dark, w)
         else:
             dl.add_circle_filled(imgui.ImVec2(x, y), r, c)
-            dl.add_circle(imgui.ImVec2(x, y), r, dark, 0, 1.5)
+            dl.add_circle(imgui.ImVec2(x, y), r, dark, 0, w)
         if m.kind != "auto":  # a light ring round the dark outline: the pin shows on any colour
-            dl.add_circle(imgui.ImVec2(x, y), r + (3.0 if m.kind != "interior" else 2.0), light, 0, 1.5)
+            dl.add_circle(imgui.ImVec2(x, y), r + (3.0 if m.kind != "interior" else 2.0) * s, light, 0, w)
         if app.mode == "pose" and m.kind in ("interior", "exterior"):
             a = app.target_angle(m.name)
             if a:
-                t = math.radians(a)
-                dl.add_line(imgui.ImVec2(x, y), imgui.ImVec2(x + 14 * math.cos(t), y - 14 * math.sin(t)), c, 2.0)
+                t, n = math.radians(a), 14 * s
+                dl.add_line(imgui.ImVec2(x, y), imgui.ImVec2(x + n * math.cos(t), y - n * math.sin(t)), c, 2.0)
         if m.name in app.selection:
-            dl.add_circle(imgui.ImVec2(x, y), r + 5.5, col(SELECTED), 0, 2.0)
+            dl.add_circle(imgui.ImVec2(x, y), r + 5.5 * s, col(SELECTED), 0, 2.0)
     if hovered is not None:
         x, y = view.to_screen(app.marker_xy(hovered))
         label = f"{hovered.name} ({hovered.kind})" if hovered.kind != "interior" else hovered.name
