@@ -103,6 +103,7 @@ def valid_calls(folder) -> dict:
         "split_layer": (("a", square, "part"), {"cut": False}),
         "add_link": (("b", "c", [[75, 65], [75, 75]]), {}),
         "remove_link": (("b", "c"), {"segment": 0}),
+        "remove_link_part": (("b", "c", "segments", 0), {}),
         "add_pose": (("wave",), {"like": "up", "activate": False}),
         "rename_pose": (("up", "raise"), {}),
         "delete_pose": (("up",), {}),

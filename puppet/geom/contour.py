@@ -68,10 +68,20 @@ def mask_regions(mask: np.ndarray, offset=(0.0, 0.0), *, grow: int = 1, min_hole
     x, y, w, h = cv2.boundingRect(m)
     if w == 0:
         return []
+    H, W = m.shape
     pad = max(grow, 0) + 1
     x0, y0 = max(x - pad, 0), max(y - pad, 0)
     m = m[y0:y + h + pad, x0:x + w + pad]
+    # where the crop meets the image's edge, background beyond it: the growing then goes
+    # past the edge, and the rings are clamped to the edge below, so a mask pixel on the
+    # image's last row or column has its centre inside the mesh (not on its boundary,
+    # where the rasteriser's fill rule drops the bottom and right edges)
+    before = (y0 - (y - pad), x0 - (x - pad))
+    m = np.pad(m, ((before[0], max(y + h + pad - H, 0)), (before[1], max(x + w + pad - W, 0))))
+    x0, y0 = x0 - before[1], y0 - before[0]
     offset = (offset[0] + x0, offset[1] + y0)
+    lo = np.asarray(offset, np.float64) - (x0, y0)
+    hi = lo + (W, H)
     if grow > 0:
         k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow + 1, 2 * grow + 1))
         m = cv2.dilate(m, k)
@@ -83,17 +93,30 @@ def mask_regions(mask: np.ndarray, offset=(0.0, 0.0), *, grow: int = 1, min_hole
         return []
     hierarchy = hierarchy[0]
     shift = np.asarray(offset, np.float64) + 0.5 - 1.0  # centre of pixel, minus padding
+
+    def ring(c):
+        return _clamped(c[:, 0, :].astype(np.float64) + shift, lo, hi)
+
     regions: dict[int, Region] = {}
     for i, c in enumerate(contours):
-        P = c[:, 0, :].astype(np.float64) + shift
         parent = hierarchy[i][3]
         if parent < 0:
-            regions[i] = Region(P)
+            regions[i] = Region(ring(c))
     for i, c in enumerate(contours):
         parent = hierarchy[i][3]
         if parent >= 0 and parent in regions:
-            regions[parent].holes.append(c[:, 0, :].astype(np.float64) + shift)
+            regions[parent].holes.append(ring(c))
     return list(regions.values())
+
+
+def _clamped(P: np.ndarray, lo, hi) -> np.ndarray:
+    """Ring ``P`` clamped into the box [lo, hi] (the image's edges), without the repeated
+    points clamping makes; unchanged where it lies inside."""
+    Q = np.clip(P, lo, hi)
+    if (Q == P).all():
+        return P
+    keep = np.any(Q != np.roll(Q, 1, axis=0), axis=1)
+    return Q[keep] if keep.sum() >= 3 else Q
 
 
 def simplify_ring(P: np.ndarray, tolerance: float) -> np.ndarray:

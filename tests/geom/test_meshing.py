@@ -24,6 +24,35 @@ def test_rectangle_contour_encloses_every_pixel():
     assert reg.holes == []
 
 
+@pytest.mark.parametrize("box", [(0, 0, 30, 20), (0, 5, 12, 20), (18, 0, 30, 9), (29, 19, 30, 20)])
+def test_a_mask_at_the_image_edge_reaches_the_edge_and_covers_every_pixel_centre(box):
+    """Where the mask meets the image's edge the ring lies on that edge (not through the
+    edge pixels' centres, where the rasteriser's fill rule drops the last row and column:
+    issue 32, 'the last row and column of every imported layer come out transparent'),
+    and never beyond it (the texture has nothing there); the mesh covers every centre."""
+    x0, y0, x1, y1 = box
+    m = np.zeros((20, 30), bool)
+    m[y0:y1, x0:x1] = True
+    (reg,) = mask_regions(m, offset=(100, 200))
+    P = reg.outer
+    assert P[:, 0].min() >= 100 and P[:, 0].max() <= 130 and P[:, 1].min() >= 200 and P[:, 1].max() <= 220
+    assert P[:, 0].min() == (100 if x0 == 0 else 99.5 + x0) and P[:, 0].max() == (130 if x1 == 30 else x1 + 100.5)
+    assert P[:, 1].min() == (200 if y0 == 0 else 199.5 + y0) and P[:, 1].max() == (220 if y1 == 20 else y1 + 200.5)
+    yy, xx = np.nonzero(m)
+    c = np.stack([xx + 100.5, yy + 200.5], 1)  # every pixel centre of the mask
+    A, B = P, np.roll(P, -1, axis=0)
+    d = B - A
+    t = np.clip((((c[:, None] - A[None]) * d[None]).sum(2)) / (d * d).sum(1)[None], 0, 1)
+    gap = np.linalg.norm(c[:, None] - (A[None] + t[..., None] * d[None]), axis=2).min(axis=1)
+    assert gap.min() > 0.3  # no centre on the outline (0.35 at cut corners): the fill rule cannot drop it
+    up = (A[None, :, 1] > c[:, None, 1]) != (B[None, :, 1] > c[:, None, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = A[None, :, 0] + (c[:, None, 1] - A[None, :, 1]) * d[None, :, 0] / d[None, :, 1]
+    assert ((up & (x > c[:, None, 0])).sum(1) % 2 == 1).all()  # and every one inside it
+    V = triangulate_regions([reg], max_area=4.0).V
+    assert V[:, 0].min() >= 100 and V[:, 0].max() <= 130 and V[:, 1].min() >= 200 and V[:, 1].max() <= 220
+
+
 def test_ring_keeps_its_hole_and_components_are_separate():
     m = disc_mask(r=30, hole=12)
     m[:, 95:] = True  # a second component along the right edge

@@ -7,7 +7,7 @@ from puppet.deform.relax import folded_triangles
 from tests.conftest import SCENES
 
 # poses where plain ARAP folds triangles on the bundled scenes
-CASES = [("trex-layers", "roar"), ("character", "wave"), ("character", "behind")]
+CASES = [("trex-layers", "roar"), ("character", "behind")]  # (character "wave" folded until outlines reached the images' last rows and columns)
 
 
 @pytest.fixture(scope="module")

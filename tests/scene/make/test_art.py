@@ -50,12 +50,18 @@ def test_too_small_is_what_the_build_refuses(tmp_path, name, rgba):
 
 
 def test_meshable_leaves_them_out_with_a_note_or_refuses_all():
+    """A layer of one pixel meshes (its outline runs round the whole pixel, see
+    tests/cli/test_init_safety.py): kept. One without a pixel is left out with a note;
+    only such layers: refused."""
     big = np.full((20, 20, 4), 255, np.uint8)
     dot = np.full((1, 1, 4), 255, np.uint8)
-    art, notes = meshable(LayeredArt("a.ora", (50, 50), [ArtLayer("big", big, (0, 0)), ArtLayer("dot", dot, (30, 30))]))
-    assert [lay.name for lay in art.layers] == ["big"] and notes == ["layer 'dot' (1x1 px) is too small to mesh: left out"]
+    empty = np.zeros((2, 2, 4), np.uint8)
+    layers = [ArtLayer("big", big, (0, 0)), ArtLayer("dot", dot, (30, 30)), ArtLayer("empty", empty, (40, 40))]
+    art, notes = meshable(LayeredArt("a.ora", (50, 50), layers))
+    assert [lay.name for lay in art.layers] == ["big", "dot"]
+    assert notes == ["layer 'empty' (2x2 px) is too small to mesh: left out"]
     with pytest.raises(SceneError, match="too small to mesh"):
-        meshable(LayeredArt("a.ora", (50, 50), [ArtLayer("dot", dot, (30, 30))]))
+        meshable(LayeredArt("a.ora", (50, 50), [ArtLayer("empty", empty, (30, 30))]))
 
 
 def _ora(path, layers):
