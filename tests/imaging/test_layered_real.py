@@ -23,6 +23,8 @@ CASES = {
     # four levels adjustments (two masked) over a picture and colour swatches
     "adjustments-levels_rgb.psd": ["orion", "color palettes/Layer 1", "color palettes/Layer 8 copy",
                                    "color palettes/Layer 8 copy 2", "color palettes/Layer 8 copy 3"],
+    # an exposure adjustment in a pass-through group at 50 % opacity (80 grey levels off before)
+    "passthrough_opacity.psd": ["Background", "Layer 1", "Group 1/Layer 1 copy"],
 }
 
 
@@ -42,6 +44,18 @@ def test_real_file_imports_as_its_layers_and_composite(name):
     shown = ref[..., 3] > 0  # premultiplied colours where anything shows
     pm = lambda a: a[shown, :3] * a[shown, 3:] / 255  # noqa: E731
     assert np.abs(pm(mine) - pm(ref)).mean() < 2.0
+
+
+def test_a_pass_through_groups_adjustment_matches_the_file_at_every_pixel():
+    """Issue 32: ``passthrough_opacity.psd`` rendered 84,42,42 against the file's 169,127,127
+    at its centre; the group's opacity now shares the adjustment out per pixel."""
+    from psd_tools import PSDImage
+
+    path = os.path.join(DATA, "passthrough_opacity.psd")
+    art = read_layered(path)
+    mine = over(art.layers, art.size).astype(int)
+    ref = np.asarray(PSDImage.open(path).composite().convert("RGBA")).astype(int)
+    assert np.abs(mine - ref).max() <= 2
 
 
 def test_adjustments_are_baked_into_the_layers_below():

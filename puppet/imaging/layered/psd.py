@@ -155,9 +155,11 @@ class _Reader:
     def note(self, text: str) -> None:
         self.art.notes.append(text)
 
-    def group(self, group, prefix: str, opacity: float, masks: tuple = (), start: int = 0) -> None:
+    def group(self, group, prefix: str, opacity: float, masks: tuple = (), start: int = 0,
+              through: tuple = ()) -> None:
         """Import ``group``'s layers; ``start``: the first imported layer its adjustment
-        layers reach (the group's own when it is isolated, else its parent's)."""
+        layers reach (the group's own when it is isolated, else its parent's); ``through``:
+        the pass-through groups between it and there, as (first imported layer, opacity)."""
         for layer in group:  # psd-tools iterates a group bottom to top
             if getattr(layer, "clipping", False):
                 continue  # drawn by its base layer's composite
@@ -176,20 +178,59 @@ class _Reader:
             elif layer.is_group() and "merge" not in tags:
                 if layer.has_vector_mask():
                     self.note(f"{full}: the group's vector mask is not applied to its layers")
-                inner = start if _blend(layer) in ("pass_through", "passthrough") else len(self.art.layers)
-                self.group(layer, full + "/", alpha, masks + _mask(layer), inner)
+                if _blend(layer) in ("pass_through", "passthrough"):
+                    inner, chain = start, through + ((len(self.art.layers), layer.opacity / 255.0, alpha),)
+                else:
+                    inner, chain = len(self.art.layers), ()
+                self.group(layer, full + "/", alpha, masks + _mask(layer), inner, chain)
             elif layer.kind == "adjustment" or _is_adjustment(layer):
-                self.adjust(layer, full, start)
+                self.adjust(layer, full, start, through)
             else:
                 self.pixels(layer, full, opacity, masks)
 
-    def adjust(self, layer, name: str, start: int) -> None:
+    def adjust(self, layer, name: str, start: int, through: tuple) -> None:
+        """Bake adjustment ``layer`` into the imported layers from ``start`` on.
+
+        Inside a pass-through group of opacity a the adjustment changes the composite
+        below it, and the group's result is mixed with the backdrop at a:
+        ``(1 - a) B + a A(B over M)``, B the backdrop, M the group's layers below the
+        adjustment (coverage m), A the adjustment. The group's layers (drawn at a already)
+        take it in full; a layer below the group takes it at ``a (1 - m) / (1 - a m)`` at
+        each pixel, which gives that composite exactly where A is linear over the pixel
+        (at the file's own positions): a where nothing of the group covers the layer, 0
+        where the group is opaque over it."""
         fn = adjustment_function(layer)
         if fn is None or not self.rgb or self.depth == 32:
             self.note(f"{name}: adjustment layer ({layer.kind}) skipped (not drawn for this kind or document)")
             return
-        n = bake_adjustment(layer, fn, self.art.layers[start:], _mask(layer))
+        targets = self.art.layers[start:]
+        strength = []
+        for i, lay in enumerate(targets):
+            k = 1.0
+            for first, a, alpha in through:
+                if first > start + i:  # the group does not hold this layer
+                    m = self._coverage(first, lay, alpha)
+                    k = k * a * (1.0 - m) / np.maximum(1.0 - a * m, 1e-6)
+            strength.append(k)
+        n = bake_adjustment(layer, fn, targets, _mask(layer), strength)
         self.note(f"{name}: adjustment ({layer.kind}) baked into the {n} layer(s) below it")
+
+    def _coverage(self, first: int, lay: ArtLayer, alpha: float) -> np.ndarray:
+        """(h, w, 1) float32 over ``lay``'s pixels: how much the imported layers from
+        ``first`` on cover them (the union of their alphas), each alpha divided by
+        ``alpha``, the opacity their groups gave them (so a group's own coverage)."""
+        h, w = lay.rgba.shape[:2]
+        clear = np.ones((h, w, 1), np.float32)
+        x0, y0 = lay.offset
+        for other in self.art.layers[first:]:
+            ox, oy = other.offset
+            oh, ow = other.rgba.shape[:2]
+            ax, ay, bx, by = max(x0, ox), max(y0, oy), min(x0 + w, ox + ow), min(y0 + h, oy + oh)
+            if ax >= bx or ay >= by:
+                continue
+            a = other.rgba[ay - oy:by - oy, ax - ox:bx - ox, 3:].astype(np.float32) / (255.0 * max(alpha, 1e-6))
+            clear[ay - y0:by - y0, ax - x0:bx - x0] *= 1.0 - np.minimum(a, 1.0)
+        return 1.0 - clear
 
     def pixels(self, layer, name: str, opacity: float, masks: tuple = ()) -> None:
         mode = _blend(layer)
