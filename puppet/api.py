@@ -85,11 +85,12 @@ class Scene(Document):
         :meth:`~puppet.render.compositor.Compositor.render`)."""
         from puppet.render.layers import DrawLayer  # lazy: drawing only (mesh and check draw nothing)
 
-        draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
-                          triangles=r.triangles, depth=r.depth)
-                for r, im in zip(layers, self.built.images)]
+        shown = [k for k, L in enumerate(self.data.layers) if L.visible]  # a hidden layer is posed, not drawn
+        draw = [DrawLayer(key=layers[k].name, image=self.built.images[k].drawn[0],
+                          offset=self.built.images[k].drawn[1], rest=layers[k].rest, deformed=layers[k].deformed,
+                          triangles=layers[k].triangles, depth=layers[k].depth) for k in shown]
         if reduce > 1:
-            draw = [self._reduced(L, k, reduce) for L, k in zip(draw, self.built.image_keys)]
+            draw = [self._reduced(L, self.built.image_keys[k], reduce) for L, k in zip(draw, shown)]
         background = self.background() if background is None else background
         self._check_drawable(size or self.canvas, background)
         if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)

@@ -150,7 +150,8 @@ class GltfSink(Sink):
         weights = b.accessor(np.eye(n, dtype=np.float32).reshape(-1), "SCALAR")
         W, H = self.canvas
         nodes.append({"name": "camera", "camera": 0, "translation": [0.0, H / 2.0, 1000.0]})
-        nodes.append({"name": "puppet", "children": list(range(len(self.names)))})
+        shown = [k for k, L in enumerate(self.job.scene.data.layers) if L.visible]  # a hidden layer's node: not in the scene
+        nodes.append({"name": "puppet", "children": shown})
         doc = {
             "asset": {"version": "2.0", "generator": "puppet animate"},
             "extensionsUsed": ["KHR_materials_unlit"],

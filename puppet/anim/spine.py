@@ -325,8 +325,10 @@ class SpineSink(Sink):
         lo, hi = allxy.min(axis=0), allxy.max(axis=0)
         body = {
             "bones": [{"name": "root"}],
-            "slots": [{"name": self.names[i], "bone": "root", "attachment": self.regions[self.slot_of[i]]}
-                      for i in self.slots],
+            # a hidden layer (`visible: false`) has its attachment in the skin but none shown
+            "slots": [{"name": self.names[i], "bone": "root",
+                       **({"attachment": self.regions[self.slot_of[i]]} if self.job.scene.data.layers[i].visible
+                          else {})} for i in self.slots],
             "skins": [self._skin(images)],
             "animations": anims,
         }

@@ -20,6 +20,7 @@ beyond; depths are int16 in steps of ``2**-k`` stacking units, k the largest tha
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 import io
 import json
@@ -78,9 +79,13 @@ def _b64(a: np.ndarray, dtype: str) -> str:
     return base64.b64encode(np.ascontiguousarray(a, dtype).tobytes()).decode("ascii")
 
 
-def layer_entry(result, image: np.ndarray, offset, base: int) -> dict:
+def layer_entry(result, image: np.ndarray, offset, base: int, visible: bool = True) -> dict:
     """The static part of one layer: texture, texture coordinates, triangles (the
-    non-empty ones, then the edge ones, as the compositor's two passes draw them)."""
+    non-empty ones, then the edge ones, as the compositor's two passes draw them). A
+    hidden layer (``visible`` False) keeps its place in the frames' vertices but has no
+    triangle to draw and a one-pixel texture."""
+    if not visible:
+        image, result = np.zeros((1, 1, 4), np.uint8), dataclasses.replace(result, triangles=np.zeros((0, 3), np.int64))
     h, w = image.shape[:2]
     uv = (np.asarray(result.rest, np.float64) - offset) / (w, h)
     tri = np.asarray(result.triangles, np.int64).reshape(-1, 3)
@@ -152,9 +157,9 @@ class HtmlSink(Sink):
         job, scene = self.job, self.job.scene
         self.quant, self.depth_step = quantisation(scene.canvas, len(layers))
         entries, base = [], 0
-        for r, im in zip(layers, scene.built.images):
+        for r, im, L in zip(layers, scene.built.images, scene.data.layers):
             image, offset = im.drawn
-            entries.append(layer_entry(r, image, offset, base))
+            entries.append(layer_entry(r, image, offset, base, L.visible))
             base += len(r.rest)
         clear, css = _background(job.background)
         meta = {"puppet": 1, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,

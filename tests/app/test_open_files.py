@@ -94,7 +94,7 @@ def test_without_a_dialog_program_open_is_the_path_field_and_takes_art(tmp_path,
         d.key(key.ENTER)
         d.settle()
         assert d.app.snap.file == str(tmp_path / "gbot.json") and d.w.files.art == str(art)
-        assert [r.name for r in d.scene().layers("rest")] == artfiles.NAMES
+        assert [r.name for r in d.scene().layers("rest")] == ["sketch"] + artfiles.NAMES
     finally:
         d.close()
 
@@ -128,8 +128,8 @@ def test_dropped_art_opens_as_the_scene_beside_it(art_app, tmp_path):
     d, art = art_app
     scene = tmp_path / "gbot.json"
     assert d.app.snap.file == str(scene) and [L["name"] for L in json.loads(scene.read_text())["layers"]] == \
-        artfiles.NAMES
-    assert d.app.status.text.startswith(str(scene)) and "7 layer(s)" in d.app.status.text
+        ["sketch"] + artfiles.NAMES  # the sketch kept hidden
+    assert d.app.status.text.startswith(str(scene)) and "8 layer(s)" in d.app.status.text
     assert d.w.files.art == str(art) and not d.w.files.art_changed
     assert actions.BY_NAME["reload_art"].enabled(d.app)
     assert recent.load() == [str(scene)]
@@ -151,7 +151,7 @@ def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
     assert d.w.files.art_changed and "gbot.psd changed on disk" in d.app.status.text
     actions.BY_NAME["reload_art"].run(d.app, d.w)
     d.settle()
-    assert d.app.status.text.startswith("reloaded the art: 7 replaced, 0 added, 0 removed; 1 hidden"), \
+    assert d.app.status.text.startswith("reloaded the art: 8 replaced, 0 added, 0 removed; 1 hidden"), \
         d.app.status.text
     s = d.scene()
     new_head = layer_rgba(s, "head")
@@ -170,7 +170,7 @@ def test_reload_changed_art_is_one_undo_step_keeping_the_rig(art_app, tmp_path):
     from puppet.app.model.opening import from_art
 
     res = from_art(str(art))  # `puppet app gbot.psd` again: the saved scene still counts as made from it
-    assert res.scene == str(scene_file) and res.replaced == artfiles.NAMES
+    assert res.scene == str(scene_file) and res.replaced == ["sketch"] + artfiles.NAMES
 
 
 @pytest.mark.gl
@@ -230,14 +230,14 @@ def test_reload_reports_a_layer_gone_with_its_pins_and_undo_brings_them_back(art
     actions.BY_NAME["reload_art"].run(d.app, d.w)
     d.settle()
     text = d.app.status.text
-    assert text.startswith("reloaded the art: 4 replaced, 0 added, 3 removed"), text
+    assert text.startswith("reloaded the art: 4 replaced, 0 added, 4 removed"), text
     assert "arm_front" in text and "pin(s) removed with their layers" in text
     after = d.scene().to_dict()
     assert [L["name"] for L in after["layers"]] == ["arm_back", "body", "neck", "head"]
     assert not any(p["layer"] in ("arm_front", "legs/left", "legs/right") for p in after["pins"])
     d.app.undo()
     d.settle()
-    assert d.scene().to_dict()["pins"] == before["pins"] and len(d.scene().to_dict()["layers"]) == 7
+    assert d.scene().to_dict()["pins"] == before["pins"] and len(d.scene().to_dict()["layers"]) == 8
 
 
 @pytest.mark.gl
@@ -286,7 +286,7 @@ def test_opening_the_art_again_takes_its_changes_and_clears_the_hint(art_app, tm
     d.w.win.dispatch_event("on_file_drop", 100, 100, [str(art)])  # the art again: the scene updated from it
     d.settle()
     d.frame(2)
-    assert d.app.snap.file == str(tmp_path / "gbot.json") and "7 replaced" in d.app.status.text
+    assert d.app.snap.file == str(tmp_path / "gbot.json") and "8 replaced" in d.app.status.text
     assert not d.w.files.art_changed
 
 

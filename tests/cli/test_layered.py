@@ -57,9 +57,10 @@ def test_visible_parts_back_to_front_at_their_offsets(tmp_path, capsys, art):
     rc, scene, out, err = init(tmp_path, capsys, art)
     assert rc == 0, err
     doc = load(scene)
-    assert [L["name"] for L in doc["layers"]] == NAMES  # the hidden sketch is not there
+    assert [L["name"] for L in doc["layers"]] == ["sketch"] + NAMES  # the sketch kept, hidden (issue 32)
+    assert doc["layers"][0]["visible"] is False and all("visible" not in L for L in doc["layers"][1:])
     assert doc["canvas"] == list(CANVAS)
-    for L, (_, _, rgba, (x, y)) in zip(doc["layers"], artfiles.parts()):
+    for L, (_, _, rgba, (x, y)) in zip(doc["layers"][1:], artfiles.parts()):
         png = np.asarray(Image.open(tmp_path / L["image"]).convert("RGBA"))
         rows, cols = np.nonzero(rgba[..., 3])
         assert L["offset"] == [x + cols.min(), y + rows.min()], L["name"]  # cropped to the pixels
@@ -68,7 +69,7 @@ def test_visible_parts_back_to_front_at_their_offsets(tmp_path, capsys, art):
         on = crop[..., 3] > 0
         assert np.array_equal(png[on, :3], crop[on, :3]), L["name"]
         assert os.path.dirname(L["image"]) == "char-layers"
-    assert "sketch" in err and err.count("\n") == 1  # one note: the hidden layer
+    assert "sketch" in err and "kept hidden" in err and err.count("\n") == 1  # one note: the hidden layer
     assert sha(art) == before  # the art file is only read
 
 
@@ -116,7 +117,7 @@ def test_update_after_recolouring_keeps_the_rig(tmp_path, capsys, art):
     after = load(scene)
     assert after["pins"] == doc["pins"] and after["poses"] == doc["poses"]
     assert after["layers"][3]["mesh"] == {"max_area": 80}
-    assert "7 replaced, 0 added, 0 removed" in out
+    assert "8 replaced, 0 added, 0 removed" in out
     posed = puppet.load_scene(scene).render("wave")
     # the same as a scene made from the recoloured art with the same rig
     rc, fresh, _, err = init(tmp_path, capsys, recoloured, "--pins", "auto", scene="fresh.json")
@@ -155,7 +156,7 @@ def test_update_adds_and_removes_layers(tmp_path, capsys):
     rc, scene, out, err = init(tmp_path, capsys, art, "--update", "--pins", "auto")
     assert rc == 0, err
     after = load(scene)
-    assert [L["name"] for L in after["layers"]] == [n for n in NAMES if n != "neck"] + ["hat"]
+    assert [L["name"] for L in after["layers"]] == ["sketch"] + [n for n in NAMES if n != "neck"] + ["hat"]
     assert not neck_pins & {p["name"] for p in after["pins"]}
     assert all("neck" not in k["layers"] for k in after["links"])
     assert set(after["poses"]["p"]) == {doc["pins"][0]["name"]}
@@ -219,7 +220,7 @@ def test_app_on_art_makes_then_updates_the_scene_beside_it(tmp_path, capsys):
     scene = _scene_from_art(str(art))
     assert scene == str(tmp_path / "gbot.json")
     doc = load(scene)
-    assert [L["name"] for L in doc["layers"]] == NAMES and doc["pins"] and doc["links"]
+    assert [L["name"] for L in doc["layers"]] == ["sketch"] + NAMES and doc["pins"] and doc["links"]
     assert doc["app"] == {"art": "gbot.psd"}  # what Reload art re-imports
     doc["poses"] = {"p": {doc["pins"][0]["name"]: [1, 1]}}
     open(scene, "w").write(json.dumps(doc))
@@ -227,7 +228,7 @@ def test_app_on_art_makes_then_updates_the_scene_beside_it(tmp_path, capsys):
     assert _scene_from_art(str(art)) == scene  # the second time: updated, the rig kept
     after = load(scene)
     assert after["pins"] == doc["pins"] and after["poses"] == doc["poses"] and after["links"] == doc["links"]
-    assert "7 replaced" in capsys.readouterr().err
+    assert "8 replaced" in capsys.readouterr().err
     # a scene of that name not made from the art is never overwritten
     other = tmp_path / "other.psd"
     artfiles.write_psd(str(other))

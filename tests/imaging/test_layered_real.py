@@ -34,8 +34,8 @@ def test_real_file_imports_as_its_layers_and_composite(name):
 
     path = os.path.join(DATA, name)
     art = read_layered(path)
-    assert [lay.name for lay in art.layers] == CASES[name]
-    mine = over(art.layers, art.size).astype(float)
+    assert [lay.name for lay in art.layers if lay.visible] == CASES[name]
+    mine = over([lay for lay in art.layers if lay.visible], art.size).astype(float)
     ref = np.asarray(PSDImage.open(path).composite().convert("RGBA")).astype(float)
     assert np.abs(mine[..., 3] - ref[..., 3]).mean() < 1.0
     opaque = ref[..., 3] == 255
@@ -56,6 +56,19 @@ def test_a_pass_through_groups_adjustment_matches_the_file_at_every_pixel():
     mine = over(art.layers, art.size).astype(int)
     ref = np.asarray(PSDImage.open(path).composite().convert("RGBA")).astype(int)
     assert np.abs(mine - ref).max() <= 2
+
+
+def test_a_hidden_layer_is_kept_hidden_with_its_pixels():
+    """Issue 32: hidden layers were dropped; they are kept, not visible, unchanged by what
+    is baked into the visible layers."""
+    from psd_tools import PSDImage
+
+    path = os.path.join(DATA, "hidden-layer.psd")
+    art = read_layered(path)
+    (hidden,) = [lay for lay in art.layers if not lay.visible]
+    assert hidden.name == "Shape 2" and art.hidden == ["Shape 2"]
+    layer = next(x for x in PSDImage.open(path).descendants() if x.name == "Shape 2")
+    assert hidden.rgba[..., 3].any() and hidden.offset[0] >= layer.bbox[0] and hidden.offset[1] >= layer.bbox[1]
 
 
 def test_adjustments_are_baked_into_the_layers_below():

@@ -112,8 +112,12 @@ def write_kra(path, *, colorspace="RGBA"):
 
 
 def check_parts(art):
-    assert [lay.name for lay in art.layers] == NAMES
-    for lay, (_, _, rgba, (x, y)) in zip(art.layers, artfiles.parts()):
+    """The seven parts, visible, and the sketch under them kept hidden (issue 32)."""
+    assert [lay.name for lay in art.layers] == ["sketch"] + NAMES
+    sketch, *parts = art.layers
+    assert not sketch.visible and all(lay.visible for lay in parts)
+    assert (sketch.rgba[..., 3] > 0).any() and sketch.rgba.shape[0] <= artfiles.sketch().shape[0]
+    for lay, (_, _, rgba, (x, y)) in zip(parts, artfiles.parts()):
         rows, cols = np.nonzero(rgba[..., 3])
         assert lay.offset == (x + cols.min(), y + rows.min()), lay.name
         crop = rgba[rows.min():rows.max() + 1, cols.min():cols.max() + 1]
@@ -133,7 +137,7 @@ def test_kra_in_another_colour_depth_is_its_merged_image(tmp_path):
     path = tmp_path / "deep.kra"
     write_kra(path, colorspace="RGBA16")
     art = read_layered(str(path))
-    assert [lay.name for lay in art.layers] == ["image"]
+    assert [lay.name for lay in art.layers if lay.visible] == ["image"]
     assert any("merged image" in n for n in art.notes)
     assert sum("RGBA16" in n for n in art.notes) == 7
 

@@ -37,7 +37,6 @@ class App:
         self.pin_kind = "interior"  # kind of the pins the Pin tool adds
         self.selection: list[str] = []  # selected pin names, in order
         self.selected_layer: str | None = None
-        self.hidden: set[str] = set()  # layers hidden in the app (not saved)
         self.show_pins = True
         self.show_mesh = False
         self.depth_view = False
@@ -78,7 +77,6 @@ class App:
                 names = {L.name for L in snap.data.layers}
                 if self.selected_layer not in names:
                     self.selected_layer = None
-                self.hidden &= names
                 if file_changed:
                     self.fit_pending = True
         if self.fit_pending and snap.loaded:
@@ -193,8 +191,13 @@ class App:
         self.markers()
         return self._layer_names.get(name)
 
+    @property
+    def hidden(self) -> frozenset[str]:
+        """The layers the scene hides (``layers[i].visible: false``): posed, not drawn."""
+        return frozenset(L.name for L in self.snap.data.layers if not L.visible) if self.snap.loaded else frozenset()
+
     def hidden_indices(self) -> set[int]:
-        return {k for k, L in enumerate(self.snap.data.layers) if L.name in self.hidden} if self.snap.loaded else set()
+        return {k for k, L in enumerate(self.snap.data.layers) if not L.visible} if self.snap.loaded else set()
 
     def select(self, name: str, extend: bool = False) -> None:
         """Select pin ``name`` (Shift: toggle it in the selection)."""
@@ -413,7 +416,7 @@ class App:
         its place), on the scene thread."""
         path = os.path.abspath(os.path.expanduser(path))
         picture = is_picture(path)
-        self.selection, self.selected_layer, self.hidden = [], None, set()
+        self.selection, self.selected_layer = [], None
         self.script = Script()
         self.timeline.reset()
         self.mode = "pin" if picture else "pose"  # as the command line opens it, whatever was open before

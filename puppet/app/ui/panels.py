@@ -68,9 +68,12 @@ class Panels:
         for k in order:
             name = snap.data.layers[k].name
             imgui.push_id(f"layer-{name}")
-            vis = toggle("##vis", name not in app.hidden, "show or hide the layer in the app (not saved)")
+            shown = snap.data.layers[k].visible
+            vis = toggle("##vis", shown, "show or hide the layer (saved: a hidden layer moves with its pins and "
+                         "links but is not drawn, nor exported)")
             note(f"visible:{name}")
-            (app.hidden.discard if vis else app.hidden.add)(name)
+            if vis != shown:
+                app.edit(lambda s, name=name, vis=vis: s.set_layer(name, visible=vis))
             imgui.same_line()
             im = snap.images[k]
             imgui.image(*self.thumbs.ref(snap.image_keys[k], im.rgba))

@@ -34,6 +34,8 @@ def bake_adjustment(layer, fn, targets: list[ArtLayer], mask: tuple = (), streng
 
     changed = 0
     for lay, k in zip(targets, [1.0] * len(targets) if strength is None else strength):
+        if not lay.visible:  # a hidden layer is not in the file's composite
+            continue
         colour = lay.rgba[..., :3].astype(np.float32) / 255.0
         out = np.asarray(fn(colour, ColorMode.RGB, layer), np.float32)
         weight = np.full(lay.rgba.shape[:2] + (1,), 255, np.uint8)

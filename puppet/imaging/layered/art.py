@@ -27,11 +27,13 @@ MAX_DEPTH = 256
 
 @dataclass
 class ArtLayer:
-    """One layer: ``rgba`` (h, w, 4) uint8 straight alpha, its top-left at ``offset`` (x, y)."""
+    """One layer: ``rgba`` (h, w, 4) uint8 straight alpha, its top-left at ``offset`` (x, y);
+    ``visible`` False for a layer the file hides (kept hidden: nothing is baked into it)."""
 
     name: str
     rgba: np.ndarray
     offset: tuple[int, int]
+    visible: bool = True
 
     @property
     def bounds(self) -> tuple[int, int, int, int]:
@@ -43,7 +45,8 @@ class ArtLayer:
 @dataclass
 class LayeredArt:
     """A layered document: canvas ``size`` (w, h), ``layers`` back to front, ``notes``
-    (one line each: what was baked, skipped or refused), ``hidden`` names skipped."""
+    (one line each: what was baked, skipped or refused), ``hidden`` the names of the hidden
+    layers and groups (their layers are among ``layers``, not visible)."""
 
     path: str
     size: tuple[int, int]
@@ -141,6 +144,16 @@ def unique(name: str, taken: set[str]) -> str:
         out = f"{name}-{i}"
     taken.add(out)
     return out
+
+
+def add_hidden(art: LayeredArt, taken: set[str], inner: LayeredArt, name: str) -> None:
+    """Append the layers of a hidden layer or group, read on their own into ``inner`` (so
+    that nothing visible bakes into them nor they into it), to ``art``: not visible, named
+    apart from ``taken``; ``name`` recorded in ``art.hidden``."""
+    art.hidden.append(name)
+    for lay in inner.layers:
+        art.layers.append(ArtLayer(unique(lay.name, taken), lay.rgba, lay.offset, visible=False))
+    art.notes.extend(inner.notes)
 
 
 def to_uint8(a: np.ndarray) -> np.ndarray:

@@ -50,6 +50,8 @@ def bake_down(layers: list[ArtLayer], rgba: np.ndarray, offset, func) -> tuple[n
     x0, y0 = offset
     x1, y1 = x0 + rgba.shape[1], y0 + rgba.shape[0]
     for below in reversed(layers):
+        if not below.visible:  # a hidden layer is not in the file's composite
+            continue
         bx0, by0, bx1, by1 = below.bounds
         if bx0 >= x1 or bx1 <= x0 or by0 >= y1 or by1 <= y0:
             continue

@@ -18,7 +18,7 @@ import numpy as np
 
 from puppet.errors import ImageError
 from puppet.imaging import io as image_io  # the limits, read when used
-from puppet.imaging.layered.art import (LayeredArt, Totals, check_depth, check_size, cropped,
+from puppet.imaging.layered.art import (LayeredArt, Totals, add_hidden, check_depth, check_size, cropped,
                                         flatten, scale_alpha, split_tags, unique, why)
 from puppet.imaging.layered.blend import add_blended, separable
 from puppet.imaging.layered.zipped import coordinate, member, number, open_zip, png_member, xml_member
@@ -193,7 +193,7 @@ def read_kra(path: str) -> LayeredArt:
         if layers is not None:
             walk.plan(layers, (w, h))
             walk.layers(layers, "", 1.0)
-        if not art.layers and (walk.unread or not art.hidden):
+        if not any(lay.visible for lay in art.layers):
             rgba = png_member(zf, "mergedimage.png", path)
             art.notes.append("no layer could be read (only 8-bit RGBA paint layers are): "
                              "the merged image is one layer")
@@ -203,9 +203,9 @@ def read_kra(path: str) -> LayeredArt:
 
 
 def _shown(node, prefix: str):
-    """``(full name, tags)`` of a layer that is read (None: ignored or hidden)."""
+    """``(full name, tags)`` of a layer that is read, hidden ones too (None: ignored)."""
     name, tags = split_tags(node.get("name") or "layer")
-    if "ignore" in tags or node.get("visible", "1") == "0":
+    if "ignore" in tags:
         return None
     return prefix + name, tags
 
@@ -215,9 +215,9 @@ def _readable(node) -> bool:
 
 
 class _Walk:
-    def __init__(self, zf, art: LayeredArt, path: str, doc: str, tiles: Tiles):
+    def __init__(self, zf, art: LayeredArt, path: str, doc: str, tiles: Tiles, *, reveal: bool = False):
         self.zf, self.art, self.path, self.doc, self.taken = zf, art, path, doc, set()
-        self.tiles = tiles
+        self.tiles, self.reveal = tiles, reveal  # reveal: read hidden layers too (inside a hidden group)
         self.unread = 0  # visible layers of a kind or colour space not read
 
     def tile_file(self, node, name: str) -> bytes:
@@ -259,14 +259,19 @@ class _Walk:
             elif _readable(node):
                 yield node, shown[0]
 
-    def layers(self, el, prefix: str, opacity: float) -> None:
-        for node in reversed(list(el.findall("layer"))):  # maindoc.xml lists the top first
+    def layers(self, el, prefix: str, opacity: float, nodes=None) -> None:
+        """Read the layers of ``el`` (or the ``nodes`` given, listed top first)."""
+        for node in reversed(list(el.findall("layer") if nodes is None else nodes)):  # top first in maindoc.xml
             name, tags = split_tags(node.get("name") or "layer")
             full, kind = prefix + name, node.get("nodetype", "")
             if "ignore" in tags:
                 continue
-            if node.get("visible", "1") == "0":
-                self.art.hidden.append(full)
+            if node.get("visible", "1") == "0" and not self.reveal:
+                inner = _Walk(self.zf, LayeredArt(self.path, self.art.size), self.path, self.doc, self.tiles,
+                              reveal=True)
+                inner.layers(None, prefix, opacity, [node])
+                self.unread += inner.unread
+                add_hidden(self.art, self.taken, inner.art, full)
                 continue
             where = f"maindoc.xml: layer {full[:80]!r}"
             alpha = opacity * number(node, "opacity", self.path, where, default=255, lo=0, hi=255, whole=True) / 255

@@ -10,8 +10,8 @@ with a note.
 from __future__ import annotations
 
 from puppet.errors import ImageError
-from puppet.imaging.layered.art import (LayeredArt, Totals, check_depth, check_size, cropped, flatten, scale_alpha,
-                                        split_tags, unique)
+from puppet.imaging.layered.art import (LayeredArt, Totals, add_hidden, check_depth, check_size, cropped, flatten,
+                                        scale_alpha, split_tags, unique)
 from puppet.imaging.layered.blend import add_blended, separable
 from puppet.imaging.layered.zipped import coordinate, image_size, number, open_zip, png_member, xml_member
 
@@ -41,10 +41,10 @@ def read_ora(path: str) -> LayeredArt:
 
 
 def _shown(el, prefix: str):
-    """``(full name, tags)`` of a layer or group that is read; None when it is skipped
-    (ignored or hidden)."""
+    """``(full name, tags)`` of a layer or group that is read, hidden ones too; None when
+    it is skipped (ignored)."""
     name, tags = split_tags(el.get("name") or el.get("src") or el.tag)
-    if "ignore" in tags or el.get("visibility", "visible") == "hidden":
+    if "ignore" in tags:
         return None
     return prefix + name, tags
 
@@ -64,8 +64,9 @@ def _read(stack, prefix: str, path: str, depth: int = 1):
 
 
 class _Walk:
-    def __init__(self, zf, art: LayeredArt, path: str):
+    def __init__(self, zf, art: LayeredArt, path: str, *, reveal: bool = False):
         self.zf, self.art, self.path, self.taken = zf, art, path, set()
+        self.reveal = reveal  # read hidden elements too (inside a hidden stack)
 
     def stack(self, stack, prefix: str, opacity: float, dx: int, dy: int) -> None:
         for el in reversed(list(stack)):  # stack.xml lists the top first
@@ -75,8 +76,10 @@ class _Walk:
             full = prefix + name
             if "ignore" in tags:
                 continue
-            if el.get("visibility", "visible") == "hidden":
-                self.art.hidden.append(full)
+            if el.get("visibility", "visible") == "hidden" and not self.reveal:
+                inner = _Walk(self.zf, LayeredArt(self.path, self.art.size), self.path, reveal=True)
+                inner.stack([el], prefix, opacity, dx, dy)
+                add_hidden(self.art, self.taken, inner.art, full)
                 continue
             where = f"stack.xml: {el.tag} {full[:80]!r}"
             alpha = opacity * number(el, "opacity", self.path, where, default=1.0, lo=0.0, hi=1.0, clamp=True)

@@ -28,8 +28,8 @@ import numpy as np
 from puppet.errors import ImageError
 from puppet.imaging import io as image_io  # the limits, read when used
 from puppet.imaging.layered.adjust import adjustment_function, bake_adjustment
-from puppet.imaging.layered.art import (ArtLayer, LayeredArt, Totals, apply_mask, check_depth, check_size, cropped,
-                                        scale_alpha, split_tags, to_rgba, to_uint8, unique, why)
+from puppet.imaging.layered.art import (ArtLayer, LayeredArt, Totals, add_hidden, apply_mask, check_depth, check_size,
+                                        cropped, scale_alpha, split_tags, to_rgba, to_uint8, unique, why)
 from puppet.imaging.layered.blend import bake_down, bake_onto
 
 #: Largest PSD/PSB file read: psd-tools reads a whole file into memory (a document within
@@ -94,7 +94,7 @@ def _read_psd(path: str) -> LayeredArt:
         raise
     except Exception as e:  # psd-tools on a damaged file: any error is "cannot be read"
         raise ImageError(f"corrupt or unsupported layer data ({why(e)})", file=path) from None
-    if not art.layers and not art.hidden and not reader.seen:
+    if not art.layers and not reader.seen:
         art.layers.extend(_flat(psd, path, art, reader))
     return art
 
@@ -111,15 +111,13 @@ def _open(path: str, max_alloc: int):
 
 
 def _totals(psd, path: str, canvas: tuple[int, int]) -> None:
-    """Every visible layer's box from the layer records, held to the totals before any
-    pixel is decoded (:class:`~puppet.imaging.layered.art.Totals`); groups nested too
-    deep refused."""
+    """Every layer's box (hidden ones are read too) from the layer records, held to the
+    totals before any pixel is decoded (:class:`~puppet.imaging.layered.art.Totals`);
+    groups nested too deep refused."""
     totals, todo = Totals(path, canvas), [(psd, 1)]
     while todo:  # iterative: the depth is checked, never recursed into
         group, depth = todo.pop()
         for layer in group:
-            if not layer.visible:
-                continue
             if layer.is_group():
                 check_depth(depth, layer.name, path)
                 todo.append((layer, depth + 1))
@@ -145,8 +143,9 @@ def _flat(psd, path: str, art: LayeredArt, reader) -> list[ArtLayer]:
 class _Reader:
     """Walks the layer tree bottom to top, appending to ``art.layers``."""
 
-    def __init__(self, art: LayeredArt, path: str, psd):
+    def __init__(self, art: LayeredArt, path: str, psd, *, reveal: bool = False):
         self.art, self.path, self.taken, self.seen = art, path, set(), 0
+        self.psd, self.reveal = psd, reveal  # reveal: read hidden layers too (inside a hidden group)
         self.depth, self.cmyk = psd.depth, int(psd.color_mode) == 4
         self.lab = int(psd.color_mode) == 9
         self.rgb = not (self.cmyk or self.lab)  # RGB, grey, bitmap, indexed: numpy() gives the colours
@@ -168,8 +167,11 @@ class _Reader:
             full = prefix + name
             if "ignore" in tags:
                 continue
-            if not layer.visible:
-                self.art.hidden.append(full)
+            if not layer.visible and not self.reveal:
+                if layer.kind != "adjustment" and not _is_adjustment(layer):
+                    inner = _Reader(LayeredArt(self.path, self.art.size), self.path, self.psd, reveal=True)
+                    inner.group([layer], prefix, opacity, masks)
+                    add_hidden(self.art, self.taken, inner.art, full)
                 continue
             alpha = opacity * layer.opacity / 255.0
             if layer.is_group() and "merge" not in tags and layer.has_clip_layers(visible=True):
@@ -203,7 +205,7 @@ class _Reader:
         if fn is None or not self.rgb or self.depth == 32:
             self.note(f"{name}: adjustment layer ({layer.kind}) skipped (not drawn for this kind or document)")
             return
-        targets = self.art.layers[start:]
+        targets = self.art.layers[start:]  # (hidden ones among them are left as they are)
         strength = []
         for i, lay in enumerate(targets):
             k = 1.0
@@ -223,6 +225,8 @@ class _Reader:
         clear = np.ones((h, w, 1), np.float32)
         x0, y0 = lay.offset
         for other in self.art.layers[first:]:
+            if not other.visible:
+                continue
             ox, oy = other.offset
             oh, ow = other.rgba.shape[:2]
             ax, ay, bx, by = max(x0, ox), max(y0, oy), min(x0 + w, ox + ow), min(y0 + h, oy + oh)
@@ -328,7 +332,8 @@ class _Reader:
         if layer.has_effects():  # strokes and shadows reach beyond the pixels: the canvas
             box = (min(box[0], 0), min(box[1], 0), max(box[2], W), max(box[3], H))
         check_size(box[2] - box[0], box[3] - box[1], f"layer {layer.name!r}", self.path)
-        colour, _, alpha = composite(layer, color=0.0, alpha=0.0, viewport=box, force=False)
+        shown = (lambda _: True) if self.reveal else None  # inside a hidden group: draw it as if shown
+        colour, _, alpha = composite(layer, color=0.0, alpha=0.0, viewport=box, force=False, layer_filter=shown)
         a = np.concatenate([np.atleast_3d(colour), np.atleast_3d(alpha)], axis=2)
         rgba = to_rgba(to_uint8(self._colour(a, alpha=True)))
         if layer.is_group():  # a group's own opacity is not in its composite

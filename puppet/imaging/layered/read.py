@@ -41,9 +41,9 @@ def read_layered(path: str) -> LayeredArt:
         from puppet.imaging.layered.kra import read_kra as read  # lazy: reader by suffix
     art = read(path)
     if art.hidden:
-        art.notes.append(f"{len(art.hidden)} hidden layer(s) skipped (the scene has no hidden layers): "
+        art.notes.append(f"{len(art.hidden)} hidden layer(s) or group(s) kept hidden (`visible: false`): "
                          + ", ".join(art.hidden[:6]) + (", ..." if len(art.hidden) > 6 else ""))
-    if not art.layers:
+    if not any(lay.visible for lay in art.layers):
         why = "every layer is hidden" if art.hidden else "no visible pixel layer"
         raise ImageError(f"nothing to import: {why}", file=path)
     return art

@@ -184,12 +184,12 @@ class Edits:
     @ck.checked(name=ck.text, fields=ck.plain)
     def set_layer(self, name: str, **fields) -> bool:
         """Change a layer's ``offset``, ``mask``, ``order``, ``inpaint``, ``mesh``,
-        ``exterior``, ``deformer`` ({"mode": ...}) or ``stiffness`` ({"file": ...})
-        (scene-format values; None removes the key, back to its default)."""
+        ``exterior``, ``deformer`` ({"mode": ...}), ``stiffness`` ({"file": ...}) or
+        ``visible`` (scene-format values; None removes the key, back to its default)."""
         def m(doc):
             L = self._layer(doc, name)
             for k, v in _layer_fields(fields, keep_none=True).items():
-                if v is None:
+                if v is None or (k == "visible" and v is True):  # (shown: the default, no key)
                     L.pop(k, None)
                 else:
                     L[k] = v
@@ -409,7 +409,7 @@ def _ext_layer(name: str) -> str | None:
 
 
 def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
-    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior", "deformer", "stiffness")
+    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior", "deformer", "stiffness", "visible")
     out = {}
     for k, v in fields.items():
         if k not in known:

@@ -141,7 +141,7 @@ def parse_scene(raw, file: str) -> m.SceneData:
 def _layer(c, v, p, index, file_path, source) -> m.Layer:
     expect_object(c, v, p, required=("name",),
                   optional=("name", "image", "offset", "mask", "order", "inpaint", "mesh", "exterior",
-                            "deformer", "stiffness"))
+                            "deformer", "stiffness", "visible"))
     name = expect_string(c, v["name"], join(p, "name"))
     image = file_path(v["image"], join(p, "image")) if "image" in v else None
     if image is None and source is None:
@@ -177,8 +177,9 @@ def _layer(c, v, p, index, file_path, source) -> m.Layer:
         sp_ = join(p, "stiffness")
         so = expect_object(c, v["stiffness"], sp_, required=("file",))
         stiffness = file_path(so["file"], join(sp_, "file"))
+    visible = expect_bool(c, v.get("visible", True), join(p, "visible"))
     return m.Layer(name=name, image=image, offset=offset, mask=mask, order=order, inpaint=inpaint,
-                   mesh=mesh, exterior=exterior, index=index, mode=mode, stiffness=stiffness)
+                   mesh=mesh, exterior=exterior, index=index, mode=mode, stiffness=stiffness, visible=visible)
 
 
 def _mask(c, v, p, file_path, offset=(0.0, 0.0)) -> m.Mask:

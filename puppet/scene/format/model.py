@@ -64,6 +64,7 @@ class Layer:
     index: int = 0  # position in the scene's list
     mode: str | None = None  # ``deformer.mode`` of this layer (None: the scene's)
     stiffness: str | None = None  # absolute path of the painted stiffness image
+    visible: bool = True  # False: built and posed (links, pins), never drawn
 
 
 @dataclass

@@ -1,5 +1,6 @@
-"""``puppet init ART.psd|.psb|.ora|.kra``: a scene with one layer per visible layer of a
-layered art file, and ``--update``: the same art re-imported into a rigged scene.
+"""``puppet init ART.psd|.psb|.ora|.kra``: a scene with one layer per layer of a layered
+art file (hidden ones kept hidden, ``"visible": false``), and ``--update``: the same art
+re-imported into a rigged scene.
 
 Each layer's pixels are written as a PNG in a folder named after the scene
 (``SCENE-layers/``, one ``NAME.png`` per layer) and referenced with its ``offset``
@@ -159,8 +160,12 @@ def file_stem(name: str, taken: set[str]) -> str:
 
 
 def layer_entry(lay: ArtLayer, image: str) -> dict:
-    """The scene's layer for an imported layer whose PNG is ``image``."""
-    return {"name": lay.name, "image": image, "offset": [int(lay.offset[0]), int(lay.offset[1])], "mask": "alpha"}
+    """The scene's layer for an imported layer whose PNG is ``image`` (a layer the file
+    hides is kept with ``"visible": false``)."""
+    entry = {"name": lay.name, "image": image, "offset": [int(lay.offset[0]), int(lay.offset[1])], "mask": "alpha"}
+    if not lay.visible:
+        entry["visible"] = False
+    return entry
 
 
 def mask_of(lay: ArtLayer) -> np.ndarray:
@@ -496,7 +501,7 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
     budget = auto_links.RIG_SECONDS  # the automatic rig's time: half for pins when links follow
     told = []
     if pins == "auto":
-        todo = [lay for lay in art.layers if lay.name not in pinned]
+        todo = [lay for lay in art.layers if lay.name not in pinned and lay.visible]  # (a hidden sketch: no rig)
         deadline, new, done = Deadline(budget / 2 if links == "auto" else budget), [], 0
         for lay in todo:
             if deadline.passed():
@@ -510,7 +515,8 @@ def _document(art, old, tmp: str, names: dict, *, pins: str, links: str, max_pin
     if links == "auto":
         linked = {frozenset(k["layers"]) for k in doc.get("links", [])}
         deadline = Deadline(budget)
-        found = propose_links(art.layers, skip=linked, canvas=art.size, deadline=deadline)
+        found = propose_links([lay for lay in art.layers if lay.visible], skip=linked, canvas=art.size,
+                              deadline=deadline)
         doc["links"] = doc.get("links", []) + found
         told.append((deadline.hit, f"{len(found)} link(s), for the largest overlaps only" if deadline.hit
                      else f"{len(found)} link(s)"))

@@ -26,11 +26,20 @@ def test_layer_visibility_select_and_reorder(two_bars):
     d.key(key.H)  # no pin markers in the way
     overlap = (60, 27)  # red (back) and blue (front) both cover it
     assert abs(px(d, overlap) - (40, 40, 200)).max() <= 2
+    steps = len(d.scene().history.undo_stack)
     d.click(*widget("visible:blue"))
     d.settle()
     assert app.hidden == {"blue"}
     assert abs(px(d, overlap) - (200, 40, 40)).max() <= 2
+    # a scene edit (issue 32: it was the app's alone, not saved): one undo step, in the file, not rendered
+    assert len(d.scene().history.undo_stack) == steps + 1
+    assert d.scene().to_dict()["layers"][1]["visible"] is False
+    out = d.scene().render()
+    x, y = overlap
+    assert abs(out[y, x, :3].astype(int) - (200, 40, 40)).max() <= 2
     d.click(*widget("visible:blue"))
+    d.settle()
+    assert "visible" not in d.scene().to_dict()["layers"][1] and not app.hidden
     d.click(*widget("layer:red"))
     assert app.selected_layer == "red"
     # drag the red layer's row onto the blue one: red goes to blue's place, in front
