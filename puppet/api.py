@@ -3,6 +3,8 @@ itself (``render``), give its meshes (``mesh``) and follow a dragged pin (``drag
 from __future__ import annotations
 
 import dataclasses
+import functools
+import os
 
 import numpy as np
 
@@ -42,6 +44,7 @@ class Scene(Document):
         self._own_compositor = False
         self._reduced_rest: dict[str, tuple] = {}  # layer -> (rest, shrunk image, rest scaled to it)
         self._drawable: set[tuple[int, int]] = set()  # frame sizes this machine's GL was found to draw
+        self._classes: dict[str, tuple] = {}  # layer -> (image, rest, triangles, their triangle classes)
 
     @property
     def compositor(self):
@@ -86,8 +89,9 @@ class Scene(Document):
         from puppet.render.layers import DrawLayer  # lazy: drawing only (mesh and check draw nothing)
 
         draw = [DrawLayer(key=r.name, image=im.drawn[0], offset=im.drawn[1], rest=r.rest, deformed=r.deformed,
-                          triangles=r.triangles, depth=r.depth)
-                for r, im in zip(layers, self.built.images)]
+                          triangles=r.triangles, depth=r.depth,
+                          classes=self._triangle_classes(r, im.drawn, k) if reduce == 1 else None)
+                for r, im, k in zip(layers, self.built.images, self.built.image_keys)]
         if reduce > 1:
             draw = [self._reduced(L, k, reduce) for L, k in zip(draw, self.built.image_keys)]
         background = self.background() if background is None else background
@@ -117,6 +121,24 @@ class Scene(Document):
                                  file=self.file)
         self._drawable.add(size)
 
+    def _triangle_classes(self, r: LayerResult, drawn, image_key: str) -> tuple | None:
+        """The compositor's triangle classes of a layer drawn from ``drawn`` (its texture
+        and offset), as :func:`~puppet.render.layers.classify_triangles` gives them: kept in
+        the rig's cache (and on disk, kind ``"classes"``) under the layer's pixels, offset,
+        rest mesh and the classifying code, looked up once per mesh version. None (the
+        compositor classifies) when a stored entry does not fit the mesh."""
+        from puppet.render.layers import classes_fit, classify_triangles, texture_uv  # lazy: drawing only
+
+        image, offset = drawn
+        seen = self._classes.get(r.name)
+        if seen is None or seen[0] is not image or seen[1] is not r.rest or seen[2] is not r.triangles:
+            key = fingerprint(_classifier_stamp(), image_key, image.shape, offset, r.rest, r.triangles)
+            classes = self.rig.memo.get("classes", key, lambda: classify_triangles(
+                image, texture_uv(r.rest, offset, image.shape), r.triangles))
+            fit = classes_fit(classes, len(r.triangles))
+            seen = self._classes[r.name] = (image, r.rest, r.triangles, classes if fit else None)
+        return seen[3]
+
     def _reduced(self, L, image_key: str, reduce: int):
         """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled
         about the offset so that every vertex keeps its texture coordinate."""
@@ -128,7 +150,7 @@ class Scene(Document):
             off = np.asarray(L.offset, float)
             seen = (L.rest, image, off + (np.asarray(L.rest, float) - off) * [sw / w, sh / h])
             self._reduced_rest[L.key] = seen
-        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2])
+        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2], classes=None)
 
     @ck.checked(names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag, iterations=ck.ITERATIONS,
                 size=ck.optional(ck.size), solver=ck.optional(drag_solver))
@@ -176,6 +198,17 @@ class Drag(DragSession):
         ``scene.render(size=size)`` for a pose drag, ``scene.render(time=time, size=size)``
         for a key drag or a recording."""
         return self.doc.draw_layers(self.release_layers(keys), size=self.size)
+
+
+@functools.lru_cache(maxsize=1)
+def _classifier_stamp() -> list:
+    """What identifies the code that classifies triangles (a cached entry of kind
+    ``"classes"`` is asked for again when it changes): its module's name, size and
+    modification time, as the disk cache stamps the modules that build parts."""
+    from puppet.render import layers  # lazy: drawing only
+
+    st = os.stat(layers.__file__)
+    return ["puppet.render.layers", st.st_size, st.st_mtime_ns]
 
 
 def preview_size(size: tuple[int, int], pixels: int | None = None) -> tuple[int, int]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from .layers import DrawLayer, classify_triangles, fragment_bound, mesh_edges
+from .layers import DrawLayer, classify_triangles, fragment_bound, mesh_edges, texture_uv
 
 OWN = object()  # tag in the .extra of the compositor's own framebuffers
 
@@ -27,14 +27,13 @@ class LayerMesh:
 
     def __init__(self, ctx: moderngl.Context, layer: DrawLayer,
                  programs: dict[str, moderngl.Program]):
-        h, w = layer.image.shape[:2]
         self.image = layer.image
         self._sources = (layer.rest, layer.triangles)  # identity: the cheap fits() test
         self.offset = tuple(float(v) for v in layer.offset)
         self.rest = np.array(layer.rest, np.float64)
         self.triangles = np.array(layer.triangles, np.int32).reshape(-1, 3)
-        uv = ((self.rest - self.offset) / (w, h)).astype(np.float32)
-        edge, empty = classify_triangles(layer.image, uv, self.triangles)
+        uv = texture_uv(self.rest, self.offset, layer.image.shape)
+        edge, empty = layer.classes or classify_triangles(layer.image, uv, self.triangles)
         self.edge_triangles = self.triangles[edge]
         drawn = self.triangles[~empty]
         self.counts = {"opaque": len(drawn), "edge": len(self.edge_triangles)}

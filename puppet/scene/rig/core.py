@@ -41,13 +41,13 @@ from puppet.scene.rig.stiffness import group_cells
 #: how many of each kind of built part are kept (least recently used dropped first); the
 #: kinds of :data:`PER_LAYER` keep at least two per layer of the scene built last
 CAPACITY = {"pixels": 16, "reduced": 64, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
-            "pose": 16, "cells": 16, "links": 8}
+            "pose": 16, "cells": 16, "links": 8, "classes": 64}
 
 #: threads that read, mask and mesh the layers of a scene (the cores there are, at most 8)
 WORKERS = min(8, os.cpu_count() or 1)
 
 #: kinds of part built once per layer (or per group, at most one per layer)
-PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells")
+PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells", "classes")
 
 
 @dataclass
