@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import os
+import threading
 
 import numpy as np
 
@@ -74,7 +75,9 @@ class Scene(Document):
         -------
         (H, W, 4) uint8 RGBA array (straight alpha), H x W = ``size`` or the canvas.
         """
-        return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
+        first = self._first_frame_size(size)
+        layers = self.layers(pose, time) if first is None else self._layers_beside_targets(pose, time, first)
+        return self.draw_layers(layers, size=size, wireframe=wireframe)
 
     @ck.checked(layers=posed_layers, size=ck.optional(ck.size), wireframe=ck.flag,
                 background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE), preview=ck.flag)
@@ -103,11 +106,48 @@ class Scene(Document):
                                       background=background,
                                       wireframe=wireframe, preview=preview)
 
-    def _check_drawable(self, size: tuple[int, int], background) -> None:
+    def _first_frame_size(self, size) -> tuple[int, int] | None:
+        """The frame size of a render that can make the compositor and its targets while
+        the rig is built (:meth:`_layers_beside_targets`): the first one of a scene drawing
+        with its own compositor, the rig not built yet, the size known without building it
+        (given, the scene's canvas or its source's size); else None."""
+        if self._compositor is not None or self._built is not None:
+            return None
+        if size is None and self.data.canvas is None and self.data.source is None:
+            return None
+        return size or self.canvas
+
+    def _layers_beside_targets(self, pose, time, size: tuple[int, int]) -> list[LayerResult]:
+        """``self.layers(pose, time)``, computed on a thread while this one makes the
+        compositor (its EGL context stays on this thread) and allocates every target of
+        a full frame of ``size``: at 4000x4000 about 0.8 GB that the driver zeroes, beside a
+        rig read from the cache. The same GL objects and calls as without it, so the same
+        bits. A failure of the layers is raised first, as when they came first."""
+        out: dict = {}
+
+        def work():
+            try:
+                out["layers"] = self.layers(pose, time)
+            except BaseException as e:  # noqa: BLE001 - raised on the calling thread below
+                out["error"] = e
+
+        thread = threading.Thread(target=work, name="puppet-first-layers")
+        thread.start()
+        try:
+            self._check_drawable(size, self.background(), full=True)
+        except Exception as e:  # noqa: BLE001 - after the layers' own failure, if any
+            out["late"] = e
+        finally:
+            thread.join()
+        if "error" in out or "late" in out:
+            raise out.get("error", out.get("late"))
+        return out["layers"]
+
+    def _check_drawable(self, size: tuple[int, int], background, *, full: bool = False) -> None:
         """Refuse, in one line, a frame size that this machine's OpenGL cannot draw (found
         once per size, by allocating the compositor's own targets for it, which the frame
-        then uses; only with the scene's own compositor: a shared one's context is its
-        owner's to check)."""
+        then uses; ``full``: all of them, see :meth:`Compositor.reserve`; only with the
+        scene's own compositor: a shared one's context is its owner's to check)."""
         size = (int(size[0]), int(size[1]))
         if size in self._drawable:
             return
@@ -115,7 +155,8 @@ class Scene(Document):
         if self._own_compositor:
             from puppet.render.context import output_size_problem  # lazy: moderngl, only once a scene draws
 
-            problem = output_size_problem(comp.ctx, size, allocate=lambda: comp.reserve(size, background=background))
+            problem = output_size_problem(comp.ctx, size,
+                                          allocate=lambda: comp.reserve(size, background=background, full=full))
             if problem:
                 raise SceneError(f"draw: a frame of {size[0]}x{size[1]} pixels cannot be drawn: {problem}",
                                  file=self.file)

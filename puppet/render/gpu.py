@@ -8,6 +8,8 @@ import numpy as np
 from .layers import DrawLayer, classify_triangles, fragment_bound, mesh_edges, texture_uv
 
 OWN = object()  # tag in the .extra of the compositor's own framebuffers
+#: (internal format, format, type) of an RGBA32UI texture (the K-buffer's attachments)
+RGBA32UI = (0x8D70, 0x8D99, 0x1405)
 
 
 class LayerMesh:
@@ -112,8 +114,10 @@ class FrameTargets:
     straight-alpha RGBA8 output."""
 
     def __init__(self, ctx: moderngl.Context, size: tuple[int, int],
-                 main: moderngl.Texture | None = None, dtype: str = "f1"):
+                 main: moderngl.Texture | None = None, dtype: str = "f1", unlocked=None):
         self.ctx, self.size = ctx, size
+        self._unlocked = unlocked  # context.UnlockedGL: the K-buffer made without the GIL held
+        self._names: list[int] = []  # GL textures made through it (deleted on release)
         self.own_main = main is None
         self.dtype = dtype if main is None else "f1"
         self.main = ctx.texture(size, 4, dtype=dtype) if main is None else main
@@ -147,7 +151,7 @@ class FrameTargets:
             extra = []
             try:
                 for data in contents:
-                    extra.append(self.ctx.texture(self.size, 4, data, dtype="u4"))
+                    extra.append(self._texture_u4(data))
                     self._objects.append(extra[-1])
             except moderngl.Error:
                 self.kbuffer_failed = True
@@ -155,6 +159,14 @@ class FrameTargets:
             self.kbuffer_fbo = self._fbo([self.main, *extra], self.depth)
             self.kbuffer_fbo.depth_mask = False
         return self.kbuffer_fbo
+
+    def _texture_u4(self, data) -> moderngl.Texture:
+        """An RGBA32UI texture of the targets' size (from ``data`` when given); without
+        the GIL held when the context allows (the same texture, made by the same GL call)."""
+        if self._unlocked is None:
+            return self.ctx.texture(self.size, 4, data, dtype="u4")
+        self._names.append(self._unlocked.texture(self.size, RGBA32UI, data))
+        return self.ctx.external_texture(self._names[-1], self.size, 4, 0, "u4")
 
     def abuffer(self) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
         """Depth-only framebuffer for appending, and the list-head image, all zero (the
@@ -188,4 +200,6 @@ class FrameTargets:
             obj.release()
         if self.own_main:
             self.main.release()
-        self._objects = []
+        if self._names:
+            self._unlocked.delete(self._names)
+        self._objects, self._names = [], []
