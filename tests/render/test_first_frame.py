@@ -218,7 +218,8 @@ def test_a_full_reservation_makes_every_target_of_the_frame(comp, background, dt
     assert [len(calls) for calls in made] == [len(translucent_stack()), 0]  # the layers' textures only
 
 
-def test_the_kbuffer_made_without_the_gil_draws_as_moderngl_s(monkeypatch):
+@pytest.mark.parametrize("background", [(0, 0, 0, 0), (250, 250, 240, 255)])
+def test_targets_made_without_the_gil_draw_as_moderngl_s(monkeypatch, background):
     deleted = []
     a, b = Compositor(), Compositor()
     try:
@@ -227,12 +228,13 @@ def test_the_kbuffer_made_without_the_gil_draws_as_moderngl_s(monkeypatch):
         monkeypatch.setattr(a._unlocked, "delete", lambda names: (deleted.extend(names), real(names)))
         b._unlocked = None  # the moderngl path
         layers = translucent_stack(3)
-        want = b.render(layers, CANVAS, background=(0, 0, 0, 0))
-        got = a.render(layers, CANVAS, background=(0, 0, 0, 0))
+        want = b.render(layers, CANVAS, background=background)
+        got = a.render(layers, CANVAS, background=background)
         assert a.last_method == b.last_method == "kbuffer" and np.array_equal(got, want)
-        (t,) = a._targets.values()
+        (t,) = a._targets.values()  # composite, K-buffer, straight output: all made through ctypes
         names = list(t._names)
-        assert len(names) == 2 and [x.glo for x in t.kbuffer_fbo.color_attachments[1:]] == names
+        made = [t.main, *t.kbuffer_fbo.color_attachments[1:], *(t.out_fbo.color_attachments if t.out_fbo else [])]
+        assert sorted(x.glo for x in made) == sorted(names) and len(names) == (4 if background[3] < 255 else 3)
         assert not list(b._targets.values())[0]._names
     finally:
         a.release()
