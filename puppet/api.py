@@ -118,16 +118,19 @@ class Scene(Document):
         return size or self.canvas
 
     def _layers_beside_targets(self, pose, time, size: tuple[int, int]) -> list[LayerResult]:
-        """``self.layers(pose, time)``, computed on a thread while this one makes the
-        compositor (its EGL context stays on this thread) and allocates every target of
-        a full frame of ``size``: at 4000x4000 about 0.8 GB that the driver zeroes, beside a
-        rig read from the cache. The same GL objects and calls as without it, so the same
-        bits. A failure of the layers is raised first, as when they came first."""
+        """``self.layers(pose, time)``, computed on a thread (with the layers' texture boxes
+        and triangle classes) while this one makes the compositor (its EGL context stays on
+        this thread) and allocates every target of a full frame of ``size``: at 4000x4000
+        about 0.8 GB that the driver zeroes, beside a rig read from the cache. The same GL
+        objects and calls as without it, so the same bits. A failure of the layers is
+        raised first, as when they came first."""
         out: dict = {}
 
         def work():
             try:
                 out["layers"] = self.layers(pose, time)
+                for r, im, key in zip(out["layers"], self.built.images, self.built.image_keys):
+                    self._triangle_classes(r, im.drawn, key)  # the textures' boxes and classes too
             except BaseException as e:  # noqa: BLE001 - raised on the calling thread below
                 out["error"] = e
 
