@@ -128,6 +128,8 @@ class Scene(Document):
 
         def work():
             try:
+                if self._built is None:  # the precomputations only if the pose is not on disk
+                    self._built = self.rig.build(self.data, lazy_pre=True)
                 out["layers"] = self.layers(pose, time)
                 for r, im, key in zip(out["layers"], self.built.images, self.built.image_keys):
                     self._triangle_classes(r, im.drawn, key)  # the textures' boxes and classes too

@@ -159,9 +159,9 @@ def _first_render(path, monkeypatch, *, overlap: bool, pose=None, size=None):
     threads = []
     real = s.rig.build
 
-    def build(data):
+    def build(data, **kw):
         threads.append(threading.current_thread().name)
-        return real(data)
+        return real(data, **kw)
 
     monkeypatch.setattr(s.rig, "build", build)
     if not overlap:
