@@ -115,7 +115,10 @@ class Scene(Document):
             return None
         if size is None and self.data.canvas is None and self.data.source is None:
             return None
-        return size or self.canvas
+        try:
+            return size or self.canvas
+        except SceneError:  # an unreadable source: reported where it was before, by the layers
+            return None
 
     def _layers_beside_targets(self, pose, time, size: tuple[int, int]) -> list[LayerResult]:
         """``self.layers(pose, time)``, computed on a thread (with the layers' texture boxes

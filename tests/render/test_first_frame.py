@@ -4,6 +4,7 @@ throwaway framebuffer of the frame's size."""
 from __future__ import annotations
 
 import json
+import os
 import threading
 
 import numpy as np
@@ -251,3 +252,20 @@ def test_a_callers_context_gets_no_unlocked_calls():
             c.release()
     finally:
         ctx.release()
+
+
+def test_an_unreadable_source_fails_as_it_did(tmp_path, monkeypatch):
+    path = _bar(tmp_path / "a")
+    doc = json.loads(open(path).read())
+    doc.pop("canvas", None)
+    doc["source"] = "source.png"
+    with open(os.path.join(os.path.dirname(path), "source.png"), "wb") as f:
+        f.write(b"not a png")
+    with open(path, "w") as f:
+        json.dump(doc, f)
+    messages = []
+    for overlap in (False, True):
+        with pytest.raises(SceneError) as err:
+            _first_render(path, monkeypatch, overlap=overlap)
+        messages.append(str(err.value))
+    assert messages[0] == messages[1] and "source" in messages[0]
