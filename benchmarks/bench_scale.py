@@ -35,6 +35,10 @@ Each measure runs in its own process with a timeout: a failure prints "error" (o
 ``$TMPDIR/puppet-bench-scale`` and reused between runs.
 
     .venv/bin/python benchmarks/bench_scale.py [--sizes 2k,8k,...] [--quick] [--runs 2]
+
+``--open SCENE [--compare DIR] [--runs N]`` times only the load + first render of one scene,
+cold and cached, N rounds, and with ``--compare`` the puppet package in DIR in the same
+rounds (PYTHONPATH=DIR), alternated: a before/after under the same load.
 """
 from __future__ import annotations
 
@@ -226,12 +230,14 @@ def measure_open(path: str) -> dict:
     return {"load": t1 - t0, "render": t2 - t1, "open": t2 - t0, "open_cpu": time.process_time() - c0}
 
 
-def child(work: list[str], args) -> dict:
-    """Run this script's ``--worker`` ``work`` (kind, argument); its JSON result, or {"error": why}."""
+def child(work: list[str], args, package: str | None = None) -> dict:
+    """Run this script's ``--worker`` ``work`` (kind, argument); its JSON result, or {"error": why}.
+    ``package``: a folder holding another puppet package, imported instead of this checkout's."""
     cmd = [sys.executable, os.path.abspath(__file__), "--worker", *work, "--steps", str(args.steps), "--folder",
            args.folder]
+    env = None if package is None else {**os.environ, "PYTHONPATH": os.path.abspath(package)}
     try:
-        p = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, cwd=ROOT)
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, cwd=ROOT, env=env)
     except subprocess.TimeoutExpired:
         return {"error": "timeout"}
     if p.returncode != 0 or not p.stdout.strip():
@@ -250,15 +256,28 @@ def worker(kind: str, arg: str, steps: int, base: str) -> None:
 
 
 # -- the table --------------------------------------------------------------------------------------
-def open_cold_cached(path: str, args) -> tuple[dict, dict]:
+def open_cold_cached(path: str, args, package: str | None = None) -> tuple[dict, dict]:
     """Load + first render with the scene's cache folder removed, then again (cached) when
     a cache folder appeared; ({"open": s} or {"error": why}, the same or {"error": "n/a"})."""
     cache = os.path.join(os.path.dirname(path), CACHE)
     shutil.rmtree(cache, ignore_errors=True)
-    cold = child(["open", path], args)
+    cold = child(["open", path], args, package)
     if not os.path.isdir(cache):
         return cold, {"error": "n/a"}
-    return cold, child(["open", path], args)
+    return cold, child(["open", path], args, package)
+
+
+def open_table(path: str, args) -> None:
+    """``--open``: load + first render of one scene, cold and cached, ``--runs`` rounds; with
+    ``--compare DIR`` the puppet package in DIR is timed in the same rounds, alternated."""
+    codes = [("this", None)] + ([(f"compared ({args.compare})", args.compare)] if args.compare else [])
+    print(f"\nload + first render of {path}; {header()}\n"
+          "| round | code | cold s (CPU s) | cached s (CPU s) | load average |\n|---|---|---|---|---|", flush=True)
+    for run in range(args.runs):
+        for name, package in codes:
+            cold, cached = open_cold_cached(path, args, package)
+            cells = [f"{cell(r, 'open', '.2f')} ({cell(r, 'open_cpu', '.2f')})" for r in (cold, cached)]
+            print(f"| {run + 1} | {name} | {cells[0]} | {cells[1]} | {os.getloadavg()[0]:.2f} |", flush=True)
 
 
 def row(name: str, args) -> dict:
@@ -363,10 +382,16 @@ def main() -> int:
     ap.add_argument("--no-export", action="store_true", help="leave out the export table")
     ap.add_argument("--folder", default=os.path.join(tempfile.gettempdir(), "puppet-bench-scale"),
                     help="where the scenes are made once and reused")
+    ap.add_argument("--open", metavar="SCENE", help="only the load + first render of SCENE, cold and cached")
+    ap.add_argument("--compare", metavar="DIR", help="with --open: also the puppet package in DIR (e.g. "
+                    "`git archive OLD puppet | tar -x -C DIR`), alternated in each round")
     ap.add_argument("--worker", nargs=2, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
         worker(*args.worker, args.steps, args.folder)
+        return 0
+    if args.open:
+        open_table(os.path.abspath(args.open), args)
         return 0
     if args.quick:
         args.sizes, args.steps = ("2k,8k" if args.sizes == ",".join(SIZES) else args.sizes), 12

@@ -3,6 +3,9 @@ itself (``render``), give its meshes (``mesh``) and follow a dragged pin (``drag
 from __future__ import annotations
 
 import dataclasses
+import functools
+import os
+import threading
 
 import numpy as np
 
@@ -42,6 +45,7 @@ class Scene(Document):
         self._own_compositor = False
         self._reduced_rest: dict[str, tuple] = {}  # layer -> (rest, shrunk image, rest scaled to it)
         self._drawable: set[tuple[int, int]] = set()  # frame sizes this machine's GL was found to draw
+        self._classes: dict[str, tuple] = {}  # layer -> (image, rest, triangles, their triangle classes)
 
     @property
     def compositor(self):
@@ -71,7 +75,9 @@ class Scene(Document):
         -------
         (H, W, 4) uint8 RGBA array (straight alpha), H x W = ``size`` or the canvas.
         """
-        return self.draw_layers(self.layers(pose, time), size=size, wireframe=wireframe)
+        first = self._first_frame_size(size)
+        layers = self.layers(pose, time) if first is None else self._layers_beside_targets(pose, time, first)
+        return self.draw_layers(layers, size=size, wireframe=wireframe)
 
     @ck.checked(layers=posed_layers, size=ck.optional(ck.size), wireframe=ck.flag,
                 background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE), preview=ck.flag)
@@ -86,9 +92,12 @@ class Scene(Document):
         from puppet.render.layers import DrawLayer  # lazy: drawing only (mesh and check draw nothing)
 
         shown = [k for k, L in enumerate(self.data.layers) if L.visible]  # a hidden layer is posed, not drawn
-        draw = [DrawLayer(key=layers[k].name, image=self.built.images[k].drawn[0],
-                          offset=self.built.images[k].drawn[1], rest=layers[k].rest, deformed=layers[k].deformed,
-                          triangles=layers[k].triangles, depth=layers[k].depth) for k in shown]
+        images, keys = self.built.images, self.built.image_keys
+        draw = [DrawLayer(key=layers[k].name, image=images[k].drawn[0], offset=images[k].drawn[1],
+                          rest=layers[k].rest, deformed=layers[k].deformed, triangles=layers[k].triangles,
+                          depth=layers[k].depth,
+                          classes=self._triangle_classes(layers[k], images[k].drawn, keys[k]) if reduce == 1 else None)
+                for k in shown]
         if reduce > 1:
             draw = [self._reduced(L, self.built.image_keys[k], reduce) for L, k in zip(draw, shown)]
         background = self.background() if background is None else background
@@ -100,11 +109,56 @@ class Scene(Document):
                                       background=background,
                                       wireframe=wireframe, preview=preview)
 
-    def _check_drawable(self, size: tuple[int, int], background) -> None:
+    def _first_frame_size(self, size) -> tuple[int, int] | None:
+        """The frame size of a render that can make the compositor and its targets while
+        the rig is built (:meth:`_layers_beside_targets`): the first one of a scene drawing
+        with its own compositor, the rig not built yet, the size known without building it
+        (given, the scene's canvas or its source's size); else None."""
+        if self._compositor is not None or self._built is not None:
+            return None
+        if size is None and self.data.canvas is None and self.data.source is None:
+            return None
+        try:
+            return size or self.canvas
+        except SceneError:  # an unreadable source: reported where it was before, by the layers
+            return None
+
+    def _layers_beside_targets(self, pose, time, size: tuple[int, int]) -> list[LayerResult]:
+        """``self.layers(pose, time)``, computed on a thread (with the layers' texture boxes
+        and triangle classes) while this one makes the compositor (its EGL context stays on
+        this thread) and allocates every target of a full frame of ``size``: at 4000x4000
+        about 0.8 GB that the driver zeroes, beside a rig read from the cache. The same GL
+        objects and calls as without it, so the same bits. A failure of the layers is
+        raised first, as when they came first."""
+        out: dict = {}
+
+        def work():
+            try:
+                if self._built is None:  # the precomputations only if the pose is not on disk
+                    self._built = self.rig.build(self.data, lazy_pre=True)
+                out["layers"] = self.layers(pose, time)
+                for r, im, key in zip(out["layers"], self.built.images, self.built.image_keys):
+                    self._triangle_classes(r, im.drawn, key)  # the textures' boxes and classes too
+            except BaseException as e:  # noqa: BLE001 - raised on the calling thread below
+                out["error"] = e
+
+        thread = threading.Thread(target=work, name="puppet-first-layers")
+        thread.start()
+        try:
+            self._check_drawable(size, self.background(), full=True)
+        except Exception as e:  # noqa: BLE001 - after the layers' own failure, if any
+            out["late"] = e
+        finally:
+            thread.join()
+        if "error" in out or "late" in out:
+            raise out.get("error", out.get("late"))
+        return out["layers"]
+
+    def _check_drawable(self, size: tuple[int, int], background, *, full: bool = False) -> None:
         """Refuse, in one line, a frame size that this machine's OpenGL cannot draw (found
         once per size, by allocating the compositor's own targets for it, which the frame
-        then uses; only with the scene's own compositor: a shared one's context is its
-        owner's to check)."""
+        then uses; ``full``: all of them, see :meth:`Compositor.reserve`; only with the
+        scene's own compositor: a shared one's context is its owner's to check)."""
         size = (int(size[0]), int(size[1]))
         if size in self._drawable:
             return
@@ -112,11 +166,30 @@ class Scene(Document):
         if self._own_compositor:
             from puppet.render.context import output_size_problem  # lazy: moderngl, only once a scene draws
 
-            problem = output_size_problem(comp.ctx, size, allocate=lambda: comp.reserve(size, background=background))
+            problem = output_size_problem(comp.ctx, size,
+                                          allocate=lambda: comp.reserve(size, background=background, full=full))
             if problem:
                 raise SceneError(f"draw: a frame of {size[0]}x{size[1]} pixels cannot be drawn: {problem}",
                                  file=self.file)
         self._drawable.add(size)
+
+    def _triangle_classes(self, r: LayerResult, drawn, image_key: str) -> tuple | None:
+        """The compositor's triangle classes of a layer drawn from ``drawn`` (its texture
+        and offset), as :func:`~puppet.render.layers.classify_triangles` gives them: kept in
+        the rig's cache (and on disk, kind ``"classes"``) under the layer's pixels, offset,
+        rest mesh and the classifying code, looked up once per mesh version. None (the
+        compositor classifies) when a stored entry does not fit the mesh."""
+        from puppet.render.layers import classes_fit, classify_triangles, texture_uv  # lazy: drawing only
+
+        image, offset = drawn
+        seen = self._classes.get(r.name)
+        if seen is None or seen[0] is not image or seen[1] is not r.rest or seen[2] is not r.triangles:
+            key = fingerprint(_classifier_stamp(), image_key, image.shape, offset, r.rest, r.triangles)
+            classes = self.rig.memo.get("classes", key, lambda: classify_triangles(
+                image, texture_uv(r.rest, offset, image.shape), r.triangles))
+            fit = classes_fit(classes, len(r.triangles))
+            seen = self._classes[r.name] = (image, r.rest, r.triangles, classes if fit else None)
+        return seen[3]
 
     def _reduced(self, L, image_key: str, reduce: int):
         """``L`` drawn from its image shrunk ``reduce`` times: the rest positions scaled
@@ -129,7 +202,7 @@ class Scene(Document):
             off = np.asarray(L.offset, float)
             seen = (L.rest, image, off + (np.asarray(L.rest, float) - off) * [sw / w, sh / h])
             self._reduced_rest[L.key] = seen
-        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2])
+        return dataclasses.replace(L, key=L.key + PREVIEW_KEY, image=image, rest=seen[2], classes=None)
 
     @ck.checked(names=ck.texts, time=ck.optional(ck.TIME), record=ck.flag, iterations=ck.ITERATIONS,
                 size=ck.optional(ck.size), solver=ck.optional(drag_solver))
@@ -177,6 +250,17 @@ class Drag(DragSession):
         ``scene.render(size=size)`` for a pose drag, ``scene.render(time=time, size=size)``
         for a key drag or a recording."""
         return self.doc.draw_layers(self.release_layers(keys), size=self.size)
+
+
+@functools.lru_cache(maxsize=1)
+def _classifier_stamp() -> list:
+    """What identifies the code that classifies triangles (a cached entry of kind
+    ``"classes"`` is asked for again when it changes): its module's name, size and
+    modification time, as the disk cache stamps the modules that build parts."""
+    from puppet.render import layers  # lazy: drawing only
+
+    st = os.stat(layers.__file__)
+    return ["puppet.render.layers", st.st_size, st.st_mtime_ns]
 
 
 def preview_size(size: tuple[int, int], pixels: int | None = None) -> tuple[int, int]:

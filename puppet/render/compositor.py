@@ -54,7 +54,7 @@ from typing import Sequence
 import moderngl
 import numpy as np
 
-from .context import GL_REQUIRE, create_context, is_current
+from .context import GL_REQUIRE, create_context, is_current, unlocked_gl
 from .gpu import OWN, FrameTargets, LayerMesh
 from .layers import (ALPHA_MIN, ALPHA_OPAQUE, DrawLayer, check_background,  # noqa: F401
                      check_layer, check_vertices, mesh_edges, premultiply, unpremultiply_soft)
@@ -118,6 +118,7 @@ class Compositor:
         self._textures: dict[str, tuple[np.ndarray, moderngl.Texture]] = {}
         self._meshes: dict[str, LayerMesh] = {}
         self._targets: dict[tuple, FrameTargets] = {}
+        self._unlocked = unlocked_gl(self.ctx) if self._own_ctx else None  # big targets made without the GIL
 
     # -- public -------------------------------------------------------------------
     def upload(self, layer: DrawLayer) -> None:
@@ -237,12 +238,14 @@ class Compositor:
             self._finish(previous)
 
     def reserve(self, size: tuple[int, int], *,
-                background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0)) -> None:
+                background: tuple[int, int, int, int] | np.ndarray = (0, 0, 0, 0), full: bool = False) -> None:
         """Allocate now the render targets that :meth:`render` at ``size`` over
         ``background`` draws into (kept for it, as after a frame), so that a size the
         driver has no memory for is found before anything is drawn, without allocating a
         frame twice. Raises ``moderngl.Error`` when the allocation fails (nothing is kept
-        then)."""
+        then). ``full``: also those a frame makes on first use (the K-buffer's attachments
+        when it would use them, the straight-alpha output of a half-float composite), so
+        that a caller can have them made while it does other work (a scene's first frame)."""
         size = _sizes(size, None)
         dtype = "f2" if _precise(check_background(background)) else "f1"
         with self._current():
@@ -253,6 +256,19 @@ class Compositor:
                 self._targets.pop((size, dtype, None), None)
                 self._release_targets([targets])
                 raise moderngl.Error(f"cannot allocate the {size[0]}x{size[1]} targets: {error}")
+            if full:
+                self._reserve_rest(targets)
+
+    def _reserve_rest(self, targets: FrameTargets) -> None:
+        """The targets a full frame makes on first use, made now (a K-buffer that does not
+        fit is left to the frame, which then takes the A-buffer, as it would)."""
+        if self._choose() == "kbuffer":
+            try:
+                targets.kbuffer()
+            except moderngl.Error:
+                self.ctx.error  # noqa: B018 - the failed allocation's flag (the frame takes the A-buffer)
+        if targets.dtype == "f2":
+            targets.output()
 
     def forget_overflow(self) -> None:
         """Start the next frame as a fresh compositor would (``auto``: the K-buffer first,
@@ -380,7 +396,7 @@ class Compositor:
             self._release_targets([targets])  # a new texture under a recycled name
             targets = None
         if targets is None:
-            targets = FrameTargets(self.ctx, size, main, dtype)
+            targets = FrameTargets(self.ctx, size, main, dtype, self._unlocked)
         self._targets[key] = targets  # most recent last
         if len(self._targets) > KEEP_TARGETS:
             old = next(iter(self._targets))

@@ -97,6 +97,61 @@ def is_current(ctx: moderngl.Context) -> bool:
     return handle is not None and _egl_current() == handle
 
 
+class UnlockedGL:
+    """The few GL calls that make a big texture, through ctypes, which lets go of Python's
+    GIL while the driver allocates and zeroes (moderngl keeps it through every call): a
+    thread that builds a scene's rig runs on meanwhile. Textures made here are the
+    caller's to delete (:meth:`delete`; a moderngl ``external_texture`` around one does
+    not). Made by :func:`unlocked_gl` for a context of :func:`create_context` only."""
+
+    TEXTURE_2D, TEXTURE_BINDING_2D = 0x0DE1, 0x8069
+
+    def __init__(self, proc):
+        U, I, P = ctypes.c_uint, ctypes.c_int, ctypes.c_void_p
+        self._gen = ctypes.CFUNCTYPE(None, I, ctypes.POINTER(U))(proc(b"glGenTextures"))
+        self._delete = ctypes.CFUNCTYPE(None, I, ctypes.POINTER(U))(proc(b"glDeleteTextures"))
+        self._bind = ctypes.CFUNCTYPE(None, U, U)(proc(b"glBindTexture"))
+        self._get = ctypes.CFUNCTYPE(None, U, ctypes.POINTER(I))(proc(b"glGetIntegerv"))
+        self._image = ctypes.CFUNCTYPE(None, U, I, I, I, I, I, U, U, P)(proc(b"glTexImage2D"))
+
+    def texture(self, size: tuple[int, int], formats: tuple[int, int, int], data=None) -> int:
+        """A new 2D texture of ``size`` = (w, h) and ``formats`` = (internal format, format,
+        type), from the contiguous array ``data`` when given; its GL name. The binding of
+        the active texture unit is kept; GL errors are left to the caller's checks."""
+        name, bound = ctypes.c_uint(), ctypes.c_int()
+        self._get(self.TEXTURE_BINDING_2D, ctypes.byref(bound))
+        self._gen(1, ctypes.byref(name))
+        self._bind(self.TEXTURE_2D, name.value)
+        pointer = None if data is None else data.ctypes.data
+        self._image(self.TEXTURE_2D, 0, formats[0], size[0], size[1], 0, formats[1], formats[2], pointer)
+        self._bind(self.TEXTURE_2D, bound.value)
+        return name.value
+
+    def delete(self, names) -> None:
+        names = list(names)
+        if names:
+            self._delete(len(names), (ctypes.c_uint * len(names))(*names))
+
+
+def unlocked_gl(ctx: moderngl.Context) -> UnlockedGL | None:
+    """:class:`UnlockedGL` for a context made by :func:`create_context`, else None (a
+    caller's context, a window's, may not be EGL's; no libEGL, a missing function)."""
+    if ctx not in _handles:
+        return None
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+        egl.eglGetProcAddress.restype, egl.eglGetProcAddress.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+
+        def proc(name: bytes) -> int:
+            address = egl.eglGetProcAddress(name)
+            if not address:
+                raise AttributeError(name.decode())
+            return address
+        return UnlockedGL(proc)
+    except (OSError, AttributeError):
+        return None
+
+
 def max_output_size(ctx: moderngl.Context) -> int:
     """Largest width or height of a frame ``ctx`` can draw into.
 

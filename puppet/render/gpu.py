@@ -5,9 +5,12 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from .layers import DrawLayer, classify_triangles, fragment_bound, mesh_edges
+from .layers import DrawLayer, classify_triangles, fragment_bound, mesh_edges, texture_uv
 
 OWN = object()  # tag in the .extra of the compositor's own framebuffers
+#: (internal format, format, type) of the RGBA textures of the targets, by moderngl dtype:
+#: RGBA8, RGBA16F, RGBA32UI (the K-buffer's attachments)
+FORMATS = {"f1": (0x8058, 0x1908, 0x1401), "f2": (0x881A, 0x1908, 0x140B), "u4": (0x8D70, 0x8D99, 0x1405)}
 
 
 class LayerMesh:
@@ -27,14 +30,13 @@ class LayerMesh:
 
     def __init__(self, ctx: moderngl.Context, layer: DrawLayer,
                  programs: dict[str, moderngl.Program]):
-        h, w = layer.image.shape[:2]
         self.image = layer.image
         self._sources = (layer.rest, layer.triangles)  # identity: the cheap fits() test
         self.offset = tuple(float(v) for v in layer.offset)
         self.rest = np.array(layer.rest, np.float64)
         self.triangles = np.array(layer.triangles, np.int32).reshape(-1, 3)
-        uv = ((self.rest - self.offset) / (w, h)).astype(np.float32)
-        edge, empty = classify_triangles(layer.image, uv, self.triangles)
+        uv = texture_uv(self.rest, self.offset, layer.image.shape)
+        edge, empty = layer.classes or classify_triangles(layer.image, uv, self.triangles)
         self.edge_triangles = self.triangles[edge]
         drawn = self.triangles[~empty]
         self.counts = {"opaque": len(drawn), "edge": len(self.edge_triangles)}
@@ -113,11 +115,13 @@ class FrameTargets:
     straight-alpha RGBA8 output."""
 
     def __init__(self, ctx: moderngl.Context, size: tuple[int, int],
-                 main: moderngl.Texture | None = None, dtype: str = "f1"):
+                 main: moderngl.Texture | None = None, dtype: str = "f1", unlocked=None):
         self.ctx, self.size = ctx, size
+        self._unlocked = unlocked  # context.UnlockedGL: big textures made without the GIL held
+        self._names: list[int] = []  # GL textures made through it (deleted on release)
         self.own_main = main is None
         self.dtype = dtype if main is None else "f1"
-        self.main = ctx.texture(size, 4, dtype=dtype) if main is None else main
+        self.main = self._texture(dtype) if main is None else main
         self.depth = ctx.depth_renderbuffer(size)
         self.write_fbo = self._fbo([self.main], self.depth)  # depth test + write
         self.test_fbo = self._fbo([self.main], self.depth)   # depth test, no write
@@ -148,7 +152,7 @@ class FrameTargets:
             extra = []
             try:
                 for data in contents:
-                    extra.append(self.ctx.texture(self.size, 4, data, dtype="u4"))
+                    extra.append(self._texture("u4", data))
                     self._objects.append(extra[-1])
             except moderngl.Error:
                 self.kbuffer_failed = True
@@ -156,6 +160,19 @@ class FrameTargets:
             self.kbuffer_fbo = self._fbo([self.main, *extra], self.depth)
             self.kbuffer_fbo.depth_mask = False
         return self.kbuffer_fbo
+
+    def _texture(self, dtype: str, data=None) -> moderngl.Texture:
+        """An RGBA texture of the targets' size (from ``data`` when given), as
+        ``ctx.texture`` makes it; without the GIL held when the context allows: the same
+        GL texture from the same call, with moderngl's filter (linear for floats; an
+        integer texture here is never sampled)."""
+        if self._unlocked is None:
+            return self.ctx.texture(self.size, 4, data, dtype=dtype)
+        self._names.append(self._unlocked.texture(self.size, FORMATS[dtype], data))
+        tex = self.ctx.external_texture(self._names[-1], self.size, 4, 0, dtype)
+        if dtype.startswith("f"):
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        return tex
 
     def abuffer(self) -> tuple[moderngl.Framebuffer, moderngl.Texture]:
         """Depth-only framebuffer for appending, and the list-head image, all zero (the
@@ -175,7 +192,7 @@ class FrameTargets:
     def output(self) -> moderngl.Framebuffer:
         """Framebuffer of a straight-alpha RGBA8 copy of the composite."""
         if self.out_fbo is None:
-            tex = self.ctx.texture(self.size, 4)
+            tex = self._texture("f1")
             self._objects.append(tex)
             self.out_fbo = self._fbo([tex], None)
         return self.out_fbo
@@ -189,4 +206,6 @@ class FrameTargets:
             obj.release()
         if self.own_main:
             self.main.release()
-        self._objects = []
+        if self._names:
+            self._unlocked.delete(self._names)
+        self._objects, self._names = [], []

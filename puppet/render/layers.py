@@ -42,6 +42,10 @@ class DrawLayer:
         (the later triangle is in front, see :mod:`puppet.render.compositor`).
     depth : ndarray, shape (n,)
         Per-vertex depth, higher = in front, any real range.
+    classes : (ndarray, ndarray) or None
+        ``(edge, empty)`` as :func:`classify_triangles` gives them for this image, rest
+        mesh and offset (see :func:`texture_uv`), kept by the caller (a scene keeps them
+        in its cache: ~13 ms a layer of the 4K PSD); None: computed on upload.
     """
 
     key: str
@@ -51,6 +55,7 @@ class DrawLayer:
     deformed: np.ndarray
     triangles: np.ndarray
     depth: np.ndarray
+    classes: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def premultiply(image: np.ndarray) -> np.ndarray:
@@ -88,6 +93,13 @@ def depth_window(lo: float, hi: float) -> tuple[float, float]:
     margin = max(0.05 * (hi - lo), 0.5)
     lo, hi = lo - margin, hi + margin
     return hi, 1.0 / (hi - lo)
+
+
+def texture_uv(rest: np.ndarray, offset, shape) -> np.ndarray:
+    """Texture coordinates (n, 2) float32 of rest positions on an image of ``shape``
+    (h, w, ...) whose top-left corner sits at canvas ``offset``."""
+    h, w = shape[:2]
+    return ((np.asarray(rest, np.float64) - tuple(float(v) for v in offset)) / (w, h)).astype(np.float32)
 
 
 def classify_triangles(image: np.ndarray, uv: np.ndarray, triangles: np.ndarray
@@ -178,10 +190,18 @@ def check_layer(layer: DrawLayer) -> None:
         f"triangles must be (m, 3) indices below {n}" if tri.ndim != 2 or tri.shape[1] != 3
         or (tri.size and (tri.min() < 0 or tri.max() >= n)) else
         "depth and deformed must be finite" if not (np.all(np.isfinite(layer.depth))
-                                                  and np.all(np.isfinite(layer.deformed)))
+                                                  and np.all(np.isfinite(layer.deformed))) else
+        f"classes must be two ({len(tri)},) bool arrays" if layer.classes is not None
+        and not classes_fit(layer.classes, len(tri))
         else None)
     if problem:
         raise ValueError(f"layer {layer.key!r}: {problem}")
+
+
+def classes_fit(classes, m: int) -> bool:
+    """Are ``classes`` an ``(edge, empty)`` pair of (m,) bool arrays?"""
+    return (isinstance(classes, tuple) and len(classes) == 2
+            and all(isinstance(c, np.ndarray) and c.dtype == bool and c.shape == (m,) for c in classes))
 
 
 def check_vertices(key: str, n: int, deformed, depth) -> tuple[np.ndarray | None,

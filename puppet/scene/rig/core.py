@@ -41,13 +41,13 @@ from puppet.scene.rig.stiffness import group_cells
 #: how many of each kind of built part are kept (least recently used dropped first); the
 #: kinds of :data:`PER_LAYER` keep at least two per layer of the scene built last
 CAPACITY = {"pixels": 16, "reduced": 64, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
-            "pose": 16, "cells": 16, "links": 8}
+            "pose": 16, "cells": 16, "links": 8, "classes": 64}
 
 #: threads that read, mask and mesh the layers of a scene (the cores there are, at most 8)
 WORKERS = min(8, os.cpu_count() or 1)
 
 #: kinds of part built once per layer (or per group, at most one per layer)
-PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells")
+PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells", "classes")
 
 
 @dataclass
@@ -110,7 +110,10 @@ class Rig:
         self._warm = threading.local()  # this thread's starts of accelerated solves, by pre key
 
     # -- building ----------------------------------------------------------------
-    def build(self, data: SceneData) -> Built:
+    def build(self, data: SceneData, *, lazy_pre: bool = False) -> Built:
+        """The scene built; ``lazy_pre``: the groups' precomputations made (or read from the
+        disk cache, with their factorisations) only when a solve first needs them, not now
+        (a first frame whose pose the disk cache holds needs none of them)."""
         memo = self.memo
         memo.at_least(PER_LAYER, 2 * len(data.layers))
         rank = build.stacking(data)
@@ -167,7 +170,9 @@ class Rig:
                                         bones if d.method == "mls-skeleton" else 0, *_cells_key(d, cells, g)))
             made.append(lambda g=g, bones=bones, cells=cells: precompute_group(g, d, bones, cells))
         # groups are independent: factorised side by side (QDLDL and the sparse products release the GIL)
-        pre = _parallel(len(groups), lambda gi: memo.get("precompute", pre_keys[gi], made[gi]))
+        def precompute():
+            return _parallel(len(groups), lambda gi: memo.get("precompute", pre_keys[gi], made[gi]))
+        pre = _AllLazy(len(groups), precompute) if lazy_pre else precompute()
         return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
                      pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
                      notes=parts.notes, regions=outlines)
@@ -232,6 +237,25 @@ def _parallel(n: int, make) -> list:
         return [make(k) for k in range(n)]
     with ThreadPoolExecutor(workers, thread_name_prefix="puppet-build") as pool:
         return list(pool.map(make, range(n)))
+
+
+class _AllLazy(Sequence):
+    """``n`` items, all made together (``make()`` -> list) on the first use of any (once,
+    also from several threads)."""
+
+    def __init__(self, n: int, make):
+        self._n, self._make = n, make
+        self._items: list | None = None
+        self._lock = threading.Lock()
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, k):
+        with self._lock:
+            if self._items is None:
+                self._items = list(self._make())
+        return self._items[k]
 
 
 class _Lazy(Sequence):

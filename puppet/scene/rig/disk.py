@@ -60,7 +60,8 @@ ENV = "PUPPET_CACHE"
 #: Most bytes kept in one cache folder; the oldest entries go first beyond it.
 MAX_BYTES = 1 << 30
 #: Kinds of part kept on disk (the costly ones).
-KINDS = ("image", "outline", "mesh", "groups", "exterior", "cells", "precompute", "pose")
+KINDS = ("image", "outline", "mesh", "groups", "exterior", "cells", "precompute", "pose",
+         "classes")  # the compositor's triangle classes of a drawn layer (puppet.api)
 
 #: The only classes an entry may rebuild (by name); anything else is not cached.
 CLASSES = {c.__name__: c for c in (ArapData, ModeOps, Region, GroupMesh, Mesh, Group, LayerImage,
