@@ -7,8 +7,9 @@ is isolated, in the whole document under pass-through groups). A puppet moves it
 apart, so the adjustment is applied to each of those layers' colours instead:
 ``C' = C + a m (f(C) - C)`` with ``f`` the adjustment, ``a`` its opacity (and, for a
 layer below a pass-through group that holds the adjustment, the group's share, see
-:meth:`puppet.imaging.layered.psd._Reader.adjust`) and ``m`` its mask. That equals the file where a layer is opaque and in front (the composite there is
-that layer's colour); at soft edges over other layers it differs a little.
+:meth:`puppet.imaging.layered.psd._Reader.adjust`) and ``m`` its mask. That equals the
+file where a layer is opaque and in front (the composite there is that layer's colour);
+at soft edges over other layers it differs a little.
 """
 from __future__ import annotations
 
