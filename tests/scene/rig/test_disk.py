@@ -44,13 +44,31 @@ def scene(make_scene, change=None, images=None) -> str:
     return path
 
 
+#: what each open of :func:`results` did, for assertion messages (an entry rebuilt when it
+#: should have been read was seen twice in full suites and never alone: say why next time)
+OPENS: list[str] = []
+
+
 def results(path: str):
     """(layers of a pose, built counts, disk loads) of a fresh load (a new process' view)."""
     doc = Document.load(path)
     out = doc.layers(POSE)
     disk.flush()
     store = doc.rig.memo.disk
+    if store is not None:
+        OPENS.append(f"builds {dict(doc.rig.memo.builds)} loads {store.loads} saves {store.saves} "
+                     f"rejects {store.rejects}; entries {_listing(path)}")
     return out, dict(doc.rig.memo.builds), dict(store.loads) if store else {}
+
+
+def _listing(path) -> list:
+    f = os.path.join(os.path.dirname(path), disk.FOLDER)
+    return sorted((n[:14], os.path.getsize(os.path.join(f, n))) for n in os.listdir(f)) if os.path.isdir(f) else []
+
+
+def opens() -> str:
+    """The last three opens, for an assertion message."""
+    return "\n".join(OPENS[-3:])
 
 
 def same(x, y):
@@ -78,7 +96,7 @@ def test_a_second_open_builds_nothing_and_equals_a_build_without_cache(make_scen
     first, builds, loads = results(path)
     assert builds["precompute"] == 2 and not loads
     second, builds, loads = results(path)
-    assert not any(builds.get(k) for k in disk.KINDS), builds
+    assert not any(builds.get(k) for k in disk.KINDS), opens()
     assert loads["mesh"] == 3 and loads["precompute"] == 2 and loads["image"] == 3
     assert loads["pose"] == 2  # the pose shown, one per group: not solved again
     same(first, reference)
@@ -224,7 +242,7 @@ def test_a_spoiled_entry_is_ignored_rebuilt_and_written_again(make_scene, cached
     assert builds.get(kind, 0) >= 1
     same(out, reference)
     out, builds, loads = results(path)  # written again, good now
-    assert not builds.get(kind) and loads[kind] >= 1
+    assert not builds.get(kind) and loads[kind] >= 1, opens()
     same(out, reference)
 
 
