@@ -5,6 +5,7 @@ import functools
 import json
 import os
 import signal
+import threading
 
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ os.environ["PUPPET_CACHE"] = "off"
 #: in a script) starts with SIGINT ignored, which every child inherits across exec (Python then
 #: never raises KeyboardInterrupt: a `puppet animate` stopped by SIGINT ran to its end, exit 0);
 #: a handler, unlike SIG_IGN, is reset to the default in each child
-if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN and threading.current_thread() is threading.main_thread():
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
