@@ -496,3 +496,23 @@ def test_only_the_first_pose_of_a_group_version_is_kept_on_disk(make_scene, cach
     out = again.layers(POSE)
     assert not again.rig.memo.builds.get("pose") and again.rig.memo.disk.loads["pose"] == 2
     same(out, cold(path, monkeypatch))
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="reads VmPeak from /proc")
+def test_reading_an_entry_reserves_its_size_not_the_folder_bound(tmp_path):
+    """An entry is read with one read of its size: a read of the folder's bound (1 GiB)
+    reserved that much address space for every entry read (VmPeak up by 1 GiB)."""
+    import subprocess
+    import sys
+    code = f"""if True:
+        import numpy as np
+        from puppet.scene.rig import disk
+        def peak():
+            return int([l for l in open("/proc/self/status") if l.startswith("VmPeak")][0].split()[1])
+        store = disk.DiskStore({str(tmp_path / "c")!r})
+        assert store.save("mesh", "k", {{"a": np.arange(1000)}})
+        before = peak()
+        assert store.load("mesh", "k") is not None
+        print(peak() - before)"""
+    grown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert int(grown) < 256 * 1024, f"{grown} KiB more address space"
