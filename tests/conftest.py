@@ -4,6 +4,8 @@ from __future__ import annotations
 import functools
 import json
 import os
+import signal
+import threading
 
 import numpy as np
 import pytest
@@ -17,6 +19,12 @@ SCENES = os.path.join(ASSETS, "scenes")
 os.environ["PUPPET_FILE_DIALOG"] = os.environ.get("PUPPET_TEST_FILE_DIALOG", "field")
 #: no disk cache beside the scenes tests load (assets/ included); tests/scene/rig/test_disk.py turns it on
 os.environ["PUPPET_CACHE"] = "off"
+#: the commands tests stop with SIGINT must see it: a background job of a shell script (``.ci/run &``
+#: in a script) starts with SIGINT ignored, which every child inherits across exec (Python then
+#: never raises KeyboardInterrupt: a `puppet animate` stopped by SIGINT ran to its end, exit 0);
+#: a handler, unlike SIG_IGN, is reset to the default in each child
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN and threading.current_thread() is threading.main_thread():
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 # -- the gl and xvfb marks are kept true (``-m "not gl and not slow and not xvfb"`` is the fast subset)

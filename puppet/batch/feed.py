@@ -12,7 +12,8 @@ its next one:
    the work left by more than a build, so its owner would end the batch alone, and a
    second build pays for itself (times learnt from the jobs done so far: a scene's mean
    job, and its slowest one, which includes the build);
-4. else a scene nobody has started, the one with the most jobs first;
+4. else a started scene whose workers all died (nobody else would take it), then a scene
+   nobody has started, the one with the most jobs first;
 5. else a share of the scene with the most work left, when a second build pays (before
    any job is timed: when two pieces' worth are left).
 
@@ -166,7 +167,7 @@ class Feeder:
         if scene is None:
             size, scene = self._help(workers)
         if scene is None:
-            scene = self._largest_unstarted()
+            scene = self._orphaned() or self._largest_unstarted()
         if scene is None:
             return []
         return self._take(scene, worker, size or self.piece_size(workers, scene))
@@ -175,6 +176,13 @@ class Feeder:
         while self._unstarted and self._unstarted[0][2] in self.started:
             heapq.heappop(self._unstarted)
         return self._unstarted[0][2] if self._unstarted else None
+
+    def _orphaned(self) -> str | None:
+        """The scene under way with the most jobs left whose every worker is gone
+        (:meth:`forget`): nobody takes its jobs as their own, and sharing them (:meth:`_help`)
+        may never pay a build, so they are handed out like a scene nobody has started."""
+        return max((s for s in self.active if not self._owners.get(s)), key=lambda s: len(self.queues[s]),
+                   default=None)
 
     def _help(self, workers: int) -> tuple[int, str | None]:
         """(jobs, scene) of a scene another worker started that this one should share

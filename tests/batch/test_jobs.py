@@ -288,3 +288,23 @@ def test_workers_with_several_threads_get_a_warning():
     assert threads_warning({"tcp://a:1": {"nthreads": 1}, "tcp://b:1": {"nthreads": 1}}) is None
     line = threads_warning({"tcp://a:1": {"nthreads": 4}, "tcp://b:1": {"nthreads": 1}})
     assert line.startswith("puppet batch: 1 of 2 workers have up to 4 threads") and "--nthreads 1" in line
+
+
+def test_feeder_hands_out_a_scene_whose_only_worker_died():
+    """The scene's only worker died with a piece (put back): its jobs go to the worker that
+    replaces it, even where sharing the scene would not pay a build (it used to wait for
+    an owner that was gone: the batch hung)."""
+    from puppet.batch.feed import Feeder
+
+    f = Feeder(_jobs("a" * 16))
+    done = f.next("w1", 1)
+    f.learn(done, [{"id": j["id"], "status": "done", "seconds": 2.04 if i == 0 else 0.04}
+                   for i, j in enumerate(done)])
+    lost = f.next("w1", 1)
+    f.forget("w1")
+    f.put_back(lost)
+    assert len(f) == 16 - len(done)
+    got = []
+    while piece := f.next("w2", 1):
+        got += _ids(piece)
+    assert sorted(got) == list(range(len(done), 16)) and len(f) == 0

@@ -3,9 +3,11 @@ worker, which gets a job runner, and the job runs again (up to --retries); no te
 file is left."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
+import threading
 
 import pytest
 
@@ -14,6 +16,30 @@ from puppet.batch.runner import run_batch
 from tests.batch.conftest import copy_scene, temporaries, write_list
 
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
+
+#: Seconds a killed batch may take before its test fails (such a batch once hung forever:
+#: the replacement worker was never given the dead worker's scene).
+DEADLINE = 300.0
+
+
+@contextlib.contextmanager
+def deadline(seconds: float = DEADLINE):
+    """Fail the test, not hang it, when the batch inside has not ended within ``seconds``
+    (SIGALRM, in the main thread; the batch's cluster is closed on the way out)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expired(signum, frame):
+        pytest.fail(f"the batch did not end within {seconds:g} s", pytrace=False)
+
+    old = signal.signal(signal.SIGALRM, expired)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
 
 
 def _trex_frames(tmp_path, n: int, size: list[int]):
@@ -43,7 +69,8 @@ def _kill_once(client, killed: list):
 def test_killing_a_worker_mid_run_loses_no_job(cluster2, tmp_path):
     entries, out, jobs = _trex_frames(tmp_path, 24, [90, 75])
     killed = []
-    summary = run_batch(jobs, out, client=cluster2, retries=2, on_result=_kill_once(cluster2, killed))
+    with deadline():
+        summary = run_batch(jobs, out, client=cluster2, retries=2, on_result=_kill_once(cluster2, killed))
     assert killed and killed[0][2], "no worker was busy when results came in"
     report = json.loads(open(summary["report"]).read())
     assert summary["counts"]["done"] == len(entries), [j["error"] for j in report["jobs"] if j["error"]]
@@ -62,7 +89,7 @@ def _only_worker_killed(tmp_path, retries: int):
 
     entries, out, jobs = _trex_frames(tmp_path, 16, [60, 50])
     killed = []
-    with connect(workers=1, retries=retries) as (client, _):
+    with deadline(), connect(workers=1, retries=retries) as (client, _):
         summary = run_batch(jobs, out, client=client, retries=retries, on_result=_kill_once(client, killed))
     assert killed
     return entries, out, summary, json.loads(open(summary["report"]).read())

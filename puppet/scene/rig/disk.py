@@ -307,7 +307,9 @@ def _read_regular(path: str, limit: int) -> bytes:
         st = os.fstat(f.fileno())
         if not stat.S_ISREG(st.st_mode) or st.st_size > limit:
             raise OSError("not a regular file of a sane size")
-        return f.read(limit + 1)
+        # its size, not the limit: a read of n bytes reserves n at once (1 GiB a read, a
+        # MemoryError under `ulimit -v`); bytes written since fstat only fail the checks
+        return f.read(st.st_size + 1)
 
 
 # -- packing: a part as arrays and a JSON tree ---------------------------------------

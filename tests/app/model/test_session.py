@@ -207,6 +207,16 @@ def test_close_scene(session):
     assert errors(session)[-1] == "no scene is open"
 
 
+def _child_heard(session, timeout: float = 120.0) -> None:
+    """Wait until the session's solver process has said something (it is ready for a drag:
+    the second follows at once, its scene built), then a second more; a fixed 3 s sleep was
+    too short for a fresh python under load (the child served no drag)."""
+    end = time.monotonic() + timeout
+    while not session._proc.conn.poll(0.05) and time.monotonic() < end:
+        pass
+    time.sleep(1.0)
+
+
 @pytest.mark.slow
 def test_a_solver_process_gives_the_thread_s_previews_and_release(make_scene):
     """Previews solved in the session's child process are the scene thread's, bit for bit,
@@ -224,7 +234,8 @@ def test_a_solver_process_gives_the_thread_s_previews_and_release(make_scene):
             for k in range(2):  # the second drag is served by the child once it has started
                 s.begin_drag(["right"])
                 wait(s)
-                time.sleep(3.0 * k)  # the child starts (a fresh python) and builds the scene meanwhile
+                if k and solver == "process":  # the child starts (a fresh python) and builds the scene meanwhile
+                    _child_heard(s)
                 for k in range(1, 4):
                     s.move_drag({"right": (100.0 - 3 * k, 5.0 + 4 * k)})
                     wait(s)

@@ -44,13 +44,31 @@ def scene(make_scene, change=None, images=None) -> str:
     return path
 
 
+#: what each open of :func:`results` did, for assertion messages (an entry rebuilt when it
+#: should have been read was seen twice in full suites and never alone: say why next time)
+OPENS: list[str] = []
+
+
 def results(path: str):
     """(layers of a pose, built counts, disk loads) of a fresh load (a new process' view)."""
     doc = Document.load(path)
     out = doc.layers(POSE)
     disk.flush()
     store = doc.rig.memo.disk
+    if store is not None:
+        OPENS.append(f"builds {dict(doc.rig.memo.builds)} loads {store.loads} saves {store.saves} "
+                     f"rejects {store.rejects}; entries {_listing(path)}")
     return out, dict(doc.rig.memo.builds), dict(store.loads) if store else {}
+
+
+def _listing(path) -> list:
+    f = os.path.join(os.path.dirname(path), disk.FOLDER)
+    return sorted((n[:14], os.path.getsize(os.path.join(f, n))) for n in os.listdir(f)) if os.path.isdir(f) else []
+
+
+def opens() -> str:
+    """The last three opens, for an assertion message."""
+    return "\n".join(OPENS[-3:])
 
 
 def same(x, y):
@@ -78,7 +96,7 @@ def test_a_second_open_builds_nothing_and_equals_a_build_without_cache(make_scen
     first, builds, loads = results(path)
     assert builds["precompute"] == 2 and not loads
     second, builds, loads = results(path)
-    assert not any(builds.get(k) for k in disk.KINDS), builds
+    assert not any(builds.get(k) for k in disk.KINDS), opens()
     assert loads["mesh"] == 3 and loads["precompute"] == 2 and loads["image"] == 3
     assert loads["pose"] == 2  # the pose shown, one per group: not solved again
     same(first, reference)
@@ -224,7 +242,7 @@ def test_a_spoiled_entry_is_ignored_rebuilt_and_written_again(make_scene, cached
     assert builds.get(kind, 0) >= 1
     same(out, reference)
     out, builds, loads = results(path)  # written again, good now
-    assert not builds.get(kind) and loads[kind] >= 1
+    assert not builds.get(kind) and loads[kind] >= 1, opens()
     same(out, reference)
 
 
@@ -478,3 +496,23 @@ def test_only_the_first_pose_of_a_group_version_is_kept_on_disk(make_scene, cach
     out = again.layers(POSE)
     assert not again.rig.memo.builds.get("pose") and again.rig.memo.disk.loads["pose"] == 2
     same(out, cold(path, monkeypatch))
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="reads VmPeak from /proc")
+def test_reading_an_entry_reserves_its_size_not_the_folder_bound(tmp_path):
+    """An entry is read with one read of its size: a read of the folder's bound (1 GiB)
+    reserved that much address space for every entry read (VmPeak up by 1 GiB)."""
+    import subprocess
+    import sys
+    code = f"""if True:
+        import numpy as np
+        from puppet.scene.rig import disk
+        def peak():
+            return int([l for l in open("/proc/self/status") if l.startswith("VmPeak")][0].split()[1])
+        store = disk.DiskStore({str(tmp_path / "c")!r})
+        assert store.save("mesh", "k", {{"a": np.arange(1000)}})
+        before = peak()
+        assert store.load("mesh", "k") is not None
+        print(peak() - before)"""
+    grown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert int(grown) < 256 * 1024, f"{grown} KiB more address space"
