@@ -2,9 +2,8 @@
 deformed meshes) and the pin markers. Plain numpy over posed layers; no GL."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 

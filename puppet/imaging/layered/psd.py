@@ -158,7 +158,8 @@ class _Reader:
               through: tuple = ()) -> None:
         """Import ``group``'s layers; ``start``: the first imported layer its adjustment
         layers reach (the group's own when it is isolated, else its parent's); ``through``:
-        the pass-through groups between it and there, as (first imported layer, opacity)."""
+        the pass-through groups between it and there, as (first imported layer, the group's
+        own opacity, the opacity its layers were given)."""
         for layer in group:  # psd-tools iterates a group bottom to top
             if getattr(layer, "clipping", False):
                 continue  # drawn by its base layer's composite
