@@ -95,3 +95,24 @@ def test_exports_leave_a_hidden_layer_out_of_what_they_show(scenes, tmp_path):
     with Image.open(gif) as im:
         frame = np.asarray(im.convert("RGB")).astype(int)
     assert abs(frame[45, 80] - (255, 255, 255)).max() <= 8
+
+
+def test_a_hidden_layer_nothing_rigs_costs_two_triangles_until_shown(scenes):
+    """A hidden layer without pins or links (an imported sketch) gets a stand-in mesh,
+    its mask's box; a pin on it, or showing it, meshes it for real."""
+    shown, hidden = scenes
+    real = len(puppet.load_scene(shown).built.meshes[1].V)
+    doc = json.loads(open(hidden).read())
+    doc["pins"] = [p for p in doc["pins"] if p["layer"] != "blue"]
+    doc.pop("poses")
+    with open(hidden, "w") as f:
+        json.dump(doc, f)
+    s = puppet.load_scene(hidden)
+    m = s.built.meshes[1]
+    assert len(m.V) == 4 and len(m.F) == 2
+    assert m.V.min(axis=0).tolist() == [30.0, 30.0] and m.V.max(axis=0).tolist() == [130.0, 50.0]  # the bar's box
+    s.set_layer("blue", visible=True)
+    assert len(s.built.meshes[1].V) > 4
+    s.undo()
+    s.add_pin("b", "blue", (60, 40))
+    assert len(s.built.meshes[1].V) == real

@@ -239,6 +239,18 @@ def mesh_layer(data: SceneData, k: int, im: LayerImage, area: float,
     return mesh
 
 
+def stand_in_mesh(im: LayerImage) -> Mesh:
+    """The mesh of a hidden layer that nothing rigs (no pin, no link): two triangles over
+    its mask's box, so that it costs nothing to build (a hidden sketch of thin lines meshed
+    to 72k vertices, 2 s an open) and, never drawn and never moved, shows nothing wrong;
+    showing the layer meshes it for real (:func:`mesh_layer`)."""
+    rows, cols = np.flatnonzero(im.mask.any(axis=1)), np.flatnonzero(im.mask.any(axis=0))
+    x0, y0 = float(im.offset[0] + cols[0]), float(im.offset[1] + rows[0])
+    x1, y1 = float(im.offset[0] + cols[-1] + 1), float(im.offset[1] + rows[-1] + 1)
+    V = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    return Mesh(V, np.array([[0, 3, 2], [0, 2, 1]], np.int32))
+
+
 def pin_vertices(data: SceneData, k: int, mesh: Mesh) -> dict[str, int]:
     """Interior pin name -> vertex index in layer ``k``'s mesh."""
     found = {}

@@ -141,13 +141,15 @@ class Rig:
         polylines = build.link_polylines(data, areas, parts)
         outlines = _parallel(len(data.layers), lambda k: memo.get("outline", base_keys[k], lambda: mask_regions(
             images[k].mask, images[k].offset)))
-        mesh_keys = []
+        mesh_keys, stand_in = [], []
         for k, L in enumerate(data.layers):
             pins = [p.at for _, p in build.layer_pins(data, k)]
             segs = [(path, P) for li, path, P in polylines[k]]
-            mesh_keys.append(fingerprint(base_keys[k], L.mesh, areas[k], pins, segs))
-        meshes = _parallel(len(data.layers), lambda k: memo.get("mesh", mesh_keys[k], lambda: build.mesh_layer(
-            data, k, images[k], areas[k], polylines[k], outlines[k])))
+            stand_in.append(not L.visible and not pins and not segs and L.exterior is None)  # nothing rigs it
+            mesh_keys.append(fingerprint(base_keys[k], L.mesh, areas[k], pins, segs, stand_in[k]))
+        meshes = _parallel(len(data.layers), lambda k: memo.get("mesh", mesh_keys[k], lambda: (
+            build.stand_in_mesh(images[k]) if stand_in[k] else
+            build.mesh_layer(data, k, images[k], areas[k], polylines[k], outlines[k]))))
         pin_vertex = [build.pin_vertices(data, k, mesh) for k, mesh in enumerate(meshes)]
         groups_key = fingerprint(mesh_keys, [(k.layers, k.segments) + _link_extra(k) for k in data.links],
                                  [(p.name, p.layer, p.at, p.kind) for p in data.pins])
