@@ -41,6 +41,7 @@ def test_the_flag_is_read_checked_written_and_edited(scenes):
     assert doc.to_dict()["layers"][1]["visible"] is False
     doc.set_layer("blue", visible=True)
     assert "visible" not in doc.to_dict()["layers"][1] and doc.data.layers[1].visible
+    assert doc.history.undo_stack[-1].label == "show layer blue"  # the History panel's line
     doc.undo()
     assert not doc.data.layers[1].visible
     bad = json.loads(open(hidden).read())

@@ -193,7 +193,8 @@ class Edits:
                     L.pop(k, None)
                 else:
                     L[k] = v
-        return self._edit(Event("layer", name, "mesh", f"change layer {name}"), m)
+        what = "change" if set(fields) != {"visible"} else "show" if fields["visible"] in (True, None) else "hide"
+        return self._edit(Event("layer", name, "mesh", f"{what} layer {name}"), m)
 
     @ck.checked(name=ck.text, mask=ck.plain)
     def set_mask(self, name: str, mask) -> bool:
