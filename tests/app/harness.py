@@ -90,6 +90,18 @@ class Driver:
                 self.settle()
         self.release(*points[-1], button=button, mods=mods)
 
+    def grab(self, pin: str, dy: float, pose: str | None = None):
+        """Make ``pose`` active (if given), press pin ``pin`` and drag it ``dy`` window px
+        up, settled: a drag held in progress. Returns the pin's screen point at the press."""
+        if pose is not None:
+            self.app.edit(lambda s: s.set_active_pose(pose))
+            self.settle()
+        start = self.pin_screen(pin)
+        self.press(*start)
+        self.drag(start[0], start[1] - dy)
+        self.settle()
+        return start
+
     def key(self, symbol, mods=0) -> None:
         mod_keys = [(key.MOD_CTRL, key.LCTRL), (key.MOD_SHIFT, key.LSHIFT), (key.MOD_ALT, key.LALT)]
         for m, k in mod_keys:

@@ -15,13 +15,7 @@ pytestmark = pytest.mark.gl
 
 def _grab(d):
     """Pose 'bend' active, the right pin pressed and dragged a little; its screen point."""
-    d.app.edit(lambda s: s.set_active_pose("bend"))
-    d.settle()
-    start = d.pin_screen("right")
-    d.press(*start)
-    d.drag(start[0], start[1] - 4)
-    d.settle()
-    return start
+    return d.grab("right", 4, pose="bend")
 
 
 def _drag_frames(d, seconds: float, busy: bool) -> int:

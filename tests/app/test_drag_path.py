@@ -57,12 +57,7 @@ def test_a_pose_drag_crosses_ten_modules_and_one_hand_off(make_scene):
     sys.setprofile(stacks)
     try:
         d = Driver(make_scene(bar_scene(), {"bar.png": bar_image()}), size=(1100, 700))
-        d.app.edit(lambda s: s.set_active_pose("bend"))
-        d.settle()
-        start = d.pin_screen("right")
-        d.press(*start)
-        d.drag(start[0], start[1] - 6)
-        d.settle()
+        start = d.grab("right", 6, pose="bend")
         stacks.on = True
         d.w.win.dispatch_event("on_mouse_drag", start[0], d._y(start[1] - 14), 0, -8, 1, 0)
         d.pos = (start[0], start[1] - 14)
