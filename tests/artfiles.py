@@ -164,3 +164,102 @@ def write_ora_layers(path: str, items, canvas=CANVAS, *, extra: dict | None = No
         z.writestr("stack.xml", "\n".join(xml))
         for k, v in dict(members, **(extra or {})).items():
             z.writestr(k, v, compress_type=zipfile.ZIP_DEFLATED)
+
+
+# -- characters for the automatic rig (issue 32) ------------------------------------------------------
+ROBOT_CANVAS = (400, 560)
+
+
+def _capsule(p, q, r, colour) -> np.ndarray:
+    import cv2
+
+    W, H = ROBOT_CANVAS
+    a = np.zeros((H, W, 4), np.uint8)
+    cv2.line(a, p, q, colour + (255,), 2 * r)
+    cv2.circle(a, p, r, colour + (255,), -1)
+    cv2.circle(a, q, r, colour + (255,), -1)
+    return a
+
+
+def _box(x0, y0, x1, y1, colour) -> np.ndarray:
+    W, H = ROBOT_CANVAS
+    a = np.zeros((H, W, 4), np.uint8)
+    a[y0:y1, x0:x1] = colour + (255,)
+    return a
+
+
+def _cropped(a: np.ndarray):
+    ys, xs = np.nonzero(a[..., 3])
+    x0, y0 = int(xs.min()), int(ys.min())
+    return a[y0:ys.max() + 1, x0:xs.max() + 1].copy(), (x0, y0)
+
+
+def robot(generic: bool = False) -> list:
+    """A blocky robot of 15 layers, (name, group, rgba, offset) back to front: legs (thigh,
+    shin, foot) in groups ``left_leg``/``right_leg``, torso, neck, head, arms (upper_arm,
+    forearm, square hand) in ``left_arm``/``right_arm``. The arms hang at the sides with each
+    hand in front of its thigh: a hand overlaps its thigh (about 900 px) more than its
+    wrist (about 260 px), as in the robot PSD of issue 32. ``generic``: layers named
+    ``Layer 1``, ``Layer 2``, ... and no groups."""
+    grey, dark, blue = (150, 160, 170), (90, 95, 110), (70, 120, 200)
+    parts = []
+    for side, s in (("left", -1), ("right", 1)):
+        parts.append(("thigh", f"{side}_leg", _capsule((200 + s * 25, 330), (200 + s * 27, 420), 20, grey)))
+        parts.append(("shin", f"{side}_leg", _capsule((200 + s * 27, 420), (200 + s * 28, 500), 17, grey)))
+        x = 200 + s * 38
+        parts.append(("foot", f"{side}_leg", _box(x - 22, 505, x + 22, 530, dark)))
+    parts.append(("torso", None, _box(140, 150, 260, 340, blue)))
+    parts.append(("neck", None, _box(186, 125, 214, 160, dark)))
+    parts.append(("head", None, _box(160, 55, 240, 135, grey)))
+    for side, s in (("left", -1), ("right", 1)):
+        parts.append(("upper_arm", f"{side}_arm", _capsule((200 + s * 52, 170), (200 + s * 72, 250), 15, grey)))
+        parts.append(("forearm", f"{side}_arm", _capsule((200 + s * 72, 250), (200 + s * 60, 332), 12, grey)))
+        x = 200 + s * 47
+        parts.append(("hand", f"{side}_arm", _box(x - 22, 330, x + 22, 374, dark)))
+    out = [(name, group) + _cropped(a) for name, group, a in parts]
+    if generic:
+        out = [(f"Layer {k + 1}", None, a, off) for k, (_, _, a, off) in enumerate(out)]
+    return out
+
+
+#: The robot's layer names in the scene, back to front (``robot(generic=True)``: ``Layer 1``...).
+ROBOT_NAMES = ["left_leg/thigh", "left_leg/shin", "left_leg/foot", "right_leg/thigh", "right_leg/shin",
+               "right_leg/foot", "torso", "neck", "head", "left_arm/upper_arm", "left_arm/forearm", "left_arm/hand",
+               "right_arm/upper_arm", "right_arm/forearm", "right_arm/hand"]
+
+DRESSED_CANVAS = (601, 760)
+
+
+def dressed(generic: bool = False) -> list:
+    """A clothed Kenney character of 18 layers, (name, group, rgba, offset) back to front:
+    neck, legs with trousers and shoes (groups ``left_leg``/``right_leg``), waist, shirt, arms
+    under their sleeves with hands (``left_arm``/``right_arm``), head, face, hair.
+    ``generic``: ``Layer 1``, ``Layer 2``, ... and no groups."""
+    W = DRESSED_CANVAS[0]
+    items = []
+
+    def add(name, group, file, x, y, left=False, mirror=None):
+        """``left``: placed mirrored about the canvas's middle, its picture mirrored too
+        unless ``mirror`` says otherwise (a shoe points outwards on both sides)."""
+        flip = left if mirror is None else mirror
+        a = part(("mirrored/" if flip else "") + file)
+        items.append((name, group, a, (W - x - a.shape[1] if left else x, y)))
+    add("neck", None, "tint1_neck.png", 252, 289)
+    for side in ("left", "right"):
+        add("leg", f"{side}_leg", "tint1_leg.png", 300, 490, side == "left")
+    for side in ("left", "right"):
+        add("shoe", f"{side}_leg", "brownShoe5.png", 318, 640, side == "left", side == "right")
+    for side in ("left", "right"):
+        add("trousers", f"{side}_leg", "pantsLightBlue_long.png", 296, 486, side == "left")
+    add("waist", None, "pantsLightBlue3.png", 224, 460)
+    add("shirt", None, "redShirt1.png", 224, 296)
+    for side in ("left", "right"):
+        add("arm", f"{side}_arm", "tint1_arm.png", 345, 305, side == "left")
+        add("sleeve", f"{side}_arm", "redArm_long.png", 343, 301, side == "left")
+        add("hand", f"{side}_arm", "tint1_hand.png", 462, 400, side == "left")
+    add("head", None, "tint1_head.png", 214, 128)
+    add("face", None, "face1.png", 250, 175)
+    add("hair", None, "brown2Man5.png", 215, 92)
+    if generic:
+        items = [(f"Layer {k + 1}", None, a, off) for k, (_, _, a, off) in enumerate(items)]
+    return items

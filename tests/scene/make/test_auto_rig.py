@@ -104,9 +104,9 @@ def test_the_deadline_stops_the_rig_with_a_note_and_the_import_goes_on(tmp_path,
     monkeypatch.setattr(auto_links, "RIG_SECONDS", 0.0)
     art = many_layers_ora(tmp_path / "a.ora", 12, 100)
     res = import_art(art, str(tmp_path / "s.json"), pins="auto", links="auto")
-    assert res.note_lines("a.ora")[-1] == ("puppet: note: a.ora: automatic rig stopped after 0 s: pins for 0 of "
-                                           "12 layers (--update with --pins auto pins the rest), 0 link(s), "
-                                           "for the largest overlaps only")
+    assert res.note_lines("a.ora")[-1] == ("puppet: note: a.ora: automatic rig stopped after 0 s: 0 pin(s) and 0 "
+                                           "link(s) for the parts done (--update with --pins auto --links auto "
+                                           "rigs the rest)")
     doc = json.loads((tmp_path / "s.json").read_text())
     assert len(doc["layers"]) == 12 and not doc.get("pins") and not doc.get("links")
 
