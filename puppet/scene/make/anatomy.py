@@ -45,7 +45,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from puppet.imaging.layered import ArtLayer
-from puppet.scene.make.auto_links import MIN_DEPTH, Deadline, _box_pairs, _crop, _find, _join, _overlap, link_segment
+from puppet.scene.make.auto_links import (MIN_DEPTH, Deadline, box_pairs, crop_mask, find_set, join_sets, link_segment,
+                                          overlap_count)
 
 #: A layer with at least this fraction of its pixels inside another is glued to it.
 COVERED = 0.75
@@ -184,10 +185,10 @@ def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), dea
     areas = np.array([np.count_nonzero(m) for m in masks], float)
     boxes = [lay.bounds for lay in usable]
     overlaps = []  # (area, i, j)
-    for m, (i, j) in enumerate(_box_pairs(boxes)):
+    for m, (i, j) in enumerate(box_pairs(boxes)):
         if m % 256 == 0 and late():
             break
-        area = _overlap(boxes[i], masks[i], boxes[j], masks[j])
+        area = overlap_count(boxes[i], masks[i], boxes[j], masks[j])
         if area >= 16:
             overlaps.append((area, i, j))
     overlaps.sort(key=lambda t: (-t[0], t[1], t[2]))
@@ -196,13 +197,13 @@ def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), dea
     glue = []
     for pair in skip:
         if len(pair) == 2 and pair <= index.keys():
-            _join(root, *(index[p] for p in pair))
+            join_sets(root, *(index[p] for p in pair))
     for area, i, j in overlaps:
-        if area >= COVERED * min(areas[i], areas[j]) and _join(root, i, j):
+        if area >= COVERED * min(areas[i], areas[j]) and join_sets(root, i, j):
             glue.append((i, j))
     members: dict[int, list[int]] = {}
     for k in range(n):
-        members.setdefault(_find(root, k), []).append(k)
+        members.setdefault(find_set(root, k), []).append(k)
     scale = min(1.0, ANALYSIS / max(W, H))
     units = [_unit(ks, usable, scale, (W, H)) for ks in members.values()]
     unit_of = {k: u for u, un in enumerate(units) for k in un.members}
@@ -503,7 +504,7 @@ def _hinge(a: ArtLayer, b: ArtLayer) -> tuple[np.ndarray, float] | None:
     box = _overlap_box(a, b)
     if box is None:
         return None
-    both = _crop(a, box) & _crop(b, box)
+    both = crop_mask(a, box) & crop_mask(b, box)
     depth = cv2.distanceTransform(np.pad(both, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
     top = float(depth.max())
     if top < MIN_DEPTH / 2:
@@ -521,7 +522,7 @@ def _glue_link(a: ArtLayer, b: ArtLayer) -> dict | None:
     box = _overlap_box(a, b)
     if box is None:
         return None
-    both = _crop(a, box) & _crop(b, box)
+    both = crop_mask(a, box) & crop_mask(b, box)
     ys, xs = np.nonzero(both)
     if len(xs) < 16:
         return None

@@ -1,22 +1,15 @@
-"""Links proposed where imported layers overlap (``puppet init ART --links auto``).
+"""Pieces of the automatic rig (:mod:`puppet.scene.make.anatomy`): the time limit, the
+sweep that finds the layers whose boxes overlap, pixel overlaps, and the short segment
+that links two overlapping layers where nothing better fits.
 
-For two layers whose pixels overlap (an arm drawn over the body), the smaller one is
-"the part" and the overlap is where it meets the other. The link is one short segment
-across the part, centred at the point of the overlap that lies deepest in the part's
-end: among the overlap's points at least half as deep as its deepest (distance to the
-overlap's edge), those farthest (within a pixel) from the part's free pixels (those
-outside the other layer), and of these the deepest (ties: the middle one). The segment is perpendicular to the direction from there to the free pixels'
-centroid and shorter than the overlap's depth there, so it lies inside both layers.
-The links make a tree, as bones would: the overlapping pairs are taken largest overlap
-first, and a pair already joined through other links gets none (Kruskal's maximum
-spanning tree), so an arm links to the body, not also to the head it touches. Layers
-covering nearly the whole canvas (a backdrop) get no links, and neither do overlaps
-thinner than a few pixels.
-
-Work: the pairs whose boxes overlap are found by a sweep over x (not every pair), their
-overlaps counted, and the costly segment is computed largest overlap first only for pairs
-the tree does not join yet. A :class:`Deadline` stops the work where it is (the largest
-overlaps have their links by then).
+``link_segment``: for two layers whose pixels overlap (an arm drawn over the body), the
+smaller one is "the part" and the overlap is where it meets the other. The segment is
+centred at the point of the overlap that lies deepest in the part's end: among the
+overlap's points at least half as deep as its deepest (distance to the overlap's edge),
+those farthest (within a pixel) from the part's free pixels (those outside the other
+layer), and of these the deepest (ties: the middle one). It is perpendicular to the
+direction from there to the free pixels' centroid and shorter than the overlap's depth
+there, so it lies inside both layers.
 """
 from __future__ import annotations
 
@@ -53,45 +46,7 @@ class Deadline:
         return self.hit
 
 
-def propose_links(layers: list[ArtLayer], *, skip=(), canvas: tuple[int, int],
-                  deadline: Deadline | None = None) -> list[dict]:
-    """One link ``{"layers": [A, B], "segments": [[p, q]]}`` per overlapping pair (A
-    behind B) not in ``skip`` (a set of frozensets of two names) that the tree keeps.
-    When ``deadline`` passes, the links found so far (largest overlaps first)."""
-    W, H = canvas
-    usable = [lay for lay in layers if _area(lay.bounds) < 0.9 * W * H]
-    late = deadline.passed if deadline is not None else (lambda: False)
-    index = {lay.name: k for k, lay in enumerate(usable)}
-    skipped = {tuple(sorted(index[n] for n in pair)) for pair in skip if len(pair) == 2 and pair <= index.keys()}
-    masks = [lay.rgba[..., 3] > 0 for lay in usable]
-    boxes = [lay.bounds for lay in usable]
-    found = []  # (overlap area, order, i, j)
-    for n, (i, j) in enumerate(_box_pairs(boxes)):
-        if n % 256 == 0 and late():
-            break
-        if (i, j) in skipped:
-            continue
-        area = _overlap(boxes[i], masks[i], boxes[j], masks[j])
-        if area >= 16:
-            found.append((area, i * len(usable) + j, i, j))
-    root = {lay.name: lay.name for lay in usable}
-    for pair in skip:
-        _join(root, *pair)
-    kept = []
-    for _, order, i, j in sorted(found, key=lambda t: (-t[0], t[1])):
-        a, b = usable[i], usable[j]
-        if _find(root, a.name) == _find(root, b.name):
-            continue  # joined through other links already: no segment needed
-        if late():
-            break
-        hit = link_segment(a, b)
-        if hit is not None:
-            _join(root, a.name, b.name)
-            kept.append((order, {"layers": [a.name, b.name], "segments": [hit[0]]}))
-    return [link for _, link in sorted(kept, key=lambda t: t[0])]
-
-
-def _box_pairs(boxes: list[tuple[int, int, int, int]]):
+def box_pairs(boxes: list[tuple[int, int, int, int]]):
     """(i, j), i < j, of the boxes (x0, y0, x1, y1) that overlap: a sweep over x."""
     order = sorted(range(len(boxes)), key=lambda k: boxes[k][0])
     active: list[int] = []
@@ -104,7 +59,7 @@ def _box_pairs(boxes: list[tuple[int, int, int, int]]):
         active.append(k)
 
 
-def _overlap(a, ma: np.ndarray, b, mb: np.ndarray) -> int:
+def overlap_count(a, ma: np.ndarray, b, mb: np.ndarray) -> int:
     """How many pixels two layers (boxes ``a``, ``b``, masks ``ma``, ``mb``) both cover;
     0 when the overlap is too thin anywhere to be :data:`MIN_DEPTH` deep."""
     ax0, ay0, ax1, ay1 = a
@@ -116,27 +71,23 @@ def _overlap(a, ma: np.ndarray, b, mb: np.ndarray) -> int:
     return int(np.count_nonzero(ma[y0 - ay0:y1 - ay0, x0 - ax0:x1 - ax0] & mb[y0 - by0:y1 - by0, x0 - bx0:x1 - bx0]))
 
 
-def _find(root: dict, x: str) -> str:
+def find_set(root: dict, x: str) -> str:
     while root.setdefault(x, x) != x:
         root[x] = root[root[x]]
         x = root[x]
     return x
 
 
-def _join(root: dict, a: str, b: str) -> bool:
+def join_sets(root: dict, a: str, b: str) -> bool:
     """Union of a's and b's sets; False when they were one already."""
-    ra, rb = _find(root, a), _find(root, b)
+    ra, rb = find_set(root, a), find_set(root, b)
     if ra == rb:
         return False
     root[ra] = rb
     return True
 
 
-def _area(box) -> int:
-    return max(box[2] - box[0], 0) * max(box[3] - box[1], 0)
-
-
-def _crop(lay: ArtLayer, box) -> np.ndarray:
+def crop_mask(lay: ArtLayer, box) -> np.ndarray:
     x0, y0, x1, y1 = box
     ox, oy = lay.offset
     return lay.rgba[y0 - oy:y1 - oy, x0 - ox:x1 - ox, 3] > 0
@@ -153,7 +104,7 @@ def link_segment(a: ArtLayer, b: ArtLayer):
     box = (max(ax0, bx0), max(ay0, by0), min(ax1, bx1), min(ay1, by1))
     if box[0] >= box[2] or box[1] >= box[3]:
         return None
-    both = _crop(a, box) & _crop(b, box)
+    both = crop_mask(a, box) & crop_mask(b, box)
     if both.sum() < 16:
         return None
     depth = cv2.distanceTransform(np.pad(both, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
@@ -189,5 +140,5 @@ def _in_other(other: ArtLayer, box) -> np.ndarray:
     ox0, oy0, ox1, oy1 = other.bounds
     cx0, cy0, cx1, cy1 = max(x0, ox0), max(y0, oy0), min(x1, ox1), min(y1, oy1)
     if cx0 < cx1 and cy0 < cy1:
-        out[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = _crop(other, (cx0, cy0, cx1, cy1))
+        out[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0] = crop_mask(other, (cx0, cy0, cx1, cy1))
     return out

@@ -2,7 +2,8 @@
 import numpy as np
 
 from puppet.imaging.layered import ArtLayer
-from puppet.scene.make.auto_links import link_segment, propose_links
+from puppet.scene.make.anatomy import propose_rig
+from puppet.scene.make.auto_links import link_segment
 
 
 def rect(name, x0, y0, x1, y1):
@@ -34,10 +35,9 @@ def test_links_form_a_tree_and_skip_the_backdrop():
     body = rect("body", 100, 100, 200, 200)
     head = rect("head", 120, 60, 180, 120)  # over the body
     arm = rect("arm", 150, 110, 260, 130)  # over the body and the head
-    links = propose_links([back, body, head, arm], canvas=(300, 300))
-    pairs = {frozenset(k["layers"]) for k in links}
-    assert pairs == {frozenset(("body", "head")), frozenset(("body", "arm"))}
-    # head and arm already linked by the scene: one more link (the larger overlap, body-head
-    # 60x20 against body-arm 50x20) joins all three; body-arm would close a loop
-    links = propose_links([back, body, head, arm], canvas=(300, 300), skip={frozenset(("head", "arm"))})
-    assert {frozenset(k["layers"]) for k in links} == {frozenset(("body", "head"))}
+    rig = propose_rig([back, body, head, arm], canvas=(300, 300))
+    assert {frozenset(k["layers"]) for k in rig.links} == {frozenset(("body", "head")), frozenset(("body", "arm"))}
+    assert rig.roots == ["body"] and "backdrop" not in {p["layer"] for p in rig.pins}
+    # head and arm already linked by the scene: they count as one part, joined to the body once
+    rig = propose_rig([back, body, head, arm], canvas=(300, 300), skip={frozenset(("head", "arm"))})
+    assert len(rig.links) == 1 and "body" in rig.links[0]["layers"]
