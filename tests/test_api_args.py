@@ -102,6 +102,7 @@ def valid_calls(folder) -> dict:
         "set_layer_pixels": (("a", np.full((40, 120, 4), 200, np.uint8)), {}),
         "split_layer": (("a", square, "part"), {"cut": False}),
         "add_link": (("b", "c", [[75, 65], [75, 75]]), {}),
+        "add_rig": (([{"name": "r1", "layer": "a", "at": [61, 21]}], []), {"deformer": {"method": "arap"}}),
         "remove_link": (("b", "c"), {"segment": 0}),
         "remove_link_part": (("b", "c", "segments", 0), {}),
         "add_pose": (("wave",), {"like": "up", "activate": False}),

@@ -59,6 +59,7 @@ class Script:
         self.draft_kind = "brush"
         self.link_preview = None  # the link segment drawn, what it keeps (a tools.link.Preview)
         self.link_masks = None  # ((snapshot version, a, b), masks as the build clips links with)
+        self.rig_proposal = None  # "Rig automatically": what it found (a tools.autorig.Proposal)
         self._tint_key = None
         self._tint = None
         self._source = (None, None)

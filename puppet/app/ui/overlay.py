@@ -1,6 +1,7 @@
 """What is drawn over the canvas with ImGui's draw list: pins (interior, exterior and
 automatic exterior points in their own colours, selected ones ringed, names on hover),
-link segments, the link pencil's segment while it is drawn, and the depth legend."""
+link segments, the link pencil's segment while it is drawn, the rig "Rig automatically"
+proposes, and the depth legend."""
 from __future__ import annotations
 
 import math
@@ -9,6 +10,7 @@ import numpy as np
 from imgui_bundle import imgui
 
 from puppet.app.model import pick
+from puppet.app.tools import autorig
 from puppet.app.tools import link as linkpencil
 
 #: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points, starch pins
@@ -157,3 +159,29 @@ def dashed(dl, s0, s1, color, thickness: float) -> None:
         a, z = s0 + t * u, s0 + min(t + linkpencil.DASH[0], n) * u
         dl.add_line(imgui.ImVec2(float(a[0]), float(a[1])), imgui.ImVec2(float(z[0]), float(z[1])), color, thickness)
         t += linkpencil.DASH[0] + linkpencil.DASH[1]
+
+
+#: the proposed rig's colour (it is not the scene's yet)
+PROPOSED = (1.0, 0.45, 0.9, 1.0)
+
+
+def draw_rig_proposal(dl, app) -> None:
+    """The rig "Rig automatically" proposes, until accepted or discarded: glue segments as
+    lines, hinges as rings, pins as dots, all magenta with a dark outline."""
+    p = autorig.current(app)
+    if p is None:
+        return
+    view, dark, c = app.view, col((0.0, 0.0, 0.0, 0.85)), col(PROPOSED)
+    for k in p.links:
+        for seg in k.get("segments", []):
+            a, b = (imgui.ImVec2(*map(float, view.to_screen(q))) for q in seg)
+            dl.add_line(a, b, dark, 5.0)
+            dl.add_line(a, b, c, 3.0)
+        for q in k.get("points", []):
+            x, y = map(float, view.to_screen(q))
+            dl.add_circle(imgui.ImVec2(x, y), 9.0, dark, 0, 4.0)
+            dl.add_circle(imgui.ImVec2(x, y), 9.0, c, 0, 2.0)
+    for pin in p.pins:
+        x, y = map(float, view.to_screen(pin["at"]))
+        dl.add_circle_filled(imgui.ImVec2(x, y), 6.0, dark)
+        dl.add_circle_filled(imgui.ImVec2(x, y), 4.5, c)

@@ -11,6 +11,7 @@ an edit touched, so later steps keep working).
 - Link: two layers, their mask intersection tinted, a pencil for link segments (the part
   of a segment inside the intersection is kept, shown while it drags).
 - Pins: the Pin tool, plus automatic exterior points (beta slider, live).
+- Link and Pins: "Rig automatically" proposes the anatomy rig, drawn before it is accepted.
 - Deform: meshes built and shown, Pose mode.
 """
 from __future__ import annotations
@@ -19,9 +20,10 @@ import numpy as np
 from imgui_bundle import imgui
 
 from puppet.app.model.steps import LABELS, SELECT_OPS, STEPS, TIPS, TOOLS, set_step
+from puppet.app.tools import autorig
 from puppet.app.tools import mask as masktools
 from puppet.app.tools.dispatch import step_tool
-from puppet.app.ui.overlay import draw_link_preview
+from puppet.app.ui.overlay import draw_link_preview, draw_rig_proposal
 from puppet.app.ui.widgets import RECTS, button, live, note
 from puppet.scene.format.model import INPAINT_METHODS
 
@@ -177,7 +179,25 @@ def _inpaint_preview(app, thumbs, k) -> None:
     note("inpaint:after")
 
 
+def _autorig(app) -> None:
+    """"Rig automatically": propose, then Accept (one undo step) or Discard."""
+    if button("Rig automatically", "propose hinges where limbs join the torso or their parent limb, glue for parts "
+              "painted on others, and pins at the torso, shoulders, hips and free ends (drawn in magenta first; "
+              "layers already pinned or linked keep their rig)", enabled=not app.busy):
+        autorig.propose(app)
+    p = autorig.current(app)
+    if p is not None and (p.pins or p.links):
+        imgui.same_line()
+        if button("Accept", "add the proposed pins and links (one undo step)"):
+            autorig.accept(app)
+        imgui.same_line()
+        if button("Discard", "drop the proposal"):
+            autorig.discard(app)
+    imgui.separator()
+
+
 def _link(app, thumbs) -> None:
+    _autorig(app)
     sc, snap = app.script, app.snap
     names = [L.name for L in snap.data.layers]
     a, b = sc.link_pair(app)
@@ -213,6 +233,7 @@ def link_parts(link) -> list[tuple[str, int, str]]:
 
 
 def _pins(app, thumbs) -> None:
+    _autorig(app)
     sc, snap = app.script, app.snap
     name = app.selected_layer or snap.data.layers[-1].name
     k = app.layer_index(name)
@@ -267,3 +288,5 @@ def draw_overlay(dl, app) -> None:
                       col(imgui.ImVec4(1.0, 1.0, 1.0, 0.8)), 0, 1.5)
     if sc.step == "link":
         draw_link_preview(dl, app)
+    if sc.step in ("link", "pins"):
+        draw_rig_proposal(dl, app)

@@ -248,6 +248,31 @@ class Edits:
         with self.pending.staged():  # a refused split leaves none of its PNGs behind
             return split_layer(self, layer, region, name, cut)
 
+    # a whole rig --------------------------------------------------------------------
+    @ck.checked(pins=ck.plain, links=ck.plain, deformer=ck.plain)
+    def add_rig(self, pins, links, deformer=None) -> bool:
+        """Add ``pins`` and ``links`` (lists in the scene file's form, e.g. the proposal of
+        :func:`puppet.scene.make.anatomy.rig_scene`) in one step, labelled "rig
+        automatically": a pin whose name is taken and a link between two layers already
+        linked are left out. ``deformer`` (the file's form) is set only when the scene has
+        none."""
+        if not isinstance(pins, list) or not isinstance(links, list):
+            raise self._fail("add_rig: pins and links must be lists in the scene file's form")
+
+        def m(doc):
+            taken = {p["name"] for p in doc.get("pins", [])}
+            linked = {frozenset(k["layers"]) for k in doc.get("links", [])}
+            new_pins = [dict(p) for p in pins if isinstance(p, dict) and p.get("name") not in taken]
+            new_links = [dict(k) for k in links if isinstance(k, dict)
+                         and frozenset(k.get("layers") or ()) not in linked]
+            if new_pins:
+                doc["pins"] = doc.get("pins", []) + new_pins
+            if new_links:
+                doc["links"] = doc.get("links", []) + new_links
+            if (new_pins or new_links) and deformer is not None and "deformer" not in doc:
+                doc["deformer"] = dict(deformer)
+        return self._edit(Event("rig", "", "mesh", "rig automatically"), m)
+
     # links --------------------------------------------------------------------------
     @ck.checked(a=ck.text, b=ck.text, segment=ck.points(2, 2))
     def add_link(self, a: str, b: str, segment) -> bool:

@@ -47,7 +47,11 @@ import numpy as np
 from puppet.imaging.layered import ArtLayer
 from puppet.scene.make.auto_links import (MIN_DEPTH, Deadline, box_pairs, crop_mask, find_set, join_sets, link_segment,
                                           overlap_count)
+from puppet.scene.rig.build import layer_image, load_source
 
+#: The deformer an automatic rig is solved with (when the scene sets none): hinged chains
+#: posed from their ends converge slowly, 20 plain iterations leave a knee 3 px off.
+RIG_DEFORMER = {"method": "arap", "accelerate": "anderson"}
 #: A layer with at least this fraction of its pixels inside another is glued to it.
 COVERED = 0.75
 #: Longest side of the analysis canvas, pixels.
@@ -241,6 +245,31 @@ def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), dea
         for k in un.members:
             parent[usable[k].name] = None if un.parent is None else usable[un.hinge_parent_layer].name
     return Rig(pins, links, [usable[_main(units[u], areas)].name for u in roots], parent)
+
+
+def rig_scene(scene, *, deadline: Deadline | None = None) -> Rig:
+    """The rig :func:`propose_rig` finds for a scene's visible layers (``scene``: a
+    :class:`puppet.scene.document.core.Document`), their pixels inside their masks; pins
+    only on layers with none, links only between layers not linked yet (those count as
+    glued). What the app's "Rig automatically" proposes; ``scene.add_rig`` applies it."""
+    data = scene.data
+    source = load_source(data)
+    layers = []
+    for L in data.layers:
+        if not L.visible:
+            continue
+        im = layer_image(data, L, source)
+        ys, xs = np.nonzero(im.mask)
+        y0, y1, x0, x1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+        rgba = im.rgba[y0:y1, x0:x1].copy()
+        rgba[..., 3] = np.where(im.mask[y0:y1, x0:x1], np.maximum(rgba[..., 3], 1), 0)
+        layers.append(ArtLayer(L.name, rgba, (int(L.offset[0] + x0), int(L.offset[1] + y0))))
+    linked = {frozenset(k.layers) for k in data.links}
+    pinned = {p.layer for p in data.pins}
+    rig = propose_rig(layers, canvas=scene.canvas, skip=linked, deadline=deadline)
+    rig.pins = [p for p in rig.pins if p["layer"] not in pinned]
+    rig.links = [k for k in rig.links if frozenset(k["layers"]) not in linked]
+    return rig
 
 
 def _unit(ks: list[int], usable: list[ArtLayer], scale: float, canvas) -> Unit:

@@ -40,7 +40,7 @@ from puppet.scene.format.load import read_json
 from puppet.scene.format.model import MeshOptions
 from puppet.scene.format.write import map_paths, relative_to, scene_text
 from puppet.scene.make import auto_links  # RIG_SECONDS, read when used
-from puppet.scene.make.anatomy import propose_rig
+from puppet.scene.make.anatomy import RIG_DEFORMER, propose_rig
 from puppet.scene.make.auto_links import Deadline
 from puppet.scene.make.merge import merge
 from puppet.scene.rig.build import default_max_area
@@ -512,8 +512,7 @@ def _auto_rig(doc: dict, art, res: ImportResult, *, pins: bool, links: bool, max
     if pins:
         doc["pins"] = doc.get("pins", []) + new_pins
     if new_pins and new_links and "deformer" not in doc:
-        # hinged chains posed from their ends: 20 plain iterations leave a knee 3 px off
-        doc["deformer"] = {"method": "arap", "accelerate": "anderson"}
+        doc["deformer"] = dict(RIG_DEFORMER)
     if links:
         doc["links"] = doc.get("links", []) + new_links
     if deadline.hit:
