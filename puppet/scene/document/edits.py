@@ -256,15 +256,21 @@ class Edits:
         automatically": a pin whose name is taken and a link between two layers already
         linked are left out. ``deformer`` (the file's form) is set only when the scene has
         none."""
-        if not isinstance(pins, list) or not isinstance(links, list):
-            raise self._fail("add_rig: pins and links must be lists in the scene file's form")
+        if not (isinstance(pins, list) and all(isinstance(p, dict) for p in pins)
+                and isinstance(links, list) and all(isinstance(k, dict) for k in links)
+                and (deformer is None or isinstance(deformer, dict))):
+            raise self._fail("add_rig: pins and links must be lists of objects and deformer an object or None, "
+                             "in the scene file's form")
+
+        def pair(k: dict):
+            L = k.get("layers")
+            return frozenset(L) if isinstance(L, list) and all(isinstance(n, str) for n in L) else None
 
         def m(doc):
             taken = {p["name"] for p in doc.get("pins", [])}
-            linked = {frozenset(k["layers"]) for k in doc.get("links", [])}
-            new_pins = [dict(p) for p in pins if isinstance(p, dict) and p.get("name") not in taken]
-            new_links = [dict(k) for k in links if isinstance(k, dict)
-                         and frozenset(k.get("layers") or ()) not in linked]
+            linked = {pair(k) for k in doc.get("links", [])}
+            new_pins = [dict(p) for p in pins if not (isinstance(p.get("name"), str) and p["name"] in taken)]
+            new_links = [dict(k) for k in links if pair(k) is None or pair(k) not in linked]
             if new_pins:
                 doc["pins"] = doc.get("pins", []) + new_pins
             if new_links:
