@@ -36,6 +36,12 @@ from puppet.app.ui.timeline_panel import TimelinePanel
 from puppet.app.ui.widgets import RECTS, Thumbs
 
 PANEL_WIDTH = 330
+
+
+def panel_width(w: float) -> float:
+    """The side panels' width in a window ``w`` wide: :data:`PANEL_WIDTH`, narrower (to
+    280) in a small window so that the canvas keeps 70 % of the width."""
+    return float(min(PANEL_WIDTH, max(280.0, 0.3 * w)))
 #: the smallest window (every toolbar control and panel stays reachable down to it)
 MIN_SIZE = (960, 640)
 #: seconds a thread runs Python before it hands over the GIL: shorter than CPython's 5 ms
@@ -227,17 +233,19 @@ class AppWindow:
         imgui.end()
         body = h - top - tool_h - status_h
         panel = self.timeline_panel  # its height is dragged by its top edge; the canvas keeps >= 120 px
-        panel.height = min(max(panel.height, TIMELINE_MIN), max(body - 120.0, TIMELINE_MIN))
+        # whole pixels: a fractional canvas area left a stray row of the picture above it
+        panel.height = float(round(min(max(panel.natural_height(body), TIMELINE_MIN), max(body - 120.0, TIMELINE_MIN))))
         tl_h = panel.height if app.snap.loaded else 0
-        imgui.set_next_window_pos(imgui.ImVec2(w - PANEL_WIDTH, top + tool_h))
-        imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, body))
+        side = panel_width(w)
+        imgui.set_next_window_pos(imgui.ImVec2(w - side, top + tool_h))
+        imgui.set_next_window_size(imgui.ImVec2(side, body))
         imgui.begin("##panels", None, FIXED)
         self.panels.draw()
         imgui.end()
-        app.set_area((0.0, top + tool_h, w - PANEL_WIDTH, body - tl_h))
+        app.set_area((0.0, top + tool_h, w - side, body - tl_h))
         cursor = self._canvas_window()
         if tl_h:
-            self.timeline_panel.window((0, h - status_h - tl_h, w - PANEL_WIDTH, tl_h), FIXED)
+            self.timeline_panel.window((0, h - status_h - tl_h, w - side, tl_h), FIXED)
         imgui.set_next_window_pos(imgui.ImVec2(0, h - status_h))
         imgui.set_next_window_size(imgui.ImVec2(w, status_h))
         imgui.begin("##status", None, FIXED)

@@ -19,6 +19,7 @@ from puppet.app.ui.widgets import button, note, toggle
 
 HEIGHT = 200  # window pixels, at first (the top edge drags it)
 MIN_HEIGHT = 110  # the transport, the selection bar and the ruler with a row
+SHARE = 0.3  # at most this share of the height under the toolbar, until the user drags it
 GRIP = 6  # the draggable top edge
 LABELS = 120  # width of the row labels
 RULER = 20
@@ -41,6 +42,13 @@ class TimelinePanel:
         self._drag_dt = 0.0
         self.fps_field = 24.0
         self.height = float(HEIGHT)  # dragged by the top edge (see resize_grip)
+        self.dragged = False  # the user set the height (else it follows the window: natural_height)
+
+    def natural_height(self, body: float) -> float:
+        """Its height in a body (window height under the toolbar) of ``body`` pixels:
+        :data:`HEIGHT`, at most :data:`SHARE` of the body (a small window keeps its canvas),
+        at least :data:`MIN_HEIGHT`; what the user dragged it to once they did."""
+        return self.height if self.dragged else float(max(MIN_HEIGHT, min(HEIGHT, round(SHARE * body))))
 
     @property
     def tl(self) -> tl.Timeline:
@@ -64,6 +72,7 @@ class TimelinePanel:
         note("timeline:grip")
         if imgui.is_item_active():
             self.height -= imgui.get_io().mouse_delta.y
+            self.dragged = True
         lit = imgui.is_item_hovered() or imgui.is_item_active()
         a, b = imgui.get_item_rect_min(), imgui.get_item_rect_max()
         imgui.get_window_draw_list().add_rect_filled(a, imgui.ImVec2(b.x, a.y + (3 if lit else 1)),
