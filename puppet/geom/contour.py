@@ -130,6 +130,57 @@ def simplify_ring(P: np.ndarray, tolerance: float) -> np.ndarray:
     return Q if len(Q) >= 3 else P
 
 
+def keep_outside(P: np.ndarray, Q: np.ndarray, *, hole: bool, limit: float = 0.45) -> np.ndarray:
+    """``Q``, a simplification of ring ``P`` made of some of its points in order, with
+    points of ``P`` put back wherever ``Q`` cuts into the region by more than ``limit``
+    px (the farthest first, as Douglas-Peucker would, on that side only). ``hole``: the
+    region lies outside ``P``.
+
+    Douglas-Peucker strays up to its tolerance to either side. The contour of
+    :func:`mask_regions` runs a pixel outside the mask's pixel centres, half a pixel where
+    it is clamped to the image's edge, so a 1 px tolerance that cuts inwards left the
+    centres of edge pixels outside the mesh: they did not render (the last column of an
+    anti-aliased ellipse on its layer's edge, 36 pixels of psd-tools' ``masks-2.psd``)."""
+    n = len(P)
+    if len(Q) < 3 or len(Q) >= n:
+        return Q
+    where: dict[tuple, list[int]] = {}
+    for i, p in enumerate(map(tuple, P)):
+        where.setdefault(p, []).append(i)
+    kept, last = [], -1
+    for q in map(tuple, Q):
+        cand = where.get(q)
+        if cand is None:
+            return Q  # not a subset of P's points: leave it
+        after = [i for i in cand if i > last]
+        last = after[0] if after else cand[0]
+        kept.append(last)
+    inside = 1.0 if (ring_area(P) > 0) != hole else -1.0  # the region lies left of each edge (cross > 0)
+    stack = [(kept[k], kept[(k + 1) % len(kept)]) for k in range(len(kept))]
+    extra = []
+    while stack:
+        i, j = stack.pop()
+        m = (j - i) % n
+        if m < 2:
+            continue
+        between = (i + 1 + np.arange(m - 1)) % n
+        a, b = P[i], P[j]
+        d = b - a
+        L = float(np.hypot(*d))
+        if L < 1e-12:
+            continue
+        cross = (d[0] * (P[between, 1] - a[1]) - d[1] * (P[between, 0] - a[0])) / L
+        out = -inside * cross  # > 0: the point lies outside Q's edge, so the edge cuts into the region
+        k = int(np.argmax(out))
+        if out[k] > limit:
+            extra.append(int(between[k]))
+            stack += [(i, int(between[k])), (int(between[k]), j)]
+    if not extra:
+        return Q
+    idx = sorted(set(kept) | set(extra), key=lambda t: (t - kept[0]) % n)
+    return P[idx]
+
+
 def resample_ring(P: np.ndarray, max_edge: float) -> np.ndarray:
     """Split every edge of a closed ring longer than ``max_edge`` into equal pieces."""
     Q = np.roll(P, -1, axis=0)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from puppet.geom.contour import Region, resample_ring, simplify_ring
+from puppet.geom.contour import Region, keep_outside, resample_ring, simplify_ring
 from puppet.geom.pslg import clean_pslg, merge_vertices, segment_conflicts
 
 __all__ = ["Mesh", "MAX_TRIANGLES", "MeshTooLarge", "clean_pslg", "edge_length_for_area",
@@ -87,10 +87,14 @@ def _hole_point(ring: np.ndarray) -> np.ndarray:
     return (a[k] + b[k] + c[k]) / 3.0
 
 
-def _simplified(R: np.ndarray, tolerance: float) -> np.ndarray:
+def _simplified(R: np.ndarray, tolerance: float, hole: bool = False) -> np.ndarray:
     """Douglas-Peucker relative to the first point: exact in OpenCV's float32 for rings
-    on the pixel grid, so simplified vertices stay on the grid whatever the offset."""
-    return simplify_ring(R - R[0], tolerance) + R[0] if len(R) else R
+    on the pixel grid, so simplified vertices stay on the grid whatever the offset; never
+    cutting more than half a pixel into the region (:func:`keep_outside`)."""
+    if not len(R):
+        return R
+    S = R - R[0]
+    return keep_outside(S, simplify_ring(S, tolerance), hole=hole) + R[0]
 
 
 def _resampled_count(R: np.ndarray, h: float) -> int:
@@ -141,7 +145,7 @@ def triangulate_regions(
         for k, ring in enumerate([reg.outer] + list(reg.holes)):
             raw.append(np.asarray(ring, np.float64).reshape(-1, 2))
             is_hole.append(k > 0)
-    simple = [_simplified(R, simplify) for R in raw]
+    simple = [_simplified(R, simplify, hole) for R, hole in zip(raw, is_hole)]
     usable = [len(R) >= 3 and abs(_signed(R)) >= 1e-6 for R in simple]
     lines = [np.asarray(S, np.float64).reshape(-1, 2) for S in segments or []]
     pts = np.zeros((0, 2)) if points is None else np.asarray(points, np.float64).reshape(-1, 2)

@@ -81,8 +81,10 @@ def test_rest_render_equals_the_files_composite(tmp_path, capsys, art):
     ref = reference(art).astype(float)
     opaque = ref[..., 3] == 255
     assert opaque.sum() > 50_000
-    diff = np.abs(rest[opaque, :3] - ref[opaque, :3]).mean()
-    assert diff < 2.0, diff
+    # every pixel, premultiplied (issue 32: edge pixels of a layer were dropped by the mesh)
+    pm = lambda a: np.concatenate([a[..., :3] * a[..., 3:] / 255, a[..., 3:]], -1)  # noqa: E731
+    diff = np.abs(pm(rest) - pm(ref)).max(-1)
+    assert diff.max() <= 2.0, (diff.max(), int((diff > 2).sum()))
 
 
 @pytest.mark.gl
