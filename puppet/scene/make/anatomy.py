@@ -73,6 +73,8 @@ PAINTED = {"hair", "fringe", "bangs", "face", "eye", "eyes", "ear", "ears", "mou
            "buttons", "logo", "badge", "belt", "collar", "tie"}
 #: A free end's pin lies where the part is at least this fraction as thick as its thickest.
 CORE = 0.4
+#: Contacts kept between two units (their layers' largest overlaps), the best one chosen.
+PAIRS = 4
 #: Largest connected set of units whose tree is improved by local search.
 IMPROVE_UNITS = 40
 #: Cost of a contact between limbs of different kinds or sides, or parts of different groups.
@@ -81,7 +83,8 @@ WRONG_KIND, WRONG_SIDE, OTHER_GROUP = 2.0, 2.0, 0.5
 #: Name words and the role they give a part; a role's chain is its first word.
 ROLES = {
     "torso": ("torso", "body", "chest", "trunk", "pelvis", "belly", "abdomen", "waist", "hips", "spine",
-              "shirt", "tshirt", "blouse", "jacket", "coat", "vest", "dress"),
+              "shirt", "tshirt", "blouse", "jacket", "coat", "vest", "dress", "top", "topwear", "bottom",
+              "bottomwear", "bra", "bikini", "underwear", "swimsuit", "skirt"),
     "head": ("head", "neck", "face", "skull", "hair", "eye", "eyes", "ear", "ears", "mouth", "nose", "jaw",
              "brow", "eyebrow", "hat", "helmet", "beard", "cap"),
     "arm": ("arm", "arms", "upperarm", "forearm", "sleeve", "elbow", "shoulder", "hand", "hands", "wrist",
@@ -92,6 +95,8 @@ ROLES = {
     "wing": ("wing", "wings"),
 }
 _WORD_ROLE = {w: role for role, words in ROLES.items() for w in words}
+#: Role words that also count inside a compound word (not "ear": handwear, legwear).
+_COMPOUND = {w: r for w, r in _WORD_ROLE.items() if len(w) >= 4 or w in ("arm", "leg", "jaw", "toe", "top")}
 _LEFT, _RIGHT = {"left", "l", "lft", "lt"}, {"right", "r", "rgt", "rt"}
 
 
@@ -103,15 +108,17 @@ def words(name: str) -> list[str]:
 
 
 def role_of(name: str) -> str | None:
-    """The part's role from its path's words, the layer's own name first, then its groups'
-    (``legs/left`` is a leg); a word ending in a role word counts (``upperarm``)."""
+    """The part's role from its path's words, the layer's own name first (its last word
+    first: ``body_face`` is a face, ``TopHead`` a head), then its groups' (``legs/left`` is
+    a leg); a word ending or starting with a role word counts (``upperarm``, ``handwear``)."""
     for seg in reversed(name.split("/")):
-        for w in words(seg):
+        for w in reversed(words(seg)):  # the last word names the part: body_face is a face
             if w in _WORD_ROLE:
                 return _WORD_ROLE[w]
-            for known, role in _WORD_ROLE.items():
-                if len(known) >= 3 and len(w) > len(known) and (w.endswith(known) or w.startswith(known)):
-                    return role
+            for test in (str.endswith, str.startswith):  # the end of a compound first: tophead
+                for known, role in _COMPOUND.items():
+                    if len(w) > len(known) and test(w, known):
+                        return role
     return None
 
 
@@ -211,24 +218,24 @@ def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), dea
     scale = min(1.0, ANALYSIS / max(W, H))
     units = [_unit(ks, usable, scale, (W, H)) for ks in members.values()]
     unit_of = {k: u for u, un in enumerate(units) for k in un.members}
-    # 2. contacts between units: the largest overlap of each pair
-    contacts: dict[tuple[int, int], Contact] = {}
+    # 2. contacts between units: the overlaps of their layers (the largest few of each pair)
+    contacts: dict[tuple[int, int], list[Contact]] = {}
     for area, i, j in overlaps:
         ui, uj = unit_of[i], unit_of[j]
         key = (min(ui, uj), max(ui, uj))
-        if ui == uj or key in contacts or late():
+        if ui == uj or len(contacts.get(key, ())) >= PAIRS or late():
             continue
         hit = _hinge(usable[i], usable[j])
         if hit is not None:
-            contacts[key] = Contact(i, j, area, hit[0], hit[1])
+            contacts.setdefault(key, []).append(Contact(i, j, area, hit[0], hit[1]))
     # 3. trees
-    roots = _grow_trees(units, contacts, usable, unit_of, late)
-    glue += _glue_leaves(units, contacts, usable)
+    roots, chosen = _grow_trees(units, contacts, usable, unit_of, late)
+    glue += _glue_leaves(units, chosen, usable)
     links = [_glue_link(usable[i], usable[j]) for i, j in glue]
     links = [k for k in links if k is not None]
     for u, un in enumerate(units):
         if un.parent is not None and not un.glued:
-            c = contacts[(min(u, un.parent), max(u, un.parent))]
+            c = chosen[u]
             a, b = sorted((c.a, c.b))
             links.append({"layers": [usable[a].name, usable[b].name],
                           "points": [[round(float(un.hinge[0]), 2), round(float(un.hinge[1]), 2)]]})
@@ -244,7 +251,7 @@ def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), dea
     for u, un in enumerate(units):
         for k in un.members:
             parent[usable[k].name] = None if un.parent is None else usable[un.hinge_parent_layer].name
-    return Rig(pins, links, [usable[_main(units[u], areas)].name for u in roots], parent)
+    return Rig(pins, links, [usable[_main(units[u], areas, usable)].name for u in roots], parent)
 
 
 def rig_scene(scene, *, deadline: Deadline | None = None) -> Rig:
@@ -329,11 +336,13 @@ DISTAL = ("hand", "hands", "fist", "glove", "finger", "fingers", "thumb", "palm"
 
 def _names_cost(a: str, b: str, parent_is_root: bool) -> float:
     """What names add to a contact of layer ``a`` (the child) with ``b``: a distal part (a
-    hand) on the root or a proximal one (an upper arm) off it, :data:`CHAIN_PLACE`; off
+    hand) on the root or a proximal one (an upper arm) off it, or a part painted on
+    another (:data:`PAINTED`: long hair over the shoulders is not the neck),
+    :data:`CHAIN_PLACE`; off
     the root, limbs of different kinds (arm and leg), of different sides, or in different
     groups of the file."""
     ws = "".join(words(a.rsplit("/", 1)[-1]))
-    cost = 0.0
+    cost = CHAIN_PLACE if _painted(a) else 0.0  # hair is no joint
     if parent_is_root and any(ws.endswith(w) for w in DISTAL):
         cost += CHAIN_PLACE
     if not parent_is_root and any(ws.endswith(w) or ws.startswith(w) for w in PROXIMAL):
@@ -378,7 +387,7 @@ def _choose_root(comp: list[int], units: list[Unit], adj: dict[int, list[int]], 
     return best
 
 
-def _glue_leaves(units: list[Unit], contacts, usable) -> list[tuple[int, int]]:
+def _glue_leaves(units: list[Unit], chosen: dict[int, Contact], usable) -> list[tuple[int, int]]:
     """Leaves of the trees named as things painted on a part (:data:`PAINTED`: hair on a
     head, a pocket on trousers) are glued to their parent, not jointed (the layer pairs to
     join by a segment); they leave its children, and the parent may become a leaf in turn."""
@@ -388,22 +397,23 @@ def _glue_leaves(units: list[Unit], contacts, usable) -> list[tuple[int, int]]:
         for u, un in enumerate(units):
             if un.parent is None or un.glued or un.children:
                 continue
-            ct = contacts[(min(u, un.parent), max(u, un.parent))]
-            if all(any(w in PAINTED for w in words(usable[k].name.rsplit("/", 1)[-1])) for k in un.members):
+            ct = chosen[u]
+            if all(_painted(usable[k].name) for k in un.members):
                 un.glued, again = True, True
                 units[un.parent].children.remove(u)
                 out.append((ct.a, ct.b))
     return out
 
 
-def _grow_trees(units, contacts, usable, unit_of, late) -> list[int]:
-    """Set each unit's parent, hinge and children; the roots. Per connected set of units:
-    Prim from the root, cheapest contact first, then :func:`_improve`."""
+def _grow_trees(units, contacts, usable, unit_of, late) -> tuple[list[int], dict[int, Contact]]:
+    """Set each unit's parent, hinge and children; the roots, and the contact each joint
+    is at. Per connected set of units: Prim from the root, cheapest contact first, then
+    :func:`_improve`."""
     adj: dict[int, list[int]] = {u: [] for u in range(len(units))}
     for (u, v) in contacts:
         adj[u].append(v)
         adj[v].append(u)
-    seen, roots = set(), []
+    seen, roots, chosen = set(), [], {}
     for start in range(len(units)):
         if start in seen:
             continue
@@ -436,13 +446,13 @@ def _grow_trees(units, contacts, usable, unit_of, late) -> list[int]:
         if len(comp) <= IMPROVE_UNITS and not late():
             parent = _improve(parent, adj, costs)
         for c, p in parent.items():
-            ct = contacts[(min(p, c), max(p, c))]
+            ct = chosen[c] = costs.best(c, p)
             un = units[c]
             un.parent, un.hinge = p, ct.at
             un.hinge_layer = ct.a if unit_of[ct.a] == c else ct.b
             un.hinge_parent_layer = ct.b if un.hinge_layer == ct.a else ct.a
             units[p].children.append(c)
-    return roots
+    return roots, chosen
 
 
 class _Costs:
@@ -458,26 +468,33 @@ class _Costs:
         self.r, self.units, self.contacts, self.usable, self.unit_of = r, units, contacts, usable, unit_of
         self.memo: dict = {}
         self.thick = _Thickness(usable)
-        self.touching = set(contacts)
 
-    def at(self, u: int, v: int) -> np.ndarray:
-        return self.contacts[(min(u, v), max(u, v))].at
+    def local(self, c: int, p: int, ct: Contact) -> float:
+        """The terms that depend on the two units and the contact only."""
+        lc, lp = (ct.a, ct.b) if self.unit_of[ct.a] == c else (ct.b, ct.a)
+        cost = self.units[c].endness(ct.at) + COVER * (1.0 - min(1.0, ct.depth / self.thick[lc]))
+        cost += AT_ROOT if p == self.r else PARENT_END * self.units[p].endness(ct.at)
+        return cost + _names_cost(self.usable[lc].name, self.usable[lp].name, p == self.r)
+
+    def best(self, c: int, p: int) -> Contact:
+        """Of the contacts between units ``c`` and ``p``, the one most like ``c``'s joint
+        (:meth:`local`): a neck's contact with the torso rather than long hair's."""
+        key = ("best", c, p)
+        if key not in self.memo:
+            found = self.contacts[(min(p, c), max(p, c))]
+            self.memo[key] = min(found, key=lambda ct: self.local(c, p, ct))
+        return self.memo[key]
 
     def __call__(self, c: int, p: int, gp: int | None) -> float:
         key = (c, p, gp)
         if key not in self.memo:
-            units, at = self.units, self.at(c, p)
-            cost = units[c].endness(at)
-            if p == self.r:
-                cost += AT_ROOT
-            else:
-                near_gp = (c, gp) in self.touching or (gp, c) in self.touching
-                prox = units[p].proximal(at, self.at(p, gp))
-                cost += PARENT_END * units[p].endness(at) + prox + (SIBLING if near_gp and prox > 0.5 else 0.0)
-            ct = self.contacts[(min(p, c), max(p, c))]
-            lc, lp = (ct.a, ct.b) if self.unit_of[ct.a] == c else (ct.b, ct.a)
-            cost += COVER * (1.0 - min(1.0, ct.depth / self.thick[lc]))
-            self.memo[key] = cost + _names_cost(self.usable[lc].name, self.usable[lp].name, p == self.r)
+            ct = self.best(c, p)
+            cost = self.local(c, p, ct)
+            if p != self.r:
+                near_gp = (min(c, gp), max(c, gp)) in self.contacts
+                prox = self.units[p].proximal(ct.at, self.best(p, gp).at)
+                cost += prox + (SIBLING if near_gp and prox > 0.5 else 0.0)
+            self.memo[key] = cost
         return self.memo[key]
 
     def total(self, parent: dict[int, int]) -> float:
@@ -584,9 +601,16 @@ def _glue_link(a: ArtLayer, b: ArtLayer) -> dict | None:
     return {"layers": [a.name, b.name], "segments": [seg]}
 
 
-def _main(un: Unit, areas: np.ndarray) -> int:
-    """The unit's largest layer: its pins go there."""
-    return max(un.members, key=lambda k: (areas[k], -k))
+def _main(un: Unit, areas: np.ndarray, usable) -> int:
+    """The unit's largest layer not named as painted on (:data:`PAINTED`, a face aside: the
+    face rather than the long hair behind it): its pins go there."""
+    plain = [k for k in un.members if not _painted(usable[k].name, PAINTED - {"face"})] or un.members
+    return max(plain, key=lambda k: (areas[k], -k))
+
+
+def _painted(name: str, kinds=None) -> bool:
+    """The layer's own name says it is painted on another (``kinds``: these words only)."""
+    return any(w in (PAINTED if kinds is None else kinds) for w in words(name.rsplit("/", 1)[-1]))
 
 
 def _unit_pins(u: int, units: list[Unit], usable, masks, areas, *, root_unit: bool) -> list[dict]:
@@ -595,14 +619,14 @@ def _unit_pins(u: int, units: list[Unit], usable, masks, areas, *, root_unit: bo
     if un.glued:
         return out
     if root_unit:
-        k = _main(un, areas)
+        k = _main(un, areas, usable)
         for name, at in _axis_pins(masks[k]):
             out.append(_pin(usable[k], name, at))
         return out
     if units[un.parent].parent is None:  # hinged to the root: a shoulder, a hip, a neck
         out.append(_pin(usable[un.hinge_layer], "joint", un.hinge - usable[un.hinge_layer].offset))
     if not un.children:
-        k = _main(un, areas)
+        k = _main(un, areas, usable)
         end = _free_end(masks[k], un.hinge - usable[k].offset)
         if end is not None:
             out.append(_pin(usable[k], "end", end))
