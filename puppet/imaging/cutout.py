@@ -28,6 +28,17 @@ FIT = 16
 #: the outline points a tangent is fitted to are first smoothed along the outline by a
 #: Gaussian of this many points (the pixel staircase otherwise tilts a 16-point circle fit)
 SMOOTH = 2.0
+#: slivers of the layer at most this wide (px) left between a cut region and the layer's
+#: outside go with the part (:func:`cut_apart`): a lasso that crossed a thick outline
+EDGE = 12.0
+#: ... where the part and the outside lie on opposite sides of the sliver, within this angle
+#: (radians); a narrower wedge between a lasso and the layer's edge counts as a sliver too
+ACROSS = np.pi / 4
+#: ... in pieces of at least this many pixels (a pixel or two of the body's edge beside
+#: where a lasso crossed it is no sliver)
+MIN_PIECE = 4
+#: a run of fewer outline points than this left between two cut runs is bridged with them
+MIN_KEPT = 3
 
 
 def fit_tangent(Q: np.ndarray) -> np.ndarray | None:
@@ -102,9 +113,26 @@ def _smooth(Q: np.ndarray) -> np.ndarray:
     ends held): the staircase of a pixel outline taken out before a tangent is fitted."""
     if SMOOTH <= 0 or len(Q) < 3:
         return Q
-    from scipy.ndimage import gaussian_filter1d
+    from scipy.ndimage import gaussian_filter1d  # lazy: cuts only (see the module's startup-import test)
 
     return gaussian_filter1d(np.asarray(Q, float), SMOOTH, axis=0, mode="nearest")
+
+
+def _bridge_gaps(cut: np.ndarray, least: int) -> np.ndarray:
+    """``cut`` (n,) bool round a closed contour with its runs of uncut points shorter than
+    ``least`` between two cut runs counted as cut (a lone outline pixel a lasso left would
+    otherwise be an end of two arcs), unless no longer uncut run would be left."""
+    start = int(np.flatnonzero(cut)[0])
+    c = np.roll(cut, -start)  # begins with a cut point: no uncut run wraps
+    edges = np.diff(np.r_[c.astype(np.int8), 1])
+    runs = list(zip(np.flatnonzero(edges == -1) + 1, np.flatnonzero(edges == 1) + 1))  # [i, j) uncut
+    if all(j - i < least for i, j in runs):
+        return cut
+    c = c.copy()
+    for i, j in runs:
+        if j - i < least:
+            c[i:j] = True
+    return np.roll(c, start)
 
 
 def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
@@ -127,6 +155,7 @@ def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
     P = np.asarray(P, float)
     if not cut.any():
         return P
+    cut = _bridge_gaps(cut, MIN_KEPT)
     start = int(np.flatnonzero(~cut)[0])  # begin on an outline point, so no run wraps
     P, cut = np.roll(P, -start, axis=0), np.roll(cut, -start)
     edges = np.diff(np.r_[0, cut.astype(np.int8), 0])
@@ -161,7 +190,7 @@ def completed_body(mask: np.ndarray, part: np.ndarray) -> np.ndarray:
     (h, w) bool: inside the completed outer outlines and outside the completed holes
     (even-odd over all of them). Only its pixels inside ``part`` matter to a cut.
     """
-    import cv2
+    import cv2  # lazy: cuts only (OpenCV is not loaded outside drawing)
 
     m8 = np.ascontiguousarray(mask, np.uint8)
     contours, _ = cv2.findContours(m8, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
@@ -177,16 +206,114 @@ def completed_body(mask: np.ndarray, part: np.ndarray) -> np.ndarray:
     return out.astype(bool)
 
 
-def body_after_cut(mask: np.ndarray, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A layer's mask after cutting ``part`` out, and the pixels to refill.
+def edge_strip(mask: np.ndarray, part: np.ndarray, width: float = EDGE) -> np.ndarray:
+    """The layer's pixels outside ``part`` that lie in a strip at most ``width`` px wide
+    between ``part`` and the layer's outside: (h, w) bool.
+
+    A pixel is in it when its distance to ``part`` plus its distance to the outside (pixel
+    centres, the image's border counted as outside) is at most ``width + 1``, and the two
+    lie on opposite sides of it (the directions from the nearest part pixel to it and from
+    it to the nearest outside pixel within :data:`ACROSS` of each other), or the sum is at
+    most 3 (a sliver of one or two pixels, a lone outline pixel between two cut runs).
+    A sliver ``t`` px thick left between a lasso and the layer's edge has ``t + 1``
+    everywhere, its directions agree; beside a cut straight across a limb thinner than
+    ``width`` the directions are square, so the limb keeps its end. Computed on the part's
+    box grown by ``width + 2``, which holds every such pixel and its nearest outside pixel.
+    """
+    from scipy.ndimage import distance_transform_edt, gaussian_filter  # lazy: cuts only
+
+    out = np.zeros(mask.shape, bool)
+    rows, cols = np.flatnonzero(part.any(axis=1)), np.flatnonzero(part.any(axis=0))
+    if not rows.size or width <= 0:
+        return out
+    m = int(np.ceil(width)) + 2
+    box = (slice(max(rows[0] - m, 0), rows[-1] + m + 1), slice(max(cols[0] - m, 0), cols[-1] + m + 1))
+    inside = np.pad(mask, 1)[box[0].start:box[0].stop + 2, box[1].start:box[1].stop + 2]  # the border is outside
+    d_out = distance_transform_edt(inside)[1:-1, 1:-1]
+    d_part = distance_transform_edt(~part[box])
+    thin = d_out + d_part
+    # the directions away from the part and towards the outside: the distances' gradients,
+    # smoothed (the nearest pixels themselves turn by 45 degrees from one pixel to the next)
+    g_part = np.gradient(gaussian_filter(d_part, SMOOTH))
+    g_out = np.gradient(gaussian_filter(d_out, SMOOTH))
+    dot = -(g_part[0] * g_out[0] + g_part[1] * g_out[1])
+    across = dot >= np.cos(ACROSS) * np.hypot(*g_part) * np.hypot(*g_out)
+    strip = _pieces(mask[box] & ~part[box] & (thin <= width + 1) & across, MIN_PIECE)
+    edge = [box[0].start > 0, box[0].stop < mask.shape[0], box[1].start > 0, box[1].stop < mask.shape[1]]
+    out[box] = strip | _debris(mask[box] & ~part[box] & ~strip, part[box] | strip, width, edge)
+    return out
+
+
+def _pieces(a: np.ndarray, least: int) -> np.ndarray:
+    """The 8-connected pieces of ``a`` of at least ``least`` pixels."""
+    from scipy.ndimage import label  # lazy: cuts only
+
+    lab, n = label(a, structure=np.ones((3, 3)))
+    return np.isin(lab, np.flatnonzero(np.bincount(lab.ravel(), minlength=n + 1)[1:] >= least) + 1)
+
+
+def _debris(rest: np.ndarray, cut: np.ndarray, width: float, open_sides) -> np.ndarray:
+    """The pieces of ``rest`` (the layer's pixels left, in the part's box) that touch
+    ``cut``, are nowhere wider than ``width`` and lie wholly in the box (not touching its
+    sides where ``open_sides`` (top, bottom, left, right) is true, where the layer goes on),
+    all but the largest piece: (h, w) bool. What a lasso leaves of a thin stroke it
+    crossed: a lone outline pixel, a few pixels of a stick."""
+    from scipy.ndimage import binary_dilation, distance_transform_edt, label, maximum  # lazy: cuts only
+
+    lab, n = label(rest, structure=np.ones((3, 3)))
+    if n < 2:
+        return np.zeros_like(rest)
+    ids = np.arange(1, n + 1)
+    size = np.bincount(lab.ravel(), minlength=n + 1)[1:]
+    sides = [lab[0], lab[-1], lab[:, 0], lab[:, -1]]
+    going_on = np.concatenate([side for side, o in zip(sides, open_sides) if o] or [np.zeros(0, int)])
+    touching = np.unique(lab[binary_dilation(cut, np.ones((3, 3), bool)) & rest])
+    thick = np.asarray(maximum(distance_transform_edt(np.pad(rest, 1))[1:-1, 1:-1], lab, ids))
+    bad = np.isin(ids, touching) & ~np.isin(ids, going_on) & (thick <= width / 2.0) & (ids != ids[np.argmax(size)])
+    return np.isin(lab, ids[bad])
+
+
+def cut_apart(mask: np.ndarray, part: np.ndarray, width: float = EDGE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A layer cut apart by a region: what the part takes, what the layer keeps, and what
+    it refills.
+
+    The region rarely follows the layer's edge: a lasso drawn round a cup on a drawing
+    with a thick outline crosses the outline back and forth, and leaves slivers of it (or
+    a lone edge pixel) outside the region. The completion would take those for the
+    layer's own edge and close the outline round the whole cup. So the pixels of
+    :func:`edge_strip` count as cut when the outline is completed, and those of them left
+    outside the completed outline go with the part; the others (beside where the region
+    crossed the body's edge) stay in the layer as they are.
+
+    Parameters
+    ----------
+    mask : (h, w) bool
+        The layer's pixels.
+    part : (h, w) bool
+        The pixels the region selects (only those inside ``mask`` count).
+    width : float
+        The widest sliver taken with the part (px); 0 takes the region's pixels only.
 
     Returns
     -------
-    new_mask : (h, w) bool
-        ``mask`` without ``part``, plus the part's pixels inside the completed outline.
+    taken : (h, w) bool
+        The new layer's pixels: ``part`` and the slivers.
+    keep : (h, w) bool
+        The layer's mask after the cut: ``mask`` without ``taken``, plus the part's pixels
+        inside the completed outline.
     refill : (h, w) bool
         The part's pixels the layer keeps (they need new colours: the part took its own).
     """
     part = part & mask
-    refill = completed_body(mask, part) & part
-    return (mask & ~part) | refill, refill
+    strip = edge_strip(mask, part, width)
+    body = completed_body(mask, part | strip)
+    taken = part | (strip & ~body)
+    refill = body & part
+    return taken, (mask & ~taken) | refill, refill
+
+
+def body_after_cut(mask: np.ndarray, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A layer's mask after cutting ``part`` out, and the pixels to refill
+    (:func:`cut_apart` without what the part takes)."""
+    _, keep, refill = cut_apart(mask, part)
+    return keep, refill

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.cutout import body_after_cut
+from puppet.imaging.cutout import cut_apart
 from puppet.imaging.inpaint import inpaint_layer
 from puppet.imaging.io import load_rgba
 from puppet.imaging.masks import canvas_to_image, polygon_mask
@@ -120,7 +120,10 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
     part = region_mask(region, s.canvas, im.offset, im.mask.shape, s._fail) & im.mask
     if not part.any():
         raise s._fail(f"the region selects no pixels of layer {layer!r}")
-    keep, refill = body_after_cut(im.mask, part) if cut else (im.mask, None)
+    if cut:
+        part, keep, refill = cut_apart(im.mask, part)
+    else:
+        keep, refill = im.mask, None
     if cut and not keep.any():
         raise s._fail(f"the region takes all of layer {layer!r}: nothing would be left behind "
                       "(copy it with cut=False, or rename the layer)")
