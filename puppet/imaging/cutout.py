@@ -29,14 +29,20 @@ FIT = 16
 #: Gaussian of this many points (the pixel staircase otherwise tilts a 16-point circle fit)
 SMOOTH = 2.0
 #: slivers of the layer at most this wide (px) left between a cut region and the layer's
-#: outside go with the part (:func:`cut_apart`): a lasso that crossed a thick outline
+#: outside go with the part (:func:`cut_apart`): a lasso that crossed a thick outline ...
 EDGE = 12.0
+#: ... or this fraction of the diagonal of the part's box, when that is wider (outlines
+#: and a hand's slips grow with the picture)
+REACH = 0.1
 #: ... where the part and the outside lie on opposite sides of the sliver, within this angle
 #: (radians); a narrower wedge between a lasso and the layer's edge counts as a sliver too
 ACROSS = np.pi / 4
 #: ... in pieces of at least this many pixels (a pixel or two of the body's edge beside
 #: where a lasso crossed it is no sliver)
 MIN_PIECE = 4
+#: the distances' gradients that give those directions are taken after a Gaussian of this
+#: many pixels (the nearest pixels themselves turn by 45 degrees from a pixel to the next)
+GRADIENT = 2.0
 #: a run of fewer outline points than this left between two cut runs is bridged with them
 MIN_KEPT = 3
 
@@ -206,19 +212,31 @@ def completed_body(mask: np.ndarray, part: np.ndarray) -> np.ndarray:
     return out.astype(bool)
 
 
-def edge_strip(mask: np.ndarray, part: np.ndarray, width: float = EDGE) -> np.ndarray:
-    """The layer's pixels outside ``part`` that lie in a strip at most ``width`` px wide
-    between ``part`` and the layer's outside: (h, w) bool.
+def sliver_width(part: np.ndarray) -> float:
+    """The widest sliver a cut of ``part`` leaves that goes with it (px): :data:`EDGE`, or
+    :data:`REACH` of the diagonal of the part's box when that is more."""
+    rows, cols = np.flatnonzero(part.any(axis=1)), np.flatnonzero(part.any(axis=0))
+    if not rows.size:
+        return EDGE
+    return max(EDGE, REACH * float(np.hypot(rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1)))
 
-    A pixel is in it when its distance to ``part`` plus its distance to the outside (pixel
-    centres, the image's border counted as outside) is at most ``width + 1``, and the two
-    lie on opposite sides of it (the directions from the nearest part pixel to it and from
-    it to the nearest outside pixel within :data:`ACROSS` of each other), or the sum is at
-    most 3 (a sliver of one or two pixels, a lone outline pixel between two cut runs).
-    A sliver ``t`` px thick left between a lasso and the layer's edge has ``t + 1``
-    everywhere, its directions agree; beside a cut straight across a limb thinner than
-    ``width`` the directions are square, so the limb keeps its end. Computed on the part's
-    box grown by ``width + 2``, which holds every such pixel and its nearest outside pixel.
+
+def edge_strip(mask: np.ndarray, part: np.ndarray, width: float) -> np.ndarray:
+    """The layer's pixels outside ``part`` that a cut leaves hanging off the part: slivers
+    at most ``width`` px wide between ``part`` and the layer's outside, and thin pieces cut
+    off by it. (h, w) bool.
+
+    A sliver pixel's distance to ``part`` plus its distance to the outside (pixel centres,
+    the image's border counted as outside) is at most ``width + 1``, and the two lie on
+    opposite sides of it: the distances' gradients point the same way within
+    :data:`ACROSS`. A sliver ``t`` px thick left between a lasso and the layer's edge has
+    ``t + 1`` everywhere and its directions agree; beside a cut straight across a limb
+    thinner than ``width`` they are square, so the limb keeps its end. Slivers come in
+    pieces of :data:`MIN_PIECE` pixels or more (the pixel at the corner where a lasso
+    crossed the layer's edge is no sliver). The thin pieces are :func:`_debris`.
+
+    Computed on the part's box grown by ``width + 2``, which holds every such pixel and
+    its nearest outside pixel.
     """
     from scipy.ndimage import distance_transform_edt, gaussian_filter  # lazy: cuts only
 
@@ -232,10 +250,9 @@ def edge_strip(mask: np.ndarray, part: np.ndarray, width: float = EDGE) -> np.nd
     d_out = distance_transform_edt(inside)[1:-1, 1:-1]
     d_part = distance_transform_edt(~part[box])
     thin = d_out + d_part
-    # the directions away from the part and towards the outside: the distances' gradients,
-    # smoothed (the nearest pixels themselves turn by 45 degrees from one pixel to the next)
-    g_part = np.gradient(gaussian_filter(d_part, SMOOTH))
-    g_out = np.gradient(gaussian_filter(d_out, SMOOTH))
+    # away from the part, and (minus the gradient of d_out) towards the outside
+    g_part = np.gradient(gaussian_filter(d_part, GRADIENT))
+    g_out = np.gradient(gaussian_filter(d_out, GRADIENT))
     dot = -(g_part[0] * g_out[0] + g_part[1] * g_out[1])
     across = dot >= np.cos(ACROSS) * np.hypot(*g_part) * np.hypot(*g_out)
     strip = _pieces(mask[box] & ~part[box] & (thin <= width + 1) & across, MIN_PIECE)
@@ -273,7 +290,8 @@ def _debris(rest: np.ndarray, cut: np.ndarray, width: float, open_sides) -> np.n
     return np.isin(lab, ids[bad])
 
 
-def cut_apart(mask: np.ndarray, part: np.ndarray, width: float = EDGE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None) \
+        -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A layer cut apart by a region: what the part takes, what the layer keeps, and what
     it refills.
 
@@ -291,8 +309,9 @@ def cut_apart(mask: np.ndarray, part: np.ndarray, width: float = EDGE) -> tuple[
         The layer's pixels.
     part : (h, w) bool
         The pixels the region selects (only those inside ``mask`` count).
-    width : float
-        The widest sliver taken with the part (px); 0 takes the region's pixels only.
+    width : float, optional
+        The widest sliver taken with the part (px): by default :func:`sliver_width`; 0
+        takes the region's pixels only.
 
     Returns
     -------
@@ -305,7 +324,7 @@ def cut_apart(mask: np.ndarray, part: np.ndarray, width: float = EDGE) -> tuple[
         The part's pixels the layer keeps (they need new colours: the part took its own).
     """
     part = part & mask
-    strip = edge_strip(mask, part, width)
+    strip = edge_strip(mask, part, sliver_width(part) if width is None else width)
     body = completed_body(mask, part | strip)
     taken = part | (strip & ~body)
     refill = body & part

@@ -19,7 +19,8 @@ import pytest
 from scipy import ndimage
 
 import puppet
-from puppet.imaging.cutout import _bridge_gaps, complete_ring, cut_apart, edge_strip
+from puppet.imaging.cutout import EDGE, _bridge_gaps, complete_ring, cut_apart, edge_strip, sliver_width
+from puppet.imaging.masks import polygon_mask
 from puppet.imaging.io import load_rgba
 from tests.conftest import write_rgba
 from tests.scene.document.test_split import shapes
@@ -136,6 +137,21 @@ def test_the_cup_swung_away_shows_background_and_the_refilled_body(drawing):
         sc.close()
     refilled = inside & held  # the hand was over the body there
     assert refilled.sum() > 300 and (np.linalg.norm(rgb[refilled] - BLUE, axis=-1) < 40).mean() > 0.9
+
+
+def test_the_reach_grows_with_the_picture():
+    """The drawing at three times the size (a 24 px outline, a lasso 6-21 px inside it):
+    the slivers are wider than :data:`EDGE`, a tenth of the part's box is not."""
+    big = lambda a: cv2.resize(a.astype(np.uint8), None, fx=3, fy=3, interpolation=cv2.INTER_NEAREST).astype(bool)
+    body_t, held = truth()
+    mask = big(picture()[..., :3].min(axis=-1) < 250)  # about the default mask
+    out = big(held) & ~ndimage.binary_dilation(big(body_t), iterations=3)
+    part = polygon_mask(mask.shape, np.array(lasso(2, 5)) * 3, (0, 0)) & mask
+    assert sliver_width(part) > 3 * EDGE
+    _, keep, _ = cut_apart(mask, part, EDGE)
+    assert (keep & out).sum() > 0.5 * out.sum()  # 12 px slivers only: the cup stays
+    taken, keep, _ = cut_apart(mask, part)
+    assert (keep & out).sum() <= 0.02 * out.sum() and taken[out].mean() >= 0.98
 
 
 def test_edge_strip_takes_slivers_not_a_limbs_end():
