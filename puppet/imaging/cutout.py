@@ -238,7 +238,7 @@ def edge_strip(mask: np.ndarray, part: np.ndarray, width: float) -> np.ndarray:
     Computed on the part's box grown by ``width + 2``, which holds every such pixel and
     its nearest outside pixel.
     """
-    from scipy.ndimage import distance_transform_edt, gaussian_filter  # lazy: cuts only
+    import cv2  # lazy: cuts only
 
     out = np.zeros(mask.shape, bool)
     rows, cols = np.flatnonzero(part.any(axis=1)), np.flatnonzero(part.any(axis=0))
@@ -247,12 +247,12 @@ def edge_strip(mask: np.ndarray, part: np.ndarray, width: float) -> np.ndarray:
     m = int(np.ceil(width)) + 2
     box = (slice(max(rows[0] - m, 0), rows[-1] + m + 1), slice(max(cols[0] - m, 0), cols[-1] + m + 1))
     inside = np.pad(mask, 1)[box[0].start:box[0].stop + 2, box[1].start:box[1].stop + 2]  # the border is outside
-    d_out = distance_transform_edt(inside)[1:-1, 1:-1]
-    d_part = distance_transform_edt(~part[box])
+    d_out = _distance(inside)[1:-1, 1:-1]
+    d_part = _distance(~part[box])
     thin = d_out + d_part
     # away from the part, and (minus the gradient of d_out) towards the outside
-    g_part = np.gradient(gaussian_filter(d_part, GRADIENT))
-    g_out = np.gradient(gaussian_filter(d_out, GRADIENT))
+    g_part = np.gradient(cv2.GaussianBlur(d_part, (0, 0), GRADIENT))
+    g_out = np.gradient(cv2.GaussianBlur(d_out, (0, 0), GRADIENT))
     dot = -(g_part[0] * g_out[0] + g_part[1] * g_out[1])
     across = dot >= np.cos(ACROSS) * np.hypot(*g_part) * np.hypot(*g_out)
     strip = _pieces(mask[box] & ~part[box] & (thin <= width + 1) & across, MIN_PIECE)
@@ -261,12 +261,27 @@ def edge_strip(mask: np.ndarray, part: np.ndarray, width: float) -> np.ndarray:
     return out
 
 
+def _distance(a: np.ndarray) -> np.ndarray:
+    """Each pixel's Euclidean distance to the nearest pixel of ``a`` that is False: (h, w) float32."""
+    import cv2  # lazy: cuts only
+
+    return cv2.distanceTransform(a.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+def _label(a: np.ndarray) -> tuple[np.ndarray, int]:
+    """The 8-connected pieces of ``a``: labels (0 off ``a``, 1..n) and n."""
+    import cv2  # lazy: cuts only
+
+    n, lab = cv2.connectedComponents(a.astype(np.uint8), connectivity=8)
+    return lab, n - 1
+
+
 def _pieces(a: np.ndarray, least: int) -> np.ndarray:
     """The 8-connected pieces of ``a`` of at least ``least`` pixels."""
-    from scipy.ndimage import label  # lazy: cuts only
-
-    lab, n = label(a, structure=np.ones((3, 3)))
-    return np.isin(lab, np.flatnonzero(np.bincount(lab.ravel(), minlength=n + 1)[1:] >= least) + 1)
+    lab, n = _label(a)
+    big = np.bincount(lab.ravel(), minlength=n + 1) >= least
+    big[0] = False
+    return big[lab]
 
 
 def _debris(rest: np.ndarray, cut: np.ndarray, width: float, open_sides) -> np.ndarray:
@@ -275,19 +290,32 @@ def _debris(rest: np.ndarray, cut: np.ndarray, width: float, open_sides) -> np.n
     sides where ``open_sides`` (top, bottom, left, right) is true, where the layer goes on),
     all but the largest piece: (h, w) bool. What a lasso leaves of a thin stroke it
     crossed: a lone outline pixel, a few pixels of a stick."""
-    from scipy.ndimage import binary_dilation, distance_transform_edt, label, maximum  # lazy: cuts only
+    import cv2  # lazy: cuts only
 
-    lab, n = label(rest, structure=np.ones((3, 3)))
+    lab, n = _label(rest)
     if n < 2:
         return np.zeros_like(rest)
-    ids = np.arange(1, n + 1)
-    size = np.bincount(lab.ravel(), minlength=n + 1)[1:]
-    sides = [lab[0], lab[-1], lab[:, 0], lab[:, -1]]
-    going_on = np.concatenate([side for side, o in zip(sides, open_sides) if o] or [np.zeros(0, int)])
-    touching = np.unique(lab[binary_dilation(cut, np.ones((3, 3), bool)) & rest])
-    thick = np.asarray(maximum(distance_transform_edt(np.pad(rest, 1))[1:-1, 1:-1], lab, ids))
-    bad = np.isin(ids, touching) & ~np.isin(ids, going_on) & (thick <= width / 2.0) & (ids != ids[np.argmax(size)])
-    return np.isin(lab, ids[bad])
+    bad = np.zeros(n + 1, bool)
+    bad[np.unique(lab[cv2.dilate(cut.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & rest])] = True
+    for side, going_on in zip((lab[0], lab[-1], lab[:, 0], lab[:, -1]), open_sides):
+        if going_on:
+            bad[side] = False
+    thick = np.zeros(n + 1, np.float32)
+    np.maximum.at(thick, lab.ravel(), _distance(np.pad(rest, 1))[1:-1, 1:-1].ravel())
+    bad &= thick <= width / 2.0
+    bad[0] = False
+    bad[1 + np.argmax(np.bincount(lab.ravel(), minlength=n + 1)[1:])] = False
+    return bad[lab]
+
+
+def _outside_pieces(strip: np.ndarray, body: np.ndarray) -> np.ndarray:
+    """The 8-connected pieces of ``strip`` with at most half their pixels in ``body``."""
+    lab, n = _label(strip)
+    count = np.bincount(lab.ravel(), minlength=n + 1)
+    inside = np.bincount(lab[body], minlength=n + 1)
+    keep = 2 * inside <= count
+    keep[0] = False
+    return keep[lab]
 
 
 def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None) \
@@ -325,6 +353,8 @@ def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None) \
     """
     part = part & mask
     strip = edge_strip(mask, part, sliver_width(part) if width is None else width)
+    if strip.any():  # the pieces the completion finds mostly inside are the body's own edge
+        strip = _outside_pieces(strip, completed_body(mask, part | strip))
     body = completed_body(mask, part | strip)
     taken = part | (strip & ~body)
     refill = body & part

@@ -3,9 +3,10 @@ a new layer in front of it (:meth:`puppet.scene.document.edits.Edits.split_layer
 :func:`split_layer`).
 
 A copy adds the new layer and leaves the layer behind as it was. A cut also takes the
-part out of the layer behind: its mask loses the part's pixels except where the part
-covered the layer's own body, found by completing the layer's outline smoothly across
-the part (:mod:`puppet.imaging.cutout`); those pixels are refilled by the layer's inpaint
+part out of the layer behind (the region's pixels, and the slivers of the layer's edge it
+left beside them: :func:`~puppet.imaging.cutout.cut_apart`): its mask loses the part's
+pixels except where the part covered the layer's own body, found by completing the
+layer's outline smoothly across the part; those pixels are refilled by the layer's inpaint
 method from the layer's own pixels. A layer that takes its pixels from the scene's
 source stays so (the new layer, from the same source and in front of it, is what its
 ``inpaint`` refills, as for any such layer; ``none`` becomes ``telea``), so the layers
