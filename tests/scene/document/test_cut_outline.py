@@ -12,8 +12,6 @@ cup's own shape. Now 104, 80 and 64.
 import hashlib
 import json
 import os
-import subprocess
-import sys
 
 import cv2
 import numpy as np
@@ -22,10 +20,10 @@ from scipy import ndimage
 
 import puppet
 from puppet.imaging.cutout import EDGE, _bridge_gaps, complete_ring, cut_apart, edge_strip, sliver_width
-from puppet.imaging.masks import polygon_mask
 from puppet.imaging.io import load_rgba
-from tests.conftest import SCENES, write_rgba
-from tests.scene.document.test_split import shapes
+from puppet.imaging.masks import polygon_mask
+from tests.conftest import SCENES
+from tests.scene.document.test_split import shapes, square_ring
 
 W, H, T = 420, 360, 8  # the picture, the outline's thickness
 BLUE, SKIN, CUP, BLACK, WHITE = (110, 190, 230), (240, 200, 160), (230, 80, 60), (20, 20, 20), (255, 255, 255)
@@ -177,11 +175,7 @@ def test_edge_strip_takes_slivers_not_a_limbs_end():
 
 
 def test_a_lone_outline_pixel_between_two_cut_runs_is_bridged():
-    top = [[x, 0] for x in range(80)]
-    right = [[80, y] for y in range(80)]
-    bottom = [[x, 80] for x in range(80, 0, -1)]
-    left = [[0, y] for y in range(80, 0, -1)]
-    P = np.array(top + right + bottom + left, float)
+    P = square_ring()
     cut = np.zeros(len(P), bool)
     cut[30:50] = True
     cut[40] = False  # the lasso missed one pixel of the edge
@@ -222,25 +216,3 @@ def test_cuts_without_slivers_are_as_before():
         taken, keep, _ = cut_apart(mask, part)
         assert (taken == part).all(), name
         assert hashlib.sha256(np.packbits(keep).tobytes()).hexdigest()[:16] == CLEAN[name], name
-
-
-@pytest.mark.gl
-def test_init_cut_and_render_from_the_command_line(tmp_path):
-    """The user's path: ``puppet init`` the picture, cut in Python, ``puppet render --pose``
-    with the cup lifted: nothing of the cup left where it stuck out."""
-    pic, scene = str(tmp_path / "pic.png"), str(tmp_path / "s.json")
-    write_rgba(pic, picture())
-    run = [sys.executable, "-m", "puppet"]
-    subprocess.run(run + ["init", pic, "-o", scene], check=True, capture_output=True)
-    sc = puppet.load_scene(scene)
-    sc.split_layer("pic", lasso(3, 0), "cup")
-    sc.add_pin("grip", "cup", [318, 160])
-    sc.add_pose("away")
-    sc.set_target("grip", [318, 560])
-    sc.save(scene)
-    sc.close()
-    out = str(tmp_path / "away.png")
-    subprocess.run(run + ["render", scene, "--pose", "away", "-o", out], check=True, capture_output=True)
-    body_t, held = truth()
-    where = held & ~ndimage.binary_dilation(body_t, iterations=2)
-    assert (load_rgba(out)[where][:, 3] == 0).mean() >= 0.98  # the scene has no background
