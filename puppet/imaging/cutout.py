@@ -238,27 +238,44 @@ def edge_strip(mask: np.ndarray, part: np.ndarray, width: float) -> np.ndarray:
     Computed on the part's box grown by ``width + 2``, which holds every such pixel and
     its nearest outside pixel.
     """
-    import cv2  # lazy: cuts only
-
     out = np.zeros(mask.shape, bool)
-    rows, cols = np.flatnonzero(part.any(axis=1)), np.flatnonzero(part.any(axis=0))
-    if not rows.size or width <= 0:
+    box = _box(part, width)
+    if box is None:
         return out
-    m = int(np.ceil(width)) + 2
-    box = (slice(max(rows[0] - m, 0), rows[-1] + m + 1), slice(max(cols[0] - m, 0), cols[-1] + m + 1))
-    inside = np.pad(mask, 1)[box[0].start:box[0].stop + 2, box[1].start:box[1].stop + 2]  # the border is outside
-    d_out = _distance(inside)[1:-1, 1:-1]
+    d_out = _distance_out(mask, box)
     d_part = _distance(~part[box])
-    thin = d_out + d_part
-    # away from the part, and (minus the gradient of d_out) towards the outside
-    g_part = np.gradient(cv2.GaussianBlur(d_part, (0, 0), GRADIENT))
-    g_out = np.gradient(cv2.GaussianBlur(d_out, (0, 0), GRADIENT))
-    dot = -(g_part[0] * g_out[0] + g_part[1] * g_out[1])
-    across = dot >= np.cos(ACROSS) * np.hypot(*g_part) * np.hypot(*g_out)
-    strip = _pieces(mask[box] & ~part[box] & (thin <= width + 1) & across, MIN_PIECE)
+    strip = _pieces(mask[box] & ~part[box] & (d_out + d_part <= width + 1) & _across(d_part, d_out), MIN_PIECE)
     edge = [box[0].start > 0, box[0].stop < mask.shape[0], box[1].start > 0, box[1].stop < mask.shape[1]]
     out[box] = strip | _debris(mask[box] & ~part[box] & ~strip, part[box] | strip, width, edge)
     return out
+
+
+def _box(part: np.ndarray, width: float) -> tuple[slice, slice] | None:
+    """The part's box grown by ``width + 2`` (clipped by the image: slicing clips), or None
+    for no part or no width."""
+    rows, cols = np.flatnonzero(part.any(axis=1)), np.flatnonzero(part.any(axis=0))
+    if not rows.size or width <= 0:
+        return None
+    m = int(np.ceil(width)) + 2
+    return slice(max(rows[0] - m, 0), rows[-1] + m + 1), slice(max(cols[0] - m, 0), cols[-1] + m + 1)
+
+
+def _distance_out(mask: np.ndarray, box) -> np.ndarray:
+    """Each pixel's distance to the layer's outside in ``box``, the image's border counted as outside."""
+    inside = np.pad(mask, 1)[box[0].start:box[0].stop + 2, box[1].start:box[1].stop + 2]
+    return _distance(inside)[1:-1, 1:-1]
+
+
+def _across(d_from: np.ndarray, d_to: np.ndarray) -> np.ndarray:
+    """Where the direction away from what ``d_from`` measures the distance to and the
+    direction towards what ``d_to`` measures it to agree within :data:`ACROSS` (the
+    distances' gradients, smoothed): a pixel between the two, on a line across."""
+    import cv2  # lazy: cuts only
+
+    g_from = np.gradient(cv2.GaussianBlur(d_from, (0, 0), GRADIENT))
+    g_to = np.gradient(cv2.GaussianBlur(d_to, (0, 0), GRADIENT))
+    dot = -(g_from[0] * g_to[0] + g_from[1] * g_to[1])
+    return dot >= np.cos(ACROSS) * np.hypot(*g_from) * np.hypot(*g_to)
 
 
 def _distance(a: np.ndarray) -> np.ndarray:
