@@ -45,6 +45,8 @@ MIN_PIECE = 4
 GRADIENT = 2.0
 #: a run of fewer outline points than this left between two cut runs is bridged with them
 MIN_KEPT = 3
+#: pixels within this RGB distance of the layer's rim colour are its ink (:func:`ink_slivers`)
+INK = 60.0
 
 
 def fit_tangent(Q: np.ndarray) -> np.ndarray | None:
@@ -335,7 +337,47 @@ def _outside_pieces(strip: np.ndarray, body: np.ndarray) -> np.ndarray:
     return keep[lab]
 
 
-def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None) \
+def ink_slivers(rgb: np.ndarray, mask: np.ndarray, part: np.ndarray, body: np.ndarray,
+                width: float) -> np.ndarray:
+    """What a region left of the drawing's lines over the body: (h, w) bool.
+
+    On a drawing with an outline (the layer's rim, its pixels 2-3 px in from the outside,
+    has a colour the layer's inside, deeper than ``width``, has not), a hand drawn over
+    the body has its outline in that ink too. A lasso drawn inside that outline leaves a
+    band of it on the body, which shows as a dark crescent once the hand moves. Those are
+    the pixels of ``body`` (the completed outline) outside ``part`` that have the ink's
+    colour (within :data:`INK`), lie between ``part`` and pixels of another colour on a
+    line across (as :func:`edge_strip`'s slivers lie between the part and the outside),
+    at most ``width + 1`` from the two together, in pieces that touch the part's own
+    ink-coloured pixels. The body's own outline where a lasso crossed it runs along the
+    cut, not across it, and stays.
+    """
+    out = np.zeros(mask.shape, bool)
+    box = _box(part, width)
+    if box is None:
+        return out
+    m, p, c = mask[box], part[box], rgb[box][..., :3].astype(np.float32)
+    d_out = _distance_out(mask, box)
+    rim = m & ~p & (d_out >= 2) & (d_out <= 3)  # inside the anti-aliased fringe
+    ink = np.median(c[rim], axis=0) if rim.any() else None
+    deep = m & (d_out > width)
+    if ink is None or not deep.any() or np.linalg.norm(np.median(c[deep], axis=0) - ink) <= INK:
+        return out  # no outline: the rim has the inside's colour
+    inky = np.linalg.norm(c - ink, axis=-1) <= INK
+    rest = m & ~p
+    d_part, d_other = _distance(~p), _distance(~(rest & ~inky))
+    band = rest & inky & body[box] & (d_part + d_other <= width + 1) & _across(d_part, d_other)
+    lab, n = _label(band)
+    import cv2  # lazy: cuts only
+
+    touching = np.zeros(n + 1, bool)
+    touching[np.unique(lab[cv2.dilate((p & inky).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)])] = True
+    touching[0] = False
+    out[box] = touching[lab] & (np.bincount(lab.ravel(), minlength=n + 1) >= MIN_PIECE)[lab]
+    return out
+
+
+def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None, rgb: np.ndarray | None = None) \
         -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A layer cut apart by a region: what the part takes, what the layer keeps, and what
     it refills.
@@ -357,6 +399,9 @@ def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None) \
     width : float, optional
         The widest sliver taken with the part (px): by default :func:`sliver_width`; 0
         takes the region's pixels only.
+    rgb : (h, w, 3 or 4) array, optional
+        The layer's colours: with them, :func:`ink_slivers` go with the part too (the
+        layer keeps them, refilled).
 
     Returns
     -------
@@ -369,10 +414,13 @@ def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None) \
         The part's pixels the layer keeps (they need new colours: the part took its own).
     """
     part = part & mask
-    strip = edge_strip(mask, part, sliver_width(part) if width is None else width)
+    width = sliver_width(part) if width is None else width
+    strip = edge_strip(mask, part, width)
     if strip.any():  # the pieces the completion finds mostly inside are the body's own edge
         strip = _outside_pieces(strip, completed_body(mask, part | strip))
     body = completed_body(mask, part | strip)
+    if rgb is not None:
+        part = part | ink_slivers(rgb, mask, part, body, width)
     taken = part | (strip & ~body)
     refill = body & part
     return taken, (mask & ~taken) | refill, refill

@@ -122,7 +122,7 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
     if not part.any():
         raise s._fail(f"the region selects no pixels of layer {layer!r}")
     if cut:
-        part, keep, refill = cut_apart(im.mask, part)
+        part, keep, refill = cut_apart(im.mask, part, rgb=im.rgba)
     else:
         keep, refill = im.mask, None
     if cut and not keep.any():
