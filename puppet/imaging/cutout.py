@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from puppet.imaging.inpaint import INK, outline_ink
+
 #: a run's end tangent is fitted to at most this many outline points before it
 FIT = 16
 #: the outline points a tangent is fitted to are first smoothed along the outline by a
@@ -45,8 +47,6 @@ MIN_PIECE = 4
 GRADIENT = 2.0
 #: a run of fewer outline points than this left between two cut runs is bridged with them
 MIN_KEPT = 3
-#: pixels within this RGB distance of the layer's rim colour are its ink (:func:`ink_slivers`)
-INK = 60.0
 
 
 def fit_tangent(Q: np.ndarray) -> np.ndarray | None:
@@ -309,13 +309,11 @@ def _debris(rest: np.ndarray, cut: np.ndarray, width: float, open_sides) -> np.n
     sides where ``open_sides`` (top, bottom, left, right) is true, where the layer goes on),
     all but the largest piece: (h, w) bool. What a lasso leaves of a thin stroke it
     crossed: a lone outline pixel, a few pixels of a stick."""
-    import cv2  # lazy: cuts only
-
     lab, n = _label(rest)
     if n < 2:
         return np.zeros_like(rest)
     bad = np.zeros(n + 1, bool)
-    bad[np.unique(lab[cv2.dilate(cut.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & rest])] = True
+    bad[np.unique(lab[_grow(cut) & rest])] = True
     for side, going_on in zip((lab[0], lab[-1], lab[:, 0], lab[:, -1]), open_sides):
         if going_on:
             bad[side] = False
@@ -341,8 +339,8 @@ def ink_slivers(rgb: np.ndarray, mask: np.ndarray, part: np.ndarray, body: np.nd
                 width: float) -> np.ndarray:
     """What a region left of the drawing's lines over the body: (h, w) bool.
 
-    On a drawing with an outline (the layer's rim, its pixels 2-3 px in from the outside,
-    has a colour the layer's inside, deeper than ``width``, has not), a hand drawn over
+    On a drawing with an outline (:func:`~puppet.imaging.inpaint.outline_ink`, looked for
+    in the layer's pixels near the part), a hand drawn over
     the body has its outline in that ink too. A lasso drawn inside that outline leaves a
     band of it on the body, which shows as a dark crescent once the hand moves. Those are
     the pixels of ``body`` (the completed outline) outside ``part`` that have the ink's
@@ -357,24 +355,33 @@ def ink_slivers(rgb: np.ndarray, mask: np.ndarray, part: np.ndarray, body: np.nd
     if box is None:
         return out
     m, p, c = mask[box], part[box], rgb[box][..., :3].astype(np.float32)
-    d_out = _distance_out(mask, box)
-    rim = m & ~p & (d_out >= 2) & (d_out <= 3)  # inside the anti-aliased fringe
-    ink = np.median(c[rim], axis=0) if rim.any() else None
-    deep = m & (d_out > width)
-    if ink is None or not deep.any() or np.linalg.norm(np.median(c[deep], axis=0) - ink) <= INK:
-        return out  # no outline: the rim has the inside's colour
-    inky = np.linalg.norm(c - ink, axis=-1) <= INK
+    found = outline_ink(c, m & ~p, _distance_out(mask, box))
+    if found is None:
+        return out
+    inky = np.linalg.norm(c - found[0], axis=-1) <= INK
     rest = m & ~p
     d_part, d_other = _distance(~p), _distance(~(rest & ~inky))
     band = rest & inky & body[box] & (d_part + d_other <= width + 1) & _across(d_part, d_other)
     lab, n = _label(band)
+    touching = np.zeros(n + 1, bool)
+    touching[np.unique(lab[_grow(p & inky)])] = True
+    touching[0] = False
+    slivers = touching[lab] & (np.bincount(lab.ravel(), minlength=n + 1) >= MIN_PIECE)[lab]
+    # with the anti-aliased pixels round them: nearer the ink than the body's own colour is
+    other = rest & ~inky
+    if other.any():
+        to_ink = np.linalg.norm(c - found[0], axis=-1)
+        fill = np.linalg.norm(np.median(c[other], axis=0) - found[0])
+        slivers |= _grow(slivers) & rest & body[box] & (to_ink < fill - INK / 2)
+    out[box] = slivers
+    return out
+
+
+def _grow(a: np.ndarray) -> np.ndarray:
+    """``a`` grown by one pixel (8-connected)."""
     import cv2  # lazy: cuts only
 
-    touching = np.zeros(n + 1, bool)
-    touching[np.unique(lab[cv2.dilate((p & inky).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)])] = True
-    touching[0] = False
-    out[box] = touching[lab] & (np.bincount(lab.ravel(), minlength=n + 1) >= MIN_PIECE)[lab]
-    return out
+    return cv2.dilate(a.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
 
 
 def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None, rgb: np.ndarray | None = None) \

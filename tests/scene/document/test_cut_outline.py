@@ -20,6 +20,7 @@ from scipy import ndimage
 
 import puppet
 from puppet.imaging.cutout import EDGE, _bridge_gaps, complete_ring, cut_apart, edge_strip, sliver_width
+from puppet.imaging.inpaint import distance_out, inpaint, inpaint_layer
 from puppet.imaging.io import load_rgba
 from puppet.imaging.masks import polygon_mask
 from tests.conftest import ASSETS, SCENES
@@ -106,6 +107,7 @@ def test_a_lasso_across_thick_outlines_leaves_no_ghost(drawing):
             assert cup[out].mean() >= 0.98, (inset, wobble)
             assert cup[over].mean() >= 0.97, (inset, wobble)  # the hand's outline over the body too
             assert ((body | cup) == before).all()  # nothing lost, nothing added
+            assert sc.data.layers[0].inpaint == "outline"  # the art has an outline: drawn on across the cut
         finally:
             sc.close()
 
@@ -128,19 +130,43 @@ def test_the_cup_swung_away_shows_background_and_the_refilled_body(drawing):
     """The cup dragged away (one pin): white where it stuck out and no cup or hand colour
     in the body. A lasso inside the hand's outline, where the hand lay over the body, no
     longer leaves that outline there as a dark crescent (479 dark pixels of 601 where the
-    hand was, now 4). After a loose lasso the body's blue is back just inside the cut."""
+    hand was, now 0). The body's outline goes on across the cut (``inpaint: outline``; it
+    was refilled blue). After a loose lasso the body's blue is back just inside the cut."""
     body_t, held = truth()
     out = held & ~ndimage.binary_dilation(body_t, iterations=2)
     inside = ndimage.binary_erosion(body_t, iterations=T + 3)  # within the body's outline
     was_hand = inside & ndimage.binary_dilation(held, iterations=3)
+    line = held & body_t & ~ndimage.binary_erosion(body_t, iterations=T - 2)  # its outline where the hand was
     for inset, wobble in ((3, 0), (-6, 0)):
         rgb = swung_away(drawing, inset, wobble)
         assert (np.abs(rgb[out] - WHITE).max(axis=1) <= 12).mean() >= 0.98
         for colour in (CUP, SKIN):
             assert not (np.linalg.norm(rgb - colour, axis=-1) < 40)[inside].any()
         assert (np.linalg.norm(rgb - BLACK, axis=-1) < 100)[was_hand].mean() <= 0.02, (inset, wobble)
+        assert line.sum() > 100 and (np.linalg.norm(rgb - BLACK, axis=-1) < 60)[line].mean() >= 0.9  # drawn on
     refilled = inside & held  # the hand was over the body there
     assert refilled.sum() > 300 and (np.linalg.norm(rgb[refilled] - BLUE, axis=-1) < 40).mean() > 0.9
+
+
+def test_the_outline_refill_draws_the_line_on():
+    """``inpaint: outline`` on a disc with a 6 px black outline and a hole across its edge:
+    the hole is black down to 6 px deep, the disc's blue deeper. Without an outline, or
+    without the layer's mask, it is ``telea`` exactly."""
+    yy, xx = np.mgrid[:100, :100]
+    mask = (xx - 50) ** 2 + (yy - 50) ** 2 <= 43 ** 2
+    depth = distance_out(mask)
+    rgba = np.zeros((100, 100, 4), np.uint8)
+    rgba[mask] = BLUE + (255,)
+    rgba[mask & (depth <= 6)] = BLACK + (255,)
+    hole = mask & (xx >= 78) & (np.abs(yy - 50) <= 10)
+    rgba[hole] = CUP + (255,)  # what the cut part had there
+    out = inpaint_layer(rgba, mask, hole, "outline")[..., :3].astype(float)
+    assert (out[hole & (depth <= 5.5)] == BLACK).all()
+    assert (np.linalg.norm(out[hole & (depth >= 8)] - BLUE, axis=-1) < 20).all()
+    plain = rgba.copy()
+    plain[mask & ~hole] = BLUE + (255,)
+    assert np.array_equal(inpaint_layer(plain, mask, hole, "outline"), inpaint_layer(plain, mask, hole, "telea"))
+    assert np.array_equal(inpaint(rgba[..., :3], hole, "outline"), inpaint(rgba[..., :3], hole, "telea"))
 
 
 def test_the_reach_grows_with_the_picture():
