@@ -340,15 +340,15 @@ def ink_slivers(rgb: np.ndarray, mask: np.ndarray, part: np.ndarray, body: np.nd
     """What a region left of the drawing's lines over the body: (h, w) bool.
 
     On a drawing with an outline (:func:`~puppet.imaging.inpaint.outline_ink`, looked for
-    in the layer's pixels near the part), a hand drawn over
-    the body has its outline in that ink too. A lasso drawn inside that outline leaves a
-    band of it on the body, which shows as a dark crescent once the hand moves. Those are
+    in the layer's pixels near the part), a hand drawn over the body has its outline in
+    that ink too. A lasso drawn inside that outline leaves a band of it on the body, which
+    shows as a dark crescent once the hand moves. Those are
     the pixels of ``body`` (the completed outline) outside ``part`` that have the ink's
     colour (within :data:`INK`), lie between ``part`` and pixels of another colour on a
     line across (as :func:`edge_strip`'s slivers lie between the part and the outside),
     at most ``width + 1`` from the two together, in pieces that touch the part's own
-    ink-coloured pixels. The body's own outline where a lasso crossed it runs along the
-    cut, not across it, and stays.
+    ink-coloured pixels, with the anti-aliased pixels round them. The body's own outline
+    where a lasso crossed it runs along the cut, not across it, and stays.
     """
     out = np.zeros(mask.shape, bool)
     box = _box(part, width)

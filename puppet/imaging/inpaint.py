@@ -136,9 +136,9 @@ def outline_ink(rgb: np.ndarray, known: np.ndarray, depth: np.ndarray,
     deepest : the thickest outline looked for.
 
     The ink is the median colour of the pixels 2-3 px in (inside the anti-aliased fringe);
-    the thickness, the depth down to which most pixels at each depth are within
-    :data:`INK` of it. No outline: fewer than 8 such pixels, ink as deep as ``deepest``,
-    or an inside (just deeper than the outline) of the ink's colour too.
+    the thickness (3 px at least), the depth down to which most pixels at each depth are
+    within :data:`INK` of it. No outline: fewer than 8 such pixels, ink as deep as
+    ``deepest``, or an inside (just deeper than the outline) of the ink's colour too.
     """
     rgb = rgb[..., :3].astype(np.float32)
     rim = known & (depth >= 2) & (depth <= 3)
@@ -172,10 +172,10 @@ def ink_near(rgb: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> tuple[tuple
 def draw_outline(rgb: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.ndarray:
     """``rgb`` with ``hole`` refilled: by ``telea`` from the layer's pixels other than its
     ink (near the hole, the ink's pixels, the pixel round them and the pixels off the
-    mask count as unknown, so the fill does not smear the line into the inside), and the layer's outline drawn on across the hole along the edge
-    of ``mask`` (colour and thickness from the layer's pixels near the hole,
-    :func:`outline_ink`; its inner edge anti-aliased over a pixel). Only ``telea`` where
-    the art has no outline."""
+    mask count as unknown, so the fill does not smear the line into the inside), and the
+    layer's outline drawn on across the hole along the edge of ``mask`` (colour and
+    thickness from the layer's pixels near the hole, :func:`outline_ink`; its inner edge
+    anti-aliased over a pixel). Only ``telea`` where the art has no outline."""
     import cv2  # lazy: refills only
 
     found, depth = ink_near(rgb, mask, hole)

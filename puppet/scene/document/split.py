@@ -10,8 +10,8 @@ layer's outline smoothly across the part; those pixels are refilled by the layer
 method from the layer's own pixels. A layer that takes its pixels from the scene's
 source stays so (the new layer, from the same source and in front of it, is what its
 ``inpaint`` refills, as for any such layer; ``none`` becomes ``telea``, or ``outline``
-where the art has an outline near the part), so the layers
-behind it keep refilling under it too; a layer with its own image gets the refilled
+where the art has an outline near the part), so the layers behind it keep refilling
+under it too; a layer with its own image gets the refilled
 picture as its new own image. New pixels and masks are stored as the app stores
 painted pixels (:class:`~puppet.scene.document.files.PendingFiles`, written beside the scene on
 save). Pins of the layer left on the part go with it, and so do link segments that lie

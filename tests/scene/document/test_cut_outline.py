@@ -169,6 +169,24 @@ def test_the_outline_refill_draws_the_line_on():
     assert np.array_equal(inpaint(rgba[..., :3], hole, "outline"), inpaint(rgba[..., :3], hole, "telea"))
 
 
+def test_a_layer_with_its_own_image_gets_the_line_drawn_on(make_scene):
+    """The drawing as a layer with its own image on a transparent background: the cut
+    writes the refilled picture, the body's outline drawn on where the hand was."""
+    art = picture()
+    art[(art[..., :3] == 255).all(axis=-1), 3] = 0
+    s = {"puppet": 1, "canvas": [W, H], "layers": [{"name": "body", "image": "own.png"}]}
+    sc = puppet.load_scene(make_scene(s, {"own.png": art}))
+    try:
+        sc.split_layer("body", lasso(3, 0), "cup")
+        body_t, held = truth()
+        line = held & body_t & ~ndimage.binary_erosion(body_t, iterations=T - 2)
+        rgb = sc.built.images[0].rgba[..., :3].astype(float)
+        assert sc.to_dict()["layers"][0]["image"] != "own.png"
+        assert (np.linalg.norm(rgb - BLACK, axis=-1) < 60)[line].mean() >= 0.9
+    finally:
+        sc.close()
+
+
 def test_the_reach_grows_with_the_picture():
     """The drawing at three times the size (a 24 px outline, a lasso 6-21 px inside it):
     the slivers are wider than :data:`EDGE`, a tenth of the part's box is not."""
