@@ -26,6 +26,8 @@ METHODS = ("none", "pyramid", "telea", "ns", "fsr", "outline")
 OUTLINE_MAX = 32
 #: pixels within this RGB distance of an outline's colour are that ink
 INK = 60.0
+#: :func:`ink_near` works in the hole's box grown by this many pixels
+AROUND = 2 * OUTLINE_MAX + 40
 
 
 def _box_down(a: np.ndarray) -> np.ndarray:
@@ -158,15 +160,26 @@ def outline_ink(rgb: np.ndarray, known: np.ndarray, depth: np.ndarray,
     return ink, t
 
 
-def ink_near(rgb: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> tuple[tuple[np.ndarray, int] | None, np.ndarray]:
+def ink_near(rgb: np.ndarray, mask: np.ndarray, hole: np.ndarray):
     """:func:`outline_ink` of a layer's pixels (``mask`` without ``hole``) within
-    2 :data:`OUTLINE_MAX` of ``hole``, and the layer's :func:`distance_out`."""
+    2 :data:`OUTLINE_MAX` of ``hole``, found in the hole's box grown by :data:`AROUND`
+    (far enough that the box's sides, counted as outside, leave those depths alone).
+
+    Returns
+    -------
+    found : (ink, thickness) or None. box : (rows, cols) slices. depth : (h, w) float,
+    :func:`distance_out` of the mask in the box.
+    """
     import cv2  # lazy: refills only
 
-    depth = distance_out(mask)
+    rows, cols = np.flatnonzero(hole.any(axis=1)), np.flatnonzero(hole.any(axis=0))
+    box = (slice(max(rows[0] - AROUND, 0), rows[-1] + AROUND + 1),
+           slice(max(cols[0] - AROUND, 0), cols[-1] + AROUND + 1))
+    m, h = mask[box], hole[box]
+    depth = distance_out(m)
     k = 2 * OUTLINE_MAX + 1
-    near = cv2.dilate(hole.astype(np.uint8), np.ones((k, k), np.uint8)).astype(bool)
-    return outline_ink(rgb, mask & ~hole & near, depth), depth
+    near = cv2.dilate(h.astype(np.uint8), np.ones((k, k), np.uint8)).astype(bool)
+    return outline_ink(rgb[box], m & ~h & near, depth), box, depth
 
 
 def draw_outline(rgb: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.ndarray:
@@ -178,18 +191,21 @@ def draw_outline(rgb: np.ndarray, mask: np.ndarray, hole: np.ndarray) -> np.ndar
     anti-aliased over a pixel). Only ``telea`` where the art has no outline."""
     import cv2  # lazy: refills only
 
-    found, depth = ink_near(rgb, mask, hole)
+    if not hole.any():
+        return rgb.copy()
+    found, box, depth = ink_near(rgb, mask, hole)
     if found is None:
         return inpaint(rgb, hole, "telea")
     ink, t = found
+    c, m, h = rgb[box], mask[box], hole[box]
     k = 2 * t + 7
-    near = cv2.dilate(hole.astype(np.uint8), np.ones((k, k), np.uint8)).astype(bool)
-    inky = (np.linalg.norm(rgb[..., :3].astype(np.float32) - ink, axis=-1) <= INK).astype(np.uint8)
-    inky = near & (cv2.dilate(inky, np.ones((3, 3), np.uint8)).astype(bool) | ~mask)  # its rim, the outside
-    out = inpaint(rgb, hole | inky, "telea")
-    out[inky & ~hole] = rgb[inky & ~hole]
-    cover = np.clip(t + 1.0 - depth, 0.0, 1.0)[hole][:, None]  # 1 down to depth t, 0 from t + 1
-    out[hole, :3] = np.rint(cover * ink + (1.0 - cover) * out[hole, :3]).astype(rgb.dtype)
+    near = cv2.dilate(h.astype(np.uint8), np.ones((k, k), np.uint8)).astype(bool)
+    inky = (np.linalg.norm(c[..., :3].astype(np.float32) - ink, axis=-1) <= INK).astype(np.uint8)
+    inky = near & (cv2.dilate(inky, np.ones((3, 3), np.uint8)).astype(bool) | ~m)  # its rim, the outside
+    filled = inpaint(np.ascontiguousarray(c), h | inky, "telea")
+    cover = np.clip(t + 1.0 - depth, 0.0, 1.0)[h][:, None]  # 1 down to depth t, 0 from t + 1
+    out = rgb.copy()
+    out[box][h, :3] = np.rint(cover * ink + (1.0 - cover) * filled[h, :3]).astype(rgb.dtype)
     return out
 
 
