@@ -112,7 +112,6 @@ def test_a_lasso_across_thick_outlines_leaves_no_ghost(drawing):
             sc.close()
 
 
-@pytest.mark.gl
 def swung_away(drawing, inset, wobble) -> np.ndarray:
     """The render (RGB, float) with the cup cut by ``lasso(inset, wobble)`` and dragged off the canvas."""
     sc = puppet.load_scene(drawing)
