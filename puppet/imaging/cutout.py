@@ -23,11 +23,30 @@ from __future__ import annotations
 
 import numpy as np
 
+from puppet.imaging.inpaint import INK, outline_ink
+
 #: a run's end tangent is fitted to at most this many outline points before it
 FIT = 16
 #: the outline points a tangent is fitted to are first smoothed along the outline by a
 #: Gaussian of this many points (the pixel staircase otherwise tilts a 16-point circle fit)
 SMOOTH = 2.0
+#: slivers of the layer at most this wide (px) left between a cut region and the layer's
+#: outside go with the part (:func:`cut_apart`): a lasso that crossed a thick outline ...
+EDGE = 12.0
+#: ... or this fraction of the diagonal of the part's box, when that is wider (outlines
+#: and a hand's slips grow with the picture)
+REACH = 0.1
+#: ... where the part and the outside lie on opposite sides of the sliver, within this angle
+#: (radians); a narrower wedge between a lasso and the layer's edge counts as a sliver too
+ACROSS = np.pi / 4
+#: ... in pieces of at least this many pixels (a pixel or two of the body's edge beside
+#: where a lasso crossed it is no sliver)
+MIN_PIECE = 4
+#: the distances' gradients that give those directions are taken after a Gaussian of this
+#: many pixels (the nearest pixels themselves turn by 45 degrees from a pixel to the next)
+GRADIENT = 2.0
+#: a run of fewer outline points than this left between two cut runs is bridged with them
+MIN_KEPT = 3
 
 
 def fit_tangent(Q: np.ndarray) -> np.ndarray | None:
@@ -102,9 +121,26 @@ def _smooth(Q: np.ndarray) -> np.ndarray:
     ends held): the staircase of a pixel outline taken out before a tangent is fitted."""
     if SMOOTH <= 0 or len(Q) < 3:
         return Q
-    from scipy.ndimage import gaussian_filter1d
+    from scipy.ndimage import gaussian_filter1d  # lazy: cuts only (see the module's startup-import test)
 
     return gaussian_filter1d(np.asarray(Q, float), SMOOTH, axis=0, mode="nearest")
+
+
+def _bridge_gaps(cut: np.ndarray, least: int) -> np.ndarray:
+    """``cut`` (n,) bool round a closed contour with its runs of uncut points shorter than
+    ``least`` between two cut runs counted as cut (a lone outline pixel a lasso left would
+    otherwise be an end of two arcs), unless no longer uncut run would be left."""
+    start = int(np.flatnonzero(cut)[0])
+    c = np.roll(cut, -start)  # begins with a cut point: no uncut run wraps
+    edges = np.diff(np.r_[c.astype(np.int8), 1])
+    runs = list(zip(np.flatnonzero(edges == -1) + 1, np.flatnonzero(edges == 1) + 1))  # [i, j) uncut
+    if all(j - i < least for i, j in runs):
+        return cut
+    c = c.copy()
+    for i, j in runs:
+        if j - i < least:
+            c[i:j] = True
+    return np.roll(c, start)
 
 
 def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
@@ -127,6 +163,7 @@ def complete_ring(P: np.ndarray, cut: np.ndarray) -> np.ndarray | None:
     P = np.asarray(P, float)
     if not cut.any():
         return P
+    cut = _bridge_gaps(cut, MIN_KEPT)
     start = int(np.flatnonzero(~cut)[0])  # begin on an outline point, so no run wraps
     P, cut = np.roll(P, -start, axis=0), np.roll(cut, -start)
     edges = np.diff(np.r_[0, cut.astype(np.int8), 0])
@@ -161,7 +198,7 @@ def completed_body(mask: np.ndarray, part: np.ndarray) -> np.ndarray:
     (h, w) bool: inside the completed outer outlines and outside the completed holes
     (even-odd over all of them). Only its pixels inside ``part`` matter to a cut.
     """
-    import cv2
+    import cv2  # lazy: cuts only (OpenCV is not loaded outside drawing)
 
     m8 = np.ascontiguousarray(mask, np.uint8)
     contours, _ = cv2.findContours(m8, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
@@ -177,16 +214,227 @@ def completed_body(mask: np.ndarray, part: np.ndarray) -> np.ndarray:
     return out.astype(bool)
 
 
-def body_after_cut(mask: np.ndarray, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A layer's mask after cutting ``part`` out, and the pixels to refill.
+def sliver_width(part: np.ndarray) -> float:
+    """The widest sliver a cut of ``part`` leaves that goes with it (px): :data:`EDGE`, or
+    :data:`REACH` of the diagonal of the part's box when that is more."""
+    rows, cols = np.flatnonzero(part.any(axis=1)), np.flatnonzero(part.any(axis=0))
+    if not rows.size:
+        return EDGE
+    return max(EDGE, REACH * float(np.hypot(rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1)))
+
+
+def edge_strip(mask: np.ndarray, part: np.ndarray, width: float) -> np.ndarray:
+    """The layer's pixels outside ``part`` that a cut leaves hanging off the part: slivers
+    at most ``width`` px wide between ``part`` and the layer's outside, and thin pieces cut
+    off by it. (h, w) bool.
+
+    A sliver pixel's distance to ``part`` plus its distance to the outside (pixel centres,
+    the image's border counted as outside) is at most ``width + 1``, and the two lie on
+    opposite sides of it: the distances' gradients point the same way within
+    :data:`ACROSS`. A sliver ``t`` px thick left between a lasso and the layer's edge has
+    ``t + 1`` everywhere and its directions agree; beside a cut straight across a limb
+    thinner than ``width`` they are square, so the limb keeps its end. Slivers come in
+    pieces of :data:`MIN_PIECE` pixels or more (the pixel at the corner where a lasso
+    crossed the layer's edge is no sliver). The thin pieces are :func:`_debris`.
+
+    Computed on the part's box grown by ``width + 2``, which holds every such pixel and
+    its nearest outside pixel.
+    """
+    out = np.zeros(mask.shape, bool)
+    box = _box(part, width)
+    if box is None:
+        return out
+    d_out = _distance_out(mask, box)
+    d_part = _distance(~part[box])
+    strip = _pieces(mask[box] & ~part[box] & (d_out + d_part <= width + 1) & _across(d_part, d_out), MIN_PIECE)
+    edge = [box[0].start > 0, box[0].stop < mask.shape[0], box[1].start > 0, box[1].stop < mask.shape[1]]
+    out[box] = strip | _debris(mask[box] & ~part[box] & ~strip, part[box] | strip, width, edge)
+    return out
+
+
+def _box(part: np.ndarray, width: float) -> tuple[slice, slice] | None:
+    """The part's box grown by ``width + 2`` (clipped by the image: slicing clips), or None
+    for no part or no width."""
+    rows, cols = np.flatnonzero(part.any(axis=1)), np.flatnonzero(part.any(axis=0))
+    if not rows.size or width <= 0:
+        return None
+    m = int(np.ceil(width)) + 2
+    return slice(max(rows[0] - m, 0), rows[-1] + m + 1), slice(max(cols[0] - m, 0), cols[-1] + m + 1)
+
+
+def _distance_out(mask: np.ndarray, box) -> np.ndarray:
+    """Each pixel's distance to the layer's outside in ``box``, the image's border counted as outside."""
+    inside = np.pad(mask, 1)[box[0].start:box[0].stop + 2, box[1].start:box[1].stop + 2]
+    return _distance(inside)[1:-1, 1:-1]
+
+
+def _across(d_from: np.ndarray, d_to: np.ndarray) -> np.ndarray:
+    """Where the direction away from what ``d_from`` measures the distance to and the
+    direction towards what ``d_to`` measures it to agree within :data:`ACROSS` (the
+    distances' gradients, smoothed): a pixel between the two, on a line across."""
+    import cv2  # lazy: cuts only
+
+    g_from = np.gradient(cv2.GaussianBlur(d_from, (0, 0), GRADIENT))
+    g_to = np.gradient(cv2.GaussianBlur(d_to, (0, 0), GRADIENT))
+    dot = -(g_from[0] * g_to[0] + g_from[1] * g_to[1])
+    return dot >= np.cos(ACROSS) * np.hypot(*g_from) * np.hypot(*g_to)
+
+
+def _distance(a: np.ndarray) -> np.ndarray:
+    """Each pixel's Euclidean distance to the nearest pixel of ``a`` that is False: (h, w) float32."""
+    import cv2  # lazy: cuts only
+
+    return cv2.distanceTransform(a.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+def _label(a: np.ndarray) -> tuple[np.ndarray, int]:
+    """The 8-connected pieces of ``a``: labels (0 off ``a``, 1..n) and n."""
+    import cv2  # lazy: cuts only
+
+    n, lab = cv2.connectedComponents(a.astype(np.uint8), connectivity=8)
+    return lab, n - 1
+
+
+def _pieces(a: np.ndarray, least: int) -> np.ndarray:
+    """The 8-connected pieces of ``a`` of at least ``least`` pixels."""
+    lab, n = _label(a)
+    big = np.bincount(lab.ravel(), minlength=n + 1) >= least
+    big[0] = False
+    return big[lab]
+
+
+def _debris(rest: np.ndarray, cut: np.ndarray, width: float, open_sides) -> np.ndarray:
+    """The pieces of ``rest`` (the layer's pixels left, in the part's box) that touch
+    ``cut``, are nowhere wider than ``width`` and lie wholly in the box (not touching its
+    sides where ``open_sides`` (top, bottom, left, right) is true, where the layer goes on),
+    all but the largest piece: (h, w) bool. What a lasso leaves of a thin stroke it
+    crossed: a lone outline pixel, a few pixels of a stick."""
+    lab, n = _label(rest)
+    if n < 2:
+        return np.zeros_like(rest)
+    bad = np.zeros(n + 1, bool)
+    bad[np.unique(lab[_grow(cut) & rest])] = True
+    for side, going_on in zip((lab[0], lab[-1], lab[:, 0], lab[:, -1]), open_sides):
+        if going_on:
+            bad[side] = False
+    thick = np.zeros(n + 1, np.float32)
+    np.maximum.at(thick, lab.ravel(), _distance(np.pad(rest, 1))[1:-1, 1:-1].ravel())
+    bad &= thick <= width / 2.0
+    bad[0] = False
+    bad[1 + np.argmax(np.bincount(lab.ravel(), minlength=n + 1)[1:])] = False
+    return bad[lab]
+
+
+def _outside_pieces(strip: np.ndarray, body: np.ndarray) -> np.ndarray:
+    """The 8-connected pieces of ``strip`` with at most half their pixels in ``body``."""
+    lab, n = _label(strip)
+    count = np.bincount(lab.ravel(), minlength=n + 1)
+    inside = np.bincount(lab[body], minlength=n + 1)
+    keep = 2 * inside <= count
+    keep[0] = False
+    return keep[lab]
+
+
+def ink_slivers(rgb: np.ndarray, mask: np.ndarray, part: np.ndarray, body: np.ndarray,
+                width: float) -> np.ndarray:
+    """What a region left of the drawing's lines over the body: (h, w) bool.
+
+    On a drawing with an outline (:func:`~puppet.imaging.inpaint.outline_ink`, looked for
+    in the layer's pixels near the part), a hand drawn over the body has its outline in
+    that ink too. A lasso drawn inside that outline leaves a band of it on the body, which
+    shows as a dark crescent once the hand moves. Those are
+    the pixels of ``body`` (the completed outline) outside ``part`` that have the ink's
+    colour (within :data:`INK`), lie between ``part`` and pixels of another colour on a
+    line across (as :func:`edge_strip`'s slivers lie between the part and the outside),
+    at most ``width + 1`` from the two together, in pieces that touch the part's own
+    ink-coloured pixels, with the anti-aliased pixels round them. The body's own outline
+    where a lasso crossed it runs along the cut, not across it, and stays.
+    """
+    out = np.zeros(mask.shape, bool)
+    box = _box(part, width)
+    if box is None:
+        return out
+    m, p, c = mask[box], part[box], rgb[box][..., :3].astype(np.float32)
+    found = outline_ink(c, m & ~p, _distance_out(mask, box))
+    if found is None:
+        return out
+    inky = np.linalg.norm(c - found[0], axis=-1) <= INK
+    rest = m & ~p
+    d_part, d_other = _distance(~p), _distance(~(rest & ~inky))
+    band = rest & inky & body[box] & (d_part + d_other <= width + 1) & _across(d_part, d_other)
+    lab, n = _label(band)
+    touching = np.zeros(n + 1, bool)
+    touching[np.unique(lab[_grow(p & inky)])] = True
+    touching[0] = False
+    slivers = touching[lab] & (np.bincount(lab.ravel(), minlength=n + 1) >= MIN_PIECE)[lab]
+    # with the anti-aliased pixels round them: nearer the ink than the body's own colour is
+    other = rest & ~inky
+    if other.any():
+        to_ink = np.linalg.norm(c - found[0], axis=-1)
+        fill = np.linalg.norm(np.median(c[other], axis=0) - found[0])
+        slivers |= _grow(slivers) & rest & body[box] & (to_ink < fill - INK / 2)
+    out[box] = slivers
+    return out
+
+
+def _grow(a: np.ndarray) -> np.ndarray:
+    """``a`` grown by one pixel (8-connected)."""
+    import cv2  # lazy: cuts only
+
+    return cv2.dilate(a.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+
+
+def cut_apart(mask: np.ndarray, part: np.ndarray, width: float | None = None, rgb: np.ndarray | None = None) \
+        -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A layer cut apart by a region: what the part takes, what the layer keeps, and what
+    it refills.
+
+    The region rarely follows the layer's edge: a lasso drawn round a cup on a drawing
+    with a thick outline crosses the outline back and forth, and leaves slivers of it (or
+    a lone edge pixel) outside the region. The completion would take those for the
+    layer's own edge and close the outline round the whole cup. So the pixels of
+    :func:`edge_strip` count as cut when the outline is completed, and those of them left
+    outside the completed outline go with the part; the others (beside where the region
+    crossed the body's edge) stay in the layer as they are.
+
+    Parameters
+    ----------
+    mask : (h, w) bool
+        The layer's pixels.
+    part : (h, w) bool
+        The pixels the region selects (only those inside ``mask`` count).
+    width : float, optional
+        The widest sliver taken with the part (px): by default :func:`sliver_width`; 0
+        takes the region's pixels only.
+    rgb : (h, w, 3 or 4) array, optional
+        The layer's colours: with them, :func:`ink_slivers` go with the part too (the
+        layer keeps them, refilled).
 
     Returns
     -------
-    new_mask : (h, w) bool
-        ``mask`` without ``part``, plus the part's pixels inside the completed outline.
+    taken : (h, w) bool
+        The new layer's pixels: ``part`` and the slivers.
+    keep : (h, w) bool
+        The layer's mask after the cut: ``mask`` without ``taken``, plus the part's pixels
+        inside the completed outline.
     refill : (h, w) bool
         The part's pixels the layer keeps (they need new colours: the part took its own).
     """
     part = part & mask
-    refill = completed_body(mask, part) & part
-    return (mask & ~part) | refill, refill
+    width = sliver_width(part) if width is None else width
+    strip = edge_strip(mask, part, width)
+    if strip.any():  # the pieces the completion finds mostly inside are the body's own edge
+        strip = _outside_pieces(strip, completed_body(mask, part | strip))
+    body = completed_body(mask, part | strip)
+    if rgb is not None:
+        part = part | ink_slivers(rgb, mask, part, body, width)
+    taken = part | (strip & ~body)
+    refill = body & part
+    return taken, (mask & ~taken) | refill, refill
+
+
+def body_after_cut(mask: np.ndarray, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A layer's mask after cutting ``part`` out, and the pixels to refill
+    (:func:`cut_apart` without what the part takes)."""
+    _, keep, refill = cut_apart(mask, part)
+    return keep, refill

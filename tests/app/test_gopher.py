@@ -8,8 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from scipy import ndimage
+
 from tests.app.harness import Driver, widget
 from tests.app.test_deform_shots import gopher_images
+from tests.conftest import write_rgba
+from tests.scene.document import test_cut_outline as outlined
 
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
@@ -168,6 +172,27 @@ def test_the_whole_build_through_the_ui(gopher, tmp_path):
         assert np.abs(refilled - (150, 100, 60)).max(axis=1).max() < 16  # the body's brown, not the arm's
     finally:
         saved.close()
+
+
+def test_a_lasso_inside_a_thick_outline_takes_the_cup_whole(tmp_path):
+    """Issue 32: on a drawing with 8 px black outlines, a lasso dragged round the hand and
+    the cup 0-7 px inside their outline (across the body's edge) in the Layers step: the
+    body keeps at most 2 % of what stuck out (it kept all of the cup, refilled, when the
+    slivers of outline passed for its edge), and the new layer has all of it."""
+    path = tmp_path / "drawing.png"
+    write_rgba(path, outlined.picture())
+    d = Driver(str(path), size=(1000, 800))
+    try:
+        click_widget(d, "step:layers")
+        d.drag_path([d.screen_of(p) for p in outlined.lasso(2, 5)[::3]])  # every 9 px (each move draws)
+        d.settle()
+        layers = d.scene().built.images
+        assert len(layers) == 2, d.app.status.text
+        body_t, held = outlined.truth()
+        out = held & ~ndimage.binary_dilation(body_t)
+        assert (layers[0].mask & out).sum() <= 0.02 * out.sum() and layers[1].mask[out].mean() >= 0.98
+    finally:
+        d.close()
 
 
 def test_a_hidden_layer_is_not_tinted(gopher):

@@ -3,13 +3,15 @@ a new layer in front of it (:meth:`puppet.scene.document.edits.Edits.split_layer
 :func:`split_layer`).
 
 A copy adds the new layer and leaves the layer behind as it was. A cut also takes the
-part out of the layer behind: its mask loses the part's pixels except where the part
-covered the layer's own body, found by completing the layer's outline smoothly across
-the part (:mod:`puppet.imaging.cutout`); those pixels are refilled by the layer's inpaint
+part out of the layer behind (the region's pixels, and the slivers of the layer's edge it
+left beside them: :func:`~puppet.imaging.cutout.cut_apart`): its mask loses the part's
+pixels except where the part covered the layer's own body, found by completing the
+layer's outline smoothly across the part; those pixels are refilled by the layer's inpaint
 method from the layer's own pixels. A layer that takes its pixels from the scene's
 source stays so (the new layer, from the same source and in front of it, is what its
-``inpaint`` refills, as for any such layer; ``none`` becomes ``telea``), so the layers
-behind it keep refilling under it too; a layer with its own image gets the refilled
+``inpaint`` refills, as for any such layer; ``none`` becomes ``telea``, or ``outline``
+where the art has an outline near the part), so the layers behind it keep refilling
+under it too; a layer with its own image gets the refilled
 picture as its new own image. New pixels and masks are stored as the app stores
 painted pixels (:class:`~puppet.scene.document.files.PendingFiles`, written beside the scene on
 save). Pins of the layer left on the part go with it, and so do link segments that lie
@@ -20,15 +22,17 @@ from __future__ import annotations
 import numpy as np
 
 from puppet.errors import SceneError
-from puppet.imaging.cutout import body_after_cut
-from puppet.imaging.inpaint import inpaint_layer
+from puppet.imaging.cutout import cut_apart
+from puppet.imaging.inpaint import ink_near, inpaint_layer
 from puppet.imaging.io import load_rgba
 from puppet.imaging.masks import canvas_to_image, polygon_mask
 from puppet.scene.document.files import mask_rgba
 from puppet.scene.document.history import Event
 
-#: the refill of a cut layer whose own inpaint method is ``none``
+#: the refill of a cut layer whose own inpaint method is ``none`` ...
 DEFAULT_REFILL = "telea"
+#: ... and of one whose art has an outline near the cut (it is drawn on across the cut)
+OUTLINED_REFILL = "outline"
 #: link segments are checked against the masks every this many canvas pixels
 SAMPLE = 0.5
 
@@ -66,11 +70,24 @@ def _short(v) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _refilled(s, k: int, part: np.ndarray) -> np.ndarray:
-    """Layer ``k``'s own image with ``part`` refilled from the rest of the layer: (h, w, 4)."""
+def _refill_method(L, rgba: np.ndarray, keep: np.ndarray, part: np.ndarray) -> str:
+    """How a cut layer refills: its own ``inpaint`` method, or for ``none``,
+    :data:`OUTLINED_REFILL` where its art has an outline near the part (``keep`` its mask
+    after the cut), :data:`DEFAULT_REFILL` elsewhere."""
+    if L.inpaint != "none":
+        return L.inpaint
+    return OUTLINED_REFILL if ink_near(rgba, keep, part & keep)[0] is not None else DEFAULT_REFILL
+
+
+def _refilled(s, k: int, keep: np.ndarray, part: np.ndarray, method: str) -> np.ndarray:
+    """Layer ``k``'s own image with ``part`` refilled by ``method`` from the rest of the
+    layer; ``outline`` draws the outline along ``keep``, its mask after the cut: (h, w, 4)."""
     im, L = s.built.images[k], s.data.layers[k]
     base = load_rgba(L.image, scene_file=s.file, json_path=f"layers[{k}].image")
-    return inpaint_layer(base, im.mask, part, L.inpaint if L.inpaint != "none" else DEFAULT_REFILL)
+    if method != OUTLINED_REFILL:
+        return inpaint_layer(base, im.mask, part, method)
+    out = inpaint_layer(base, im.mask, part, DEFAULT_REFILL)  # the part's pixels off the new mask too
+    return inpaint_layer(out, keep, part & keep, method)
 
 
 def _on(im_mask: np.ndarray, offset, seg) -> bool:
@@ -120,15 +137,19 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
     part = region_mask(region, s.canvas, im.offset, im.mask.shape, s._fail) & im.mask
     if not part.any():
         raise s._fail(f"the region selects no pixels of layer {layer!r}")
-    keep, refill = body_after_cut(im.mask, part) if cut else (im.mask, None)
+    if cut:
+        part, keep, refill = cut_apart(im.mask, part, rgb=im.rgba)
+    else:
+        keep, refill = im.mask, None
     if cut and not keep.any():
         raise s._fail(f"the region takes all of layer {layer!r}: nothing would be left behind "
                       "(copy it with cut=False, or rename the layer)")
     part_file = s.pending.add(mask_rgba(part), f"{name}-mask")
     if cut:
         keep_file = s.pending.add(mask_rgba(keep), f"{layer}-mask")
+        method = _refill_method(L, im.rgba, keep, part)
         own = L.image is not None and refill.any()  # refilled once here; a source layer refills itself
-        image_file = s.pending.add(_refilled(s, k, part), layer) if own else None
+        image_file = s.pending.add(_refilled(s, k, keep, part, method), layer) if own else None
     raw = s._layer(s._doc, layer)
 
     def m(doc):
@@ -147,7 +168,7 @@ def split_layer(s, layer: str, region, name: str, cut: bool = True) -> bool:
         if image_file is not None:
             behind["image"] = image_file
         elif L.image is None and behind.get("inpaint", "none") == "none":
-            behind["inpaint"] = DEFAULT_REFILL
+            behind["inpaint"] = method
         for p in doc.get("pins", []):
             if p["layer"] == layer and p.get("kind", "interior") == "interior" \
                     and not _on(keep, im.offset, [p["at"], p["at"]]) and _on(part, im.offset, [p["at"], p["at"]]):

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 MASK_KINDS = ("alpha", "threshold", "polygon", "rect", "file", "grabcut")
-INPAINT_METHODS = ("none", "pyramid", "telea", "ns", "fsr")
+INPAINT_METHODS = ("none", "pyramid", "telea", "ns", "fsr", "outline")
 METHODS = ("arap", "igarashi", "mls", "mls-skeleton")
 WEIGHTS = ("cotangent", "cotangent-raw", "uniform")
 INITS = ("mls", "rest")

@@ -289,14 +289,19 @@ def test_cut_from_a_front_source_layer_keeps_the_refill_behind_it(make_scene):
     assert 0 < arm.mask[:, 44:50].sum() <= np.pi * 5 ** 2 / 2 + 6
 
 
-def test_complete_ring_bridges_a_straight_edge_straight():
-    from puppet.imaging.cutout import complete_ring
-
+def square_ring() -> np.ndarray:
+    """The pixel outline of an 80 px square, clockwise from its top left corner: (320, 2)."""
     top = [[x, 0] for x in range(80)]
     right = [[80, y] for y in range(80)]
     bottom = [[x, 80] for x in range(80, 0, -1)]
     left = [[0, y] for y in range(80, 0, -1)]
-    P = np.array(top + right + bottom + left, float)
+    return np.array(top + right + bottom + left, float)
+
+
+def test_complete_ring_bridges_a_straight_edge_straight():
+    from puppet.imaging.cutout import complete_ring
+
+    P = square_ring()
     cut = np.zeros(len(P), bool)
     cut[35:45] = True  # a notch in the middle of the top edge (the tangent fits stay on the edge)
     R = complete_ring(P, cut)
