@@ -38,6 +38,7 @@ canvas at most :data:`ANALYSIS` pixels wide, so a 4000 px PSD costs what a 400 p
 """
 from __future__ import annotations
 
+import functools
 import heapq
 import re
 from dataclasses import dataclass, field
@@ -100,13 +101,15 @@ _COMPOUND = {w: r for w, r in _WORD_ROLE.items() if len(w) >= 4 or w in ("arm", 
 _LEFT, _RIGHT = {"left", "l", "lft", "lt"}, {"right", "r", "rgt", "rt"}
 
 
-def words(name: str) -> list[str]:
+@functools.lru_cache(maxsize=4096)
+def words(name: str) -> tuple[str, ...]:
     """Lower-case words of a layer's path: split at non-letters and at camelCase humps
     (``arm_L/LeftHand`` -> ``arm l left hand``)."""
     spaced = re.sub(r"([a-z])([A-Z])", r"\1 \2", name)
-    return [w for w in re.split(r"[^a-zA-Z]+", spaced.lower()) if w]
+    return tuple(w for w in re.split(r"[^a-zA-Z]+", spaced.lower()) if w)
 
 
+@functools.lru_cache(maxsize=4096)
 def role_of(name: str) -> str | None:
     """The part's role from its path's words, the layer's own name first (its last word
     first: ``body_face`` is a face, ``TopHead`` a head), then its groups' (``legs/left`` is
@@ -122,6 +125,7 @@ def role_of(name: str) -> str | None:
     return None
 
 
+@functools.lru_cache(maxsize=4096)
 def side_of(name: str) -> str | None:
     """``"left"``, ``"right"`` or None from the path's words (``arm_L``, ``LeftLeg``, ``legs/right``)."""
     ws = words(name)
@@ -471,6 +475,12 @@ class _Costs:
 
     def local(self, c: int, p: int, ct: Contact) -> float:
         """The terms that depend on the two units and the contact only."""
+        key = ("local", c, p, id(ct))
+        if key not in self.memo:
+            self.memo[key] = self._local(c, p, ct)
+        return self.memo[key]
+
+    def _local(self, c: int, p: int, ct: Contact) -> float:
         lc, lp = (ct.a, ct.b) if self.unit_of[ct.a] == c else (ct.b, ct.a)
         cost = self.units[c].endness(ct.at) + COVER * (1.0 - min(1.0, ct.depth / self.thick[lc]))
         cost += AT_ROOT if p == self.r else PARENT_END * self.units[p].endness(ct.at)

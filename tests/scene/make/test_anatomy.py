@@ -19,7 +19,7 @@ from tests.scene.test_fit_modes import distortion
 
 
 def test_names_give_roles_and_sides():
-    assert words("arm_L/LeftHand") == ["arm", "l", "left", "hand"]
+    assert words("arm_L/LeftHand") == ("arm", "l", "left", "hand")
     cases = {"legs/left": ("leg", "left"), "TopHead": ("head", None), "upperarm.R": ("arm", "right"),
              "Layer 12": (None, None), "pantsLightBlue_long": ("leg", None), "mixamorig:LeftForeArm": ("arm", "left"),
              "shirt": ("torso", None), "right_leg/shoe": ("leg", "right"), "tail_tip": ("tail", None)}
