@@ -209,24 +209,25 @@ def test_a_child_killed_between_frames_is_one_solver_lost(tmp_path, children):
 
 @pytest.mark.gl
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["f/", "a.gif", "a.mp4", "a.apng"])
-def test_workers_2_and_3_write_what_one_solver_writes(tmp_path, cap, children, drawn, name):
+@pytest.mark.parametrize("name, counts", [("f/", (1, 2, 3)), ("a.gif", (1, 3)), ("a.mp4", (1, 3)), ("a.apng", (1, 2))])
+def test_workers_write_what_one_solver_writes(tmp_path, cap, children, drawn, name, counts):
     """PNG frames and the GIF byte for byte, the MP4 and APNG files byte for byte, on the
     T-rex with a key every 0.1 s: one solver on a thread (drawn and encoded here), then 2
-    and 3 processes that draw and encode the frames themselves; the solve stages' seconds
+    or 3 processes that draw and encode the frames themselves (both for the PNG frames;
+    one count each for the files, to keep the suite's time); the solve stages' seconds
     counted."""
-    scene = puppet.load_scene(trex_keys(tmp_path / "s", frames=40))
+    scene = puppet.load_scene(trex_keys(tmp_path / "s", frames=30))
     outs = []
-    for w in (1, 2, 3):
+    for w in counts:
         (tmp_path / str(w)).mkdir()
         out = os.path.join(tmp_path, str(w), name)
         tm = pipeline.Timings()
-        assert export.animate_to(scene, out, size=(160, 90), workers=w, timings=tm) == 40
+        assert export.animate_to(scene, out, size=(160, 90), workers=w, timings=tm) == 30
         assert tm["solve"] > 0 and tm["composite"] > 0 and tm["encode"] > 0
         outs.append(files(out) if name.endswith("/") else [open(out, "rb").read()])
-    assert len(children) == 5 and all(gone(p) for p in children)  # none for 1, then 2 + 3
-    assert drawn == [True, True]  # the processes drew
-    assert outs[0] == outs[1] == outs[2]
+    assert len(children) == sum(counts[1:]) and all(gone(p) for p in children)  # none for 1
+    assert drawn == [True] * (len(counts) - 1)  # the processes drew
+    assert all(o == outs[0] for o in outs[1:])
     if name == "a.gif":
         frames = gif_frames(os.path.join(tmp_path, "1", name))
         assert len(frames) > 10 and not all(np.array_equal(frames[0], f) for f in frames)

@@ -22,9 +22,10 @@ def _start(scene, out):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
 
 
-def _wait_for_temp(proc, folder, timeout=60.0):
+def _wait_for_temp(proc, folder, timeout=60.0, data=True):
     """Wait until a temporary output (``.NAME.XXXX.tmp``) in ``folder`` holds data: a file
-    with bytes in it, or a folder with frames in it (so the signal comes mid-write)."""
+    with bytes in it, or a folder with frames in it (so the signal comes mid-write);
+    ``data=False``: until it exists (a muxer that holds its first bytes for many frames)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         assert proc.poll() is None, proc.communicate()
@@ -32,7 +33,7 @@ def _wait_for_temp(proc, folder, timeout=60.0):
             p = os.path.join(folder, n)
             if n.startswith(".") and n.endswith(".tmp"):
                 try:
-                    if (os.listdir(p) if os.path.isdir(p) else os.path.getsize(p)):
+                    if not data or (os.listdir(p) if os.path.isdir(p) else os.path.getsize(p)):
                         return n
                 except OSError:
                     pass
