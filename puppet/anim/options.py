@@ -9,6 +9,23 @@ from puppet.errors import SceneError
 
 #: Frame rates accepted, frames per second.
 MIN_FPS, MAX_FPS = 0.01, 240.0
+#: Default ``--tolerance`` of the keyed mesh exports (Spine, the web player), canvas
+#: pixels: the most a replayed frame may differ from puppet's; 0 keeps every frame.
+KEY_TOLERANCE = 1.0
+#: Largest ``--tolerance`` accepted, pixels.
+MAX_TOLERANCE = 100.0
+
+
+def parse_tolerance(value) -> float:
+    """A ``--tolerance`` given by a user: pixels, 0..:data:`MAX_TOLERANCE` (a number or
+    its text). Raises SceneError (one line)."""
+    try:
+        tol = float(value.strip() if isinstance(value, str) else value)
+    except (TypeError, ValueError):
+        raise SceneError(f"--tolerance {value!r} is not a number of pixels") from None
+    if isinstance(value, bool) or not 0.0 <= tol <= MAX_TOLERANCE:
+        raise SceneError(f"--tolerance {value!r}: give pixels 0..{MAX_TOLERANCE:g} (0: a key on every frame)")
+    return tol
 
 
 def parse_background(text: str) -> str | tuple[int, int, int, int]:

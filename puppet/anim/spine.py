@@ -12,10 +12,12 @@ What is written (keys as in Esoteric Software's "JSON export format" page):
   layer's region, v down), ``vertices`` (the rest mesh), ``triangles``, ``hull`` (the
   outer boundary loop's vertices come first, in order), ``edges`` (every mesh edge,
   vertex index x 2), ``width``/``height`` of the region;
-* ``animations``: ``animation`` (the scene's, from --from) with one ``deform`` key per
-  frame per moving layer (offsets from the setup vertices; linear between keys) and a
-  ``drawOrder`` key wherever the layers' order by mean depth changes; and one animation
-  per named pose, a single key at time 0.
+* ``animations``: ``animation`` (the scene's, from --from) with a ``deform`` timeline per
+  moving layer (offsets from the setup vertices): a key at every frame on a scene key
+  and at the frames the runtimes' interpolation (linear, or the key's Bezier ``curve``)
+  needs to replay every frame within ``--tolerance`` (1 px; :mod:`puppet.anim.keys`;
+  0: a key on every frame, linear), and a ``drawOrder`` key wherever the layers' order
+  by mean depth changes; and one animation per named pose, a single key at time 0.
 
 Coordinates: Spine's y axis points up. A canvas point (x, y) (pixels, y down, origin at
 the top-left) is ``(x - W / 2, H - y)`` in Spine: the skeleton's origin is the
@@ -27,9 +29,9 @@ the draw order follows each layer's mean depth), holes and separate pieces of on
 (Spine meshes have one outline: the longest boundary loop is the hull, the other loops'
 vertices follow as ordinary vertices; the triangles still draw them), the background.
 
-Memory: the deform keys of every frame are held until the JSON is written (as the file
-holds them): frames x vertices x 8 bytes as float32 (one array a frame), then each
-layer's timeline as JSON text (the file's text is never made as one string); frames x
+Memory: the deform offsets of every frame are held until the JSON is written (the keys
+are chosen from all of them): frames x vertices x 8 bytes as float32 (one array a
+frame), then each layer's timeline as JSON text (the file's text is never made as one string); frames x
 (vertices x 2 + layers x 4) is bounded by :data:`puppet.anim.sinks.MAX_HELD`, refused
 before any frame is solved.
 """
@@ -45,6 +47,7 @@ import uuid
 
 import numpy as np
 
+from puppet.anim.keys import Key, plan, scene_frames
 from puppet.anim.sheet import write_png
 from puppet.anim.sidefiles import spine_side
 from puppet.anim.sinks import Sink, check_held, stage_bytes
@@ -61,6 +64,9 @@ PAD = 2
 DECIMALS = 2
 #: zlib level of the atlas pages.
 PNG_LEVEL = 6
+#: Pixels the rounding of written vertices and offsets may add to a replayed vertex
+#: (the setup vertex and the interpolated offset, each within 0.005 px per axis).
+ROUNDING = 0.015
 
 
 def page_path(path: str, k: int) -> str:
@@ -259,22 +265,34 @@ class SpineSink(Sink):
         self.frames += 1
 
     # -- writing -------------------------------------------------------------------
+    def _keys(self, frames: list[np.ndarray], times: np.ndarray, forced: list[int]) -> list[Key]:
+        """The deform keys of one layer's offsets (see :mod:`puppet.anim.keys`): within
+        the tolerance less what rounding the written values may add."""
+        if len(frames) < 3 or self.job.tolerance <= 0:
+            return [Key(f) for f in range(len(frames))]
+        return plan(np.stack(frames).astype(np.float64), times, forced, self.job.tolerance - ROUNDING)
+
     def _animation(self, keys: _Offsets, orders: list[list[int]], held: _Held) -> dict:
         """One animation; each deform timeline is JSON text kept in ``held`` (made a key
         at a time: no float objects for every frame), its place in the dict a marker."""
         fps = self.job.fps
         slot_names = [self.names[i] for i in self.slots]
         deform: dict = {}
+        times = np.arange(len(keys.frames)) / fps
+        forced = scene_frames(self.job.scene.data.animation, self.job.start, fps, len(keys.frames))
         for i in self.slots:
             frames = keys.layer(i)
             if not any(np.any(np.abs(f) >= 0.5 * 10.0 ** -DECIMALS) for f in frames):
                 continue  # never moves: no timeline
             region = self.regions[self.slot_of[i]]
             timeline = []
-            for f, off in enumerate(frames):
-                key: dict = {"time": round(f / fps, 6)}
+            for k in self._keys(frames, times, forced):
+                key: dict = {"time": round(k.frame / fps, 6)}
+                off = frames[k.frame]
                 if np.any(np.abs(off) >= 0.5 * 10.0 ** -DECIMALS):
                     key["vertices"] = _r(off)
+                if k.curve is not None:
+                    key["curve"] = list(k.curve)
                 timeline.append(json.dumps(key, separators=(",", ":")))
             deform[self.names[i]] = {region: {"deform": held.add(timeline)}}
         anim: dict = {}
