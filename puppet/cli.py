@@ -15,7 +15,7 @@ import sys
 import puppet
 from puppet import __version__
 from puppet.anim import formats  # the one table of output formats (cheap: no numpy)
-from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background, parse_tolerance, parse_workers
+from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background, parse_simplify, parse_tolerance, parse_workers
 from puppet.batch import command as batch
 from puppet.errors import SceneError
 from puppet.output import check_file, check_folder, remove_leftovers, save_png
@@ -93,6 +93,13 @@ def _tolerance(text: str) -> float:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _simplify(text: str) -> float:
+    try:
+        return parse_simplify(text)
+    except SceneError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def _threshold(text: str) -> float:
     try:
         t = float(text)
@@ -150,6 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--tolerance", type=_tolerance, metavar="PX",
                    help="web player and Spine: keys plus in-betweens where they replay puppet's frames within "
                         "PX pixels (default 1; 0: a key on every frame)")
+    a.add_argument("--simplify", type=_simplify, metavar="PX",
+                   help="Spine: lighter meshes, coarser where they draw within PX pixels of puppet's "
+                        "(default: each layer's own mesh)")
 
     m = sub.add_parser("mesh", help="write the deformed meshes as JSON")
     m.add_argument("scene")
@@ -307,7 +317,7 @@ def run(argv: list[str] | None = None) -> int:
     elif args.command == "animate":
         fmt = formats.find(args.output, args.format)
         formats.check_options(fmt, size=args.size, wireframe=args.wireframe, background=args.background,
-                              tolerance=args.tolerance)
+                              tolerance=args.tolerance, simplify=args.simplify)
         if fmt.folder:
             check_folder(args.output, probe=True, contents=False)
         else:
@@ -336,7 +346,8 @@ def run(argv: list[str] | None = None) -> int:
         with _gl_allocation(scene, args.size):
             animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
                        wireframe=args.wireframe, progress=sys.stderr.isatty(), background=args.background,
-                       format=args.format, workers=args.workers, say=_say, tolerance=args.tolerance)
+                       format=args.format, workers=args.workers, say=_say, tolerance=args.tolerance,
+                       simplify=args.simplify)
     return 0
 
 

@@ -24,7 +24,7 @@ from puppet.anim.sidefiles import sheet_atlas, spine_side
 from puppet.errors import SceneError
 
 #: Options of ``animate_to`` that some formats cannot honour (the others always apply).
-OPTIONS = ("size", "wireframe", "background", "tolerance")
+OPTIONS = ("size", "wireframe", "background", "tolerance", "simplify")
 #: The options of a format that draws its frames.
 DRAWN = frozenset({"size", "wireframe", "background"})
 
@@ -46,6 +46,8 @@ class Job:
     tolerance : the keyed mesh exports (web player, Spine) keep the frames where
         interpolating between keys would be further than this from puppet's (pixels; 0:
         every frame), see :mod:`puppet.anim.keys`.
+    simplify : Spine: pixels; None: the layers' own meshes, else meshes made coarser
+        where they draw within this of puppet's (:mod:`puppet.anim.simplify`).
     """
 
     output: str
@@ -61,6 +63,7 @@ class Job:
     extra: dict = field(default_factory=dict)
     staged: list = field(default_factory=list)
     tolerance: float = KEY_TOLERANCE
+    simplify: float | None = None
 
 
 @dataclass(frozen=True)
@@ -227,7 +230,7 @@ FORMATS: tuple[Format, ...] = (
     Format("html", ".html", "web player (one self-contained HTML file, WebGL2)", True, _html,
            pixels=False, options=frozenset({"size", "background", "tolerance"})),
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
-           pixels=False, also=(".json",), options=frozenset({"tolerance"}), side=spine_side, prepare=_spine_prepare),
+           pixels=False, also=(".json",), options=frozenset({"tolerance", "simplify"}), side=spine_side, prepare=_spine_prepare),
     Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
            pixels=False, options=frozenset(), prepare=_glb_prepare),
 )
@@ -304,14 +307,17 @@ def find(path: str, kind: str | None = None) -> Format:
     return fmt
 
 
-def check_options(fmt: Format, *, size=None, wireframe=False, background=None, tolerance=None) -> None:
+def check_options(fmt: Format, *, size=None, wireframe=False, background=None, tolerance=None,
+                  simplify=None) -> None:
     """Refuse an option the format cannot honour (one line naming it)."""
     asked = {"size": size is not None, "wireframe": bool(wireframe), "background": background is not None,
-             "tolerance": tolerance is not None}
-    if asked["tolerance"] and "tolerance" not in fmt.options:
-        raise SceneError(f"--tolerance does not apply to {fmt.label}: only the web player and Spine keep keys "
-                         "with in-betweens")
+             "tolerance": tolerance is not None, "simplify": simplify is not None}
     for name in OPTIONS:
-        if name != "tolerance" and asked[name] and name not in fmt.options:
+        if not asked[name] or name in fmt.options:
+            continue
+        if name in DRAWN:
             raise SceneError(f"--{name} does not apply to {fmt.label}: it writes meshes and textures, "
                              "not drawn frames")
+        takers = [f".{f.kind}" if f.kind != "spine" else "Spine" for f in FORMATS if name in f.options]
+        raise SceneError(f"--{name} does not apply to {fmt.label}: only {' and '.join(takers)} "
+                         f"{'take' if len(takers) > 1 else 'takes'} it")

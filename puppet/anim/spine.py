@@ -50,6 +50,7 @@ import numpy as np
 from puppet.anim.keys import Key, plan, scene_frames
 from puppet.anim.sheet import write_png
 from puppet.anim.sidefiles import spine_side
+from puppet.anim.simplify import coarser
 from puppet.anim.sinks import Sink, check_held, stage_bytes
 from puppet.errors import SceneError
 from puppet.geom.mesh import boundary_edges, edges
@@ -330,8 +331,36 @@ class SpineSink(Sink):
             out[self.names[i]] = {region: mesh}
         return {"name": "default", "attachments": out}
 
+    def _simplify(self) -> None:
+        """Each layer's mesh swapped for a coarser one where that draws every frame and
+        pose within ``--simplify`` pixels of puppet's (:mod:`puppet.anim.simplify`), its
+        offsets carried over (``W`` keeps offsets: its rows sum to one)."""
+        poses = list(self.poses)
+        frames = [np.concatenate([np.stack(self.keys.layer(i))] + [self.poses[p][0][i][None] for p in poses])
+                  for i in range(len(self.perm))]
+        for i, F in enumerate(frames):
+            perm = self.perm[i]
+            inverse = np.empty_like(perm)
+            inverse[perm] = np.arange(len(perm))
+            c = coarser(self.job.scene, i, self.rest_xy[i][perm], inverse[self.triangles[i]], F, self.job.simplify)
+            if c is None:
+                continue
+            cperm, self.hulls[i] = hull_first(c.F, len(c.V))
+            self.perm[i], self.rest_xy[i], self.triangles[i] = cperm, c.V, c.F
+            self.setup[i] = to_spine(c.V[cperm], self.canvas)
+            frames[i] = (c.W[cperm] @ F.reshape(len(F), -1, 2).transpose(1, 0, 2).reshape(len(perm), -1)) \
+                .reshape(len(cperm), len(F), 2).transpose(1, 0, 2).astype(np.float32)
+        starts = np.concatenate([[0], np.cumsum([len(s) for s in self.setup])]).astype(int).tolist()
+        m = len(self.keys.frames)
+        self.keys = _Offsets(starts)
+        for f in range(m):
+            self.keys.append([F[f] for F in frames])
+        self.poses = {p: ([F[m + j] for F in frames], self.poses[p][1]) for j, p in enumerate(poses)}
+
     def close(self) -> None:
         images = [im.drawn for im in self.job.scene.built.images]
+        if self.job.simplify:
+            self._simplify()
         held = _Held()
         anims = {"animation": self._animation(self.keys, self.orders, held)}
         for name, (offs, order) in self.poses.items():
