@@ -68,23 +68,17 @@ def _errors(F: np.ndarray, a: int, b: int, p: np.ndarray) -> np.ndarray:
 
 def _fit_curve(T: np.ndarray, s: np.ndarray, ta: float, tb: float) -> tuple[float, float, float, float]:
     """The curve whose polyline best follows fractions ``s`` at times ``T`` (least
-    squares), its handles' times kept between the keys, rounded as written."""
-    from scipy.optimize import least_squares  # lazy: scipy.optimize, only when a span needs a curve
-
+    squares), rounded as written. Its handles' times are a third of the span from each
+    key, so the polyline's times are evenly spaced and its fractions linear in
+    ``cy1, cy2``: the fit is a linear one (exact for puppet's ``smooth`` ease, which is
+    this curve with ``cy1 = 0``, ``cy2 = 1``)."""
     h = tb - ta
-
-    def curve(q):
-        return ta + q[0] * h, q[1], ta + q[2] * h, q[3]
-
-    def residual(q):
-        return curve_percent(T, ta, tb, curve(q)) - s
-
-    best = None
-    for start in ((1 / 3, 0.0, 2 / 3, 1.0), (1 / 3, 1 / 3, 2 / 3, 2 / 3)):  # smoothstep, linear
-        fit = least_squares(residual, start, bounds=([0, -2, 0, -2], [1, 3, 1, 3]), max_nfev=200)
-        if best is None or fit.cost < best.cost:
-            best = fit
-    return tuple(round(float(v), CURVE_DECIMALS) for v in curve(best.x))  # type: ignore[return-value]
+    cx1, cx2 = ta + h / 3, ta + 2 * h / 3
+    # the fraction at T for (cy1, cy2) = (0, 0), (1, 0) and (0, 1): p = p0 + A @ (cy1, cy2)
+    p0, p1, p2 = (curve_percent(T, ta, tb, (cx1, a, cx2, b)) for a, b in ((0, 0), (1, 0), (0, 1)))
+    A = np.stack([p1 - p0, p2 - p0], axis=1)
+    cy = np.linalg.lstsq(A, s - p0, rcond=None)[0]
+    return tuple(round(float(v), CURVE_DECIMALS) for v in (cx1, cy[0], cx2, cy[1]))  # type: ignore[return-value]
 
 
 def fit_span(F: np.ndarray, T: np.ndarray, a: int, b: int, tol: float) -> tuple[bool, Key | None, int]:

@@ -141,3 +141,19 @@ def test_the_browsers_frames_are_puppets_within_a_pixel(pages, tmp_path):
         xy = np.concatenate([np.asarray(r.deformed) for r in layers])
         err = np.linalg.norm(codes[f, :2 * NV].reshape(-1, 2) * (sx, sy) + (cx, cy) - xy, axis=1).max()
         assert err < 1.0, (f, err)
+
+
+@pytest.mark.slow
+def test_the_character_clip_meets_the_size_targets(tmp_path):
+    """Issue 32's targets on its 49-frame character clip: the web player <= 2 MB (4.0 MB
+    with a key every frame), Spine <= 1 MB with lighter meshes (still within 1 px:
+    ``--simplify 0.5 --tolerance 0.5``; 5.8 MB with a key every frame)."""
+    from tests.anim.character_clip import character_clip
+
+    scene = character_clip(str(tmp_path))
+    html, sp = str(tmp_path / "c.html"), str(tmp_path / "c.spine.json")
+    assert main(["animate", scene, "-o", html]) == 0
+    assert main(["animate", scene, "-o", sp, "--simplify", "0.5", "--tolerance", "0.5"]) == 0
+    meta, _, records, _ = decode(html)
+    assert meta["count"] == 49 and records < 49 * len(meta["layers"]) / 3
+    assert os.path.getsize(html) <= 2_000_000 and os.path.getsize(sp) <= 1_000_000
