@@ -3,10 +3,11 @@
 // their textures as PNG data URIs, texture coordinates, triangles) and #puppet-frames
 // (base64 of key records: int32 layer, int32 frame, float32 cx1, cy1, cx2, cy2 of the
 // curve to the layer's next key (NaN: linear), then the layer's int16 x, y (interleaved)
-// and depths at that frame). The frames between a layer's keys are computed on loading,
-// as Spine's runtimes interpolate a deform timeline (puppet/anim/keys.py): a fraction p
-// of the way from one key to the next, linear in time or read off the curve's polyline
-// through its points at parameters 0, 0.1, ... 1; each code rounded to the nearest.
+// and depths at that frame; a layer that draws nothing has none). The frames between a
+// layer's keys are computed on loading, as Spine's runtimes interpolate a deform timeline
+// (puppet/anim/keys.py): a fraction p of the way from one key to the next, linear in time
+// or read off the curve's polyline through its points at parameters 0, 0.1, ... 1; each
+// code rounded to the nearest.
 // Drawing follows puppet's compositor (puppet/render/passes.py, shaders/layer.glsl):
 //   1. clear to the background, depth 1;
 //   2. opaque pass: every non-empty triangle, depth test LEQUAL + write, fragments with

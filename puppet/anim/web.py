@@ -12,7 +12,7 @@ page computes the other frames when it loads.
 
 Layout of the page: ``#puppet-meta`` (JSON: canvas, fps, layers with their texture,
 texture coordinates as float32 and triangles as uint32, all base64) and
-``#puppet-frames`` (base64 of key records, each a multiple of 3 bytes, so the records
+``#puppet-frames`` (base64 of key records of the layers the page draws, each a multiple of 3 bytes, so the records
 encode to base64 one at a time without padding: int32 layer, int32 frame, float32
 ``cx1, cy1, cx2, cy2`` of the curve to the layer's next key (NaN: linear), then the
 layer's int16 codes at that frame: its x, y (interleaved), then its depths). Records are
@@ -185,6 +185,9 @@ class HtmlSink(Sink):
             entries.append(layer_entry(r, image, offset, base, L.visible))
             base += len(r.rest)
         self.spans = [(e["base"], e["n"]) for e in entries]
+        # the page draws, and reads the frames of, only layers with opaque triangles (a
+        # hidden layer has none): the others get no keys
+        self.drawn = [i for i, e in enumerate(entries) if e["opaque"]]
         self.nv = base
         clear, css = _background(job.background)
         meta = {"puppet": 2, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,
@@ -221,7 +224,7 @@ class HtmlSink(Sink):
         m = len(self.held)
         T = np.arange(self.first, self.first + m) / self.job.fps
         tol = self.job.tolerance - 2 * max(self.quant[:2])  # a code's rounding, twice
-        for i in range(len(self.spans)):
+        for i in self.drawn:
             keys = plan(self._layer(i), T, [], tol) if self.job.tolerance > 0 else None
             for k in keys[:-1] if keys is not None else ((f, None) for f in range(m - 1)):
                 f, curve = (k.frame, k.curve) if keys is not None else k
@@ -244,7 +247,7 @@ class HtmlSink(Sink):
                 raise ValueError("no frames")
             if len(self.held) > 1:
                 self._flush()
-            for i in range(len(self.spans)):  # every layer's last key: the last frame
+            for i in self.drawn:  # every layer's last key: the last frame
                 self._record(i, 0, None)
             script = resources.files("puppet.anim").joinpath("player.js").read_text("utf-8")
             self.fp.write(fill(self.tail, {"player": script_code(script)}))

@@ -45,6 +45,9 @@ def decode(path: str) -> tuple[dict, np.ndarray, int, list[list[int]]]:
     N, NV, fps = meta["count"], meta["vertices"], meta["fps"]
     out = np.zeros((N, 3 * NV), np.int64)
     for L, ks in zip(meta["layers"], keys):
+        if not L["opaque"]:  # the page draws nothing of it: no keys
+            assert not ks
+            continue
         assert [k[0] for k in ks] == sorted({k[0] for k in ks}) and ks[0][0] == 0 and ks[-1][0] == N - 1
         b, n = L["base"], L["n"]
         for (fa, curve, qa), (fb, _, qb) in zip(ks, ks[1:] + ks[-1:]):
