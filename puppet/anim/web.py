@@ -209,11 +209,11 @@ class HtmlSink(Sink):
         if f > self.first and (f in self.forced or f == self.job.count - 1 or f - self.first >= SPAN):
             self._flush()
 
-    def _layer(self, i: int) -> np.ndarray:
-        """Layer ``i``'s held frames (frames, n, 3): x, y in pixels and depth scaled so
-        that :data:`DEPTH_TOLERANCE` counts as the tolerance."""
+    def _layer(self, q: np.ndarray, i: int) -> np.ndarray:
+        """Layer ``i``'s frames of the codes ``q`` (frames, 3 x vertices) as (frames, n,
+        3): x, y in pixels and depth scaled so that :data:`DEPTH_TOLERANCE` counts as the
+        tolerance."""
         b, n = self.spans[i]
-        q = np.stack(self.held)
         sx, sy = self.quant[:2]
         depth = q[:, 2 * self.nv + b:2 * self.nv + b + n] * (self.depth_step * self.job.tolerance / DEPTH_TOLERANCE)
         return np.concatenate([q[:, 2 * b:2 * (b + n)].reshape(len(q), n, 2) * (sx, sy), depth[..., None]], axis=2)
@@ -224,11 +224,10 @@ class HtmlSink(Sink):
         m = len(self.held)
         T = np.arange(self.first, self.first + m) / self.job.fps
         tol = self.job.tolerance - 2 * max(self.quant[:2])  # a code's rounding, twice
-        for i in self.drawn:
-            keys = plan(self._layer(i), T, [], tol) if self.job.tolerance > 0 else None
-            for k in keys[:-1] if keys is not None else ((f, None) for f in range(m - 1)):
-                f, curve = (k.frame, k.curve) if keys is not None else k
-                self._record(i, f, curve)
+        q = np.stack(self.held)
+        for i in self.drawn:  # (a tolerance of 0 or less: every frame, linear)
+            for k in plan(self._layer(q, i), T, [], tol)[:-1]:
+                self._record(i, k.frame, k.curve)
         self.first += m - 1
         self.held = self.held[-1:]
 
