@@ -11,7 +11,9 @@ that is measured over every frame exported, each solved vertex placed in the coa
 mesh (barycentric ``B``) against where the solved mesh has it, ``|(B W - I) X|``. Where
 that is over the pixels asked for, the worst solved vertices (a few, spread apart) are
 added to the coarse mesh as vertices and it is made again (at most :data:`ROUNDS`
-times); a layer that does not get within them keeps its own mesh.
+times); a layer that does not get within them keeps its own mesh (the mesher does not
+split an outline edge, so a solved vertex on the outline between two coarse outline
+vertices cannot be added: where the outline bends there, the layer keeps its mesh).
 """
 from __future__ import annotations
 

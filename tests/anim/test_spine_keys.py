@@ -303,7 +303,7 @@ def test_simplified_meshes_draw_every_frame_within_a_pixel(tmp_path):
             got = (drawn[corners] * lam[..., None]).sum(axis=1)
             err = np.linalg.norm(got - np.asarray(frames[f][i].deformed), axis=1).max()
             assert err < 1.0, (L.name, f, err)
-    # lighter meshes (the T-rex's heads and front arm keep theirs: pins on their outlines
-    # bend them more than 0.5 px within any coarser triangle; measured 7814 -> 3718)
+    # lighter meshes (the T-rex's heads and front arm keep theirs: their outlines bend
+    # more than 0.5 px between coarse outline vertices; measured 7814 -> 3718)
     assert coarse < 0.6 * fine
     assert os.path.getsize(out) < 0.6 * os.path.getsize(full)
