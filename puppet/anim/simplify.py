@@ -60,6 +60,7 @@ def coarser(scene, k: int, rest: np.ndarray, triangles: np.ndarray, frames: np.n
     X = np.moveaxis(np.asarray(frames, np.float64), 0, 1).reshape(len(rest), -1)  # (n, m * 2)
     apart = edge_length_for_area(area) / 3
     points = np.zeros((0, 2))
+    best = np.inf
     for _ in range(ROUNDS):
         mesh = triangulate_regions(regions, max_area=area, min_angle=L.mesh.min_angle, simplify=L.mesh.simplify,
                                    points=points)
@@ -70,9 +71,10 @@ def coarser(scene, k: int, rest: np.ndarray, triangles: np.ndarray, frames: np.n
         err = np.sqrt((off.reshape(len(rest), -1, 2) ** 2).sum(axis=2)).max(axis=1) if X.size else np.zeros(len(rest))
         if err.max() <= px:
             return Coarse(mesh.V, np.asarray(mesh.F, np.int64), W.tocsr(), float(err.max()))
-        added = _spread(rest, np.flatnonzero(err > 0.5 * px), err, apart)
-        if not len(added):
+        if err.max() > 0.99 * best:  # no better for the vertices added: they do not help
             return None
+        best = float(err.max())
+        added = _spread(rest, np.flatnonzero(err > 0.5 * px), err, apart)
         points = np.concatenate([points, rest[added]])
         apart /= 1.5
     return None
