@@ -26,6 +26,9 @@ import numpy as np
 
 #: Decimals of a written curve value (the error is measured with the rounded curve).
 CURVE_DECIMALS = 5
+#: Most frames from one key to the next: a longer span between the scene's keys gets a
+#: key every SPAN frames (bounds what a span's measure holds: frames x vertices).
+SPAN = 96
 #: Curve parameters the runtimes sample between the ends.
 _S = np.arange(1, 10) / 10.0
 
@@ -108,11 +111,12 @@ def plan(F: np.ndarray, T: np.ndarray, forced: Sequence[int], tol: float) -> lis
     """The keys of one layer's frames ``F`` (frames, vertices, k) at times ``T``: every
     frame of ``forced`` (and the first and last), and as few more as keep every frame
     within ``tol`` of its interpolation: a span that does not fit is split at its worst
-    frame and each half checked again. ``tol`` <= 0: every frame, linear."""
+    frame and each half checked again; every :data:`SPAN` th frame is a key too. ``tol``
+    <= 0: every frame, linear."""
     m = len(F)
     if tol <= 0:
         return [Key(f) for f in range(m)]
-    ends = sorted({0, m - 1, *(f for f in forced if 0 <= f < m)})
+    ends = sorted({0, m - 1, *range(0, m, SPAN), *(f for f in forced if 0 <= f < m)})
     keys: list[Key] = []
     for a, b in zip(ends, ends[1:]):
         todo = [(a, b)]

@@ -39,7 +39,7 @@ from importlib import resources
 
 import numpy as np
 
-from puppet.anim.keys import plan, scene_frames
+from puppet.anim.keys import SPAN, plan, scene_frames
 from puppet.anim.sinks import Sink
 from puppet.render.layers import classify_triangles
 
@@ -48,9 +48,6 @@ Q = 32767
 #: Largest depth error of an in-between computed in the page, stacking units (a layer's
 #: stacking distance is 1).
 DEPTH_TOLERANCE = 0.05
-#: Most frames from one key to the next kept for planning (a longer span between the
-#: scene's keys gets a key every SPAN frames).
-SPAN = 96
 #: Bytes of a key record's header: int32 layer, int32 frame, 4 float32 of the curve.
 HEADER = struct.Struct("<ii4f")
 

@@ -307,3 +307,11 @@ def test_simplified_meshes_draw_every_frame_within_a_pixel(tmp_path):
     # more than 0.5 px between coarse outline vertices; measured 7814 -> 3718)
     assert coarse < 0.6 * fine
     assert os.path.getsize(out) < 0.6 * os.path.getsize(full)
+
+
+def test_a_long_span_gets_a_key_every_span(monkeypatch):
+    import puppet.anim.keys as keys
+
+    monkeypatch.setattr(keys, "SPAN", 10)
+    F, T = motion(lambda u: u, n=25)  # linear: only the ends and the cuts
+    assert [k.frame for k in plan(F, T, [], 0.5)] == [0, 10, 20, 24]
