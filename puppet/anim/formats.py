@@ -230,7 +230,8 @@ FORMATS: tuple[Format, ...] = (
     Format("html", ".html", "web player (one self-contained HTML file, WebGL2)", True, _html,
            pixels=False, options=frozenset({"size", "background", "tolerance"})),
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
-           pixels=False, also=(".json",), options=frozenset({"tolerance", "simplify"}), side=spine_side, prepare=_spine_prepare),
+           pixels=False, also=(".json",), options=frozenset({"tolerance", "simplify"}), side=spine_side,
+           prepare=_spine_prepare),
     Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
            pixels=False, options=frozenset(), prepare=_glb_prepare),
 )

@@ -31,9 +31,9 @@ vertices follow as ordinary vertices; the triangles still draw them), the backgr
 
 Memory: the deform offsets of every frame are held until the JSON is written (the keys
 are chosen from all of them): frames x vertices x 8 bytes as float32 (one array a
-frame), then each layer's timeline as JSON text (the file's text is never made as one string); frames x
-(vertices x 2 + layers x 4) is bounded by :data:`puppet.anim.sinks.MAX_HELD`, refused
-before any frame is solved.
+frame), then each layer's timeline as JSON text (the file's text is never made as one
+string); frames x (vertices x 2 + layers x 4) is bounded by
+:data:`puppet.anim.sinks.MAX_HELD`, refused before any frame is solved.
 """
 from __future__ import annotations
 

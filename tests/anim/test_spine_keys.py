@@ -12,7 +12,6 @@ import os
 import numpy as np
 import pytest
 
-import puppet
 import puppet.anim.spine as spine
 from puppet.anim.keys import Key, curve_points, plan, scene_frames, span_error
 from puppet.anim.options import KEY_TOLERANCE
