@@ -86,18 +86,15 @@ def _workers(text: str) -> int:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
-def _tolerance(text: str) -> float:
-    try:
-        return parse_tolerance(text)
-    except SceneError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
-def _simplify(text: str) -> float:
-    try:
-        return parse_simplify(text)
-    except SceneError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
+def _checked(parse):
+    """An argparse type from a parser of user values that raises SceneError."""
+    def typed(text: str):
+        try:
+            return parse(text)
+        except SceneError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    typed.__name__ = parse.__name__.removeprefix("parse_")  # argparse names it in "invalid ... value"
+    return typed
 
 
 def _threshold(text: str) -> float:
@@ -154,10 +151,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="#rrggbb, #rrggbbaa, a colour name or transparent (not for MP4); default: the scene's")
     a.add_argument("--workers", type=_workers, metavar="N",
                    help="solver processes (default: one per core, fewer for short exports)")
-    a.add_argument("--tolerance", type=_tolerance, metavar="PX",
+    a.add_argument("--tolerance", type=_checked(parse_tolerance), metavar="PX",
                    help="web player and Spine: keys plus in-betweens where they replay puppet's frames within "
                         "PX pixels (default 1; 0: a key on every frame)")
-    a.add_argument("--simplify", type=_simplify, metavar="PX",
+    a.add_argument("--simplify", type=_checked(parse_simplify), metavar="PX",
                    help="Spine: lighter meshes, coarser where they draw within PX pixels of puppet's "
                         "(default: each layer's own mesh)")
 

@@ -1,8 +1,8 @@
 """Spine's deform keys reduced to the scene's keys plus what interpolation needs: the
 written keys, replayed the way the Spine runtimes interpolate them (computed here from the
 JSON, curve and all), stay within 1 px of puppet's solved frames; ``--tolerance 0``
-writes what the exporter wrote before keys were reduced (a key on every frame, checked
-against that writer, kept below); the key planner on hand-made motions."""
+writes the deform timelines the exporter wrote before keys were reduced (a key on every
+frame, checked against that writer, kept below); the key planner on hand-made motions."""
 from __future__ import annotations
 
 import json
@@ -181,37 +181,22 @@ def test_replayed_keys_match_every_frame_within_a_pixel(trex):
     assert size < 0.6 * 3_014_718  # the per-frame file of this animation (measured)
 
 
-def _old_animation(sink, keys, orders, held) -> dict:
-    """The deform and draw-order timelines as the exporter wrote them before keys were
-    reduced (7b96ca4): a key on every frame, linear."""
-    fps = sink.job.fps
-    slot_names = [sink.names[i] for i in sink.slots]
+def _old_timelines(sink, keys, held) -> dict:
+    """The deform timelines as the exporter wrote them before keys were reduced
+    (7b96ca4): a key on every frame, linear."""
     deform: dict = {}
     for i in sink.slots:
         frames = keys.layer(i)
         if not any(np.any(np.abs(f) >= 0.005) for f in frames):
             continue
-        region = sink.regions[sink.slot_of[i]]
         timeline = []
         for f, off in enumerate(frames):
-            key: dict = {"time": round(f / fps, 6)}
+            key: dict = {"time": round(f / sink.job.fps, 6)}
             if np.any(np.abs(off) >= 0.005):
                 key["vertices"] = [float(v) for v in np.round(np.asarray(off, np.float64).reshape(-1), 2)]
             timeline.append(json.dumps(key, separators=(",", ":")))
-        deform[sink.names[i]] = {region: {"deform": held.add(timeline)}}
-    anim: dict = {"attachments": {"default": deform}} if deform else {}
-    draw, last = [], list(range(len(sink.slots)))
-    for f, order in enumerate(orders):
-        if order != last:
-            key = {"time": round(f / fps, 6)}
-            offsets = spine.order_offsets(order, slot_names)
-            if offsets:
-                key["offsets"] = offsets
-            draw.append(key)
-            last = order
-    if draw:
-        anim["drawOrder"] = draw
-    return anim
+        deform[sink.names[i]] = {sink.regions[sink.slot_of[i]]: {"deform": held.add(timeline)}}
+    return {"default": deform}
 
 
 def test_tolerance_zero_writes_every_frame_as_before(tmp_path, monkeypatch):
@@ -227,18 +212,17 @@ def test_tolerance_zero_writes_every_frame_as_before(tmp_path, monkeypatch):
     (sink,) = seen
     with open(out) as f:
         text = f.read()
-    for name, ref in (("animation", (sink.keys, sink.orders)),
-                      *((name, _pose(sink, offs, order)) for name, (offs, order) in sink.poses.items())):
+    for name, keys in (("animation", sink.keys), *((name, _pose(sink, offs)) for name, (offs, _) in sink.poses.items())):
         held = spine._Held()
-        want = json.loads("".join(held.parts(json.dumps(_old_animation(sink, *ref, held), separators=(",", ":")))))
-        assert json.loads(text)["animations"][name] == want, name
+        want = json.loads("".join(held.parts(json.dumps(_old_timelines(sink, keys, held), separators=(",", ":")))))
+        assert json.loads(text)["animations"][name]["attachments"] == want, name
     assert '"curve"' not in text
 
 
-def _pose(sink, offs, order):
+def _pose(sink, offs):
     pose = spine._Offsets(sink.keys.starts)
     pose.append(offs)
-    return pose, [order]
+    return pose
 
 
 def test_tolerance_and_simplify_are_refused_where_they_do_not_apply(tmp_path, capsys):
