@@ -212,7 +212,8 @@ def test_tolerance_zero_writes_every_frame_as_before(tmp_path, monkeypatch):
     (sink,) = seen
     with open(out) as f:
         text = f.read()
-    for name, keys in (("animation", sink.keys), *((name, _pose(sink, offs)) for name, (offs, _) in sink.poses.items())):
+    poses = ((name, _pose(sink, offs)) for name, (offs, _) in sink.poses.items())
+    for name, keys in (("animation", sink.keys), *poses):
         held = spine._Held()
         want = json.loads("".join(held.parts(json.dumps(_old_timelines(sink, keys, held), separators=(",", ":")))))
         assert json.loads(text)["animations"][name]["attachments"] == want, name
