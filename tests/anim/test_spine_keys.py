@@ -16,6 +16,7 @@ import puppet.anim.spine as spine
 from puppet.anim.keys import Key, curve_points, plan, scene_frames, span_error
 from puppet.anim.options import KEY_TOLERANCE
 from puppet.cli import main
+from puppet.geom.mesh import boundary_edges
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TREX = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
@@ -277,8 +278,13 @@ def test_simplified_meshes_draw_every_frame_within_a_pixel(tmp_path):
         m = atts[L.name][L.name]
         setup = np.asarray(m["vertices"], float)
         V = np.stack([setup[0::2] + W / 2, H - setup[1::2]], 1)
-        tri, lam = barycentric(np.asarray(L.rest), V, np.reshape(m["triangles"], (-1, 3)))
-        corners = np.reshape(m["triangles"], (-1, 3))[tri]
+        F = np.reshape(m["triangles"], (-1, 3))
+        uv, h = np.reshape(m["uvs"], (-1, 2)), m["hull"]
+        assert uv.min() >= 0 and uv.max() <= 1 and len(np.unique(F)) == len(V) == len(uv)  # a valid mesh
+        assert {tuple(sorted((k, (k + 1) % h))) for k in range(h)} <= {tuple(sorted(e)) for e in
+                                                                         boundary_edges(F).tolist()}
+        tri, lam = barycentric(np.asarray(L.rest), V, F)
+        corners = F[tri]
         fine, coarse = fine + len(L.rest), coarse + len(V)
         for f in range(len(frames)):
             v = replay_spine(timelines[L.name][L.name]["deform"], setup, f / 12).reshape(-1, 2) if L.name in timelines \
