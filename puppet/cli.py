@@ -15,7 +15,7 @@ import sys
 import puppet
 from puppet import __version__
 from puppet.anim import formats  # the one table of output formats (cheap: no numpy)
-from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background, parse_workers
+from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background, parse_simplify, parse_tolerance, parse_workers
 from puppet.batch import command as batch
 from puppet.errors import SceneError
 from puppet.output import check_file, check_folder, remove_leftovers, save_png
@@ -86,6 +86,17 @@ def _workers(text: str) -> int:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _checked(parse):
+    """An argparse type from a parser of user values that raises SceneError."""
+    def typed(text: str):
+        try:
+            return parse(text)
+        except SceneError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    typed.__name__ = parse.__name__.removeprefix("parse_")  # argparse names it in "invalid ... value"
+    return typed
+
+
 def _threshold(text: str) -> float:
     try:
         t = float(text)
@@ -140,6 +151,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="#rrggbb, #rrggbbaa, a colour name or transparent (not for MP4); default: the scene's")
     a.add_argument("--workers", type=_workers, metavar="N",
                    help="solver processes (default: one per core, fewer for short exports)")
+    a.add_argument("--tolerance", type=_checked(parse_tolerance), metavar="PX",
+                   help="web player and Spine: keys plus in-betweens where they replay puppet's frames within "
+                        "PX pixels (default 1; 0: a key on every frame)")
+    a.add_argument("--simplify", type=_checked(parse_simplify), metavar="PX",
+                   help="Spine: lighter meshes, coarser where they draw within PX pixels of puppet's "
+                        "(default: each layer's own mesh)")
 
     m = sub.add_parser("mesh", help="write the deformed meshes as JSON")
     m.add_argument("scene")
@@ -296,7 +313,8 @@ def run(argv: list[str] | None = None) -> int:
         check_file(out, probe=True)
     elif args.command == "animate":
         fmt = formats.find(args.output, args.format)
-        formats.check_options(fmt, size=args.size, wireframe=args.wireframe, background=args.background)
+        formats.check_options(fmt, size=args.size, wireframe=args.wireframe, background=args.background,
+                              tolerance=args.tolerance, simplify=args.simplify)
         if fmt.folder:
             check_folder(args.output, probe=True, contents=False)
         else:
@@ -325,7 +343,8 @@ def run(argv: list[str] | None = None) -> int:
         with _gl_allocation(scene, args.size):
             animate_to(scene, args.output, fps=args.fps, start=args.start, end=args.end, size=args.size,
                        wireframe=args.wireframe, progress=sys.stderr.isatty(), background=args.background,
-                       format=args.format, workers=args.workers, say=_say)
+                       format=args.format, workers=args.workers, say=_say, tolerance=args.tolerance,
+                       simplify=args.simplify)
     return 0
 
 

@@ -22,7 +22,8 @@ import numpy as np
 
 from puppet.anim import formats, pipeline, sinks
 from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background  # noqa: F401 (docs/api.md names export.parse_background)
-from puppet.anim.options import WORKER_BYTES, parse_workers, worker_cap
+from puppet.anim.options import KEY_TOLERANCE, WORKER_BYTES, parse_simplify, parse_tolerance, parse_workers
+from puppet.anim.options import worker_cap
 from puppet.anim.solver import Drawing, ProcessSolver, SolverPool
 from puppet.errors import SceneError
 from puppet.output import Staged, check_file, check_folder, commit_all, write_folder
@@ -83,7 +84,8 @@ def _background(scene, kind: str, output: str, background) -> tuple[object, bool
 def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None, wireframe=False,
                progress=False, background=None, threads: bool = True, solver: str = "auto",
                timings: pipeline.Timings | None = None, format: str | None = None, workers: int | None = None,
-               say: Callable[[str], None] | None = None) -> int:
+               say: Callable[[str], None] | None = None, tolerance: float | None = None,
+               simplify: float | None = None) -> int:
     """Render the scene's animation to ``output``; returns the number of frames.
 
     Parameters
@@ -113,6 +115,13 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
         is told to ``say``) and one per frame. 1: one solver, as ``solver`` says. PNG, GIF
         and video frames are encoded on as many threads (same bytes).
     say : ``say(line)`` for a note to the user (``workers`` cut to what the machine runs).
+    tolerance : web player and Spine only: pixels; keys are kept where interpolating
+        between them would replay a frame further than this from puppet's (default
+        :data:`puppet.anim.options.KEY_TOLERANCE`, 1 px; 0: a key on every frame, as
+        before keys were reduced). See :mod:`puppet.anim.keys`.
+    simplify : Spine only: pixels; each layer's mesh made coarser where it still draws
+        within this of puppet's over every frame (None: the layers' own meshes). See
+        :mod:`puppet.anim.simplify`.
 
     The output and the files beside it are checked (writable, no input of the scene
     overwritten), the frame count bounded (:data:`MAX_FRAMES`), options the format cannot
@@ -122,7 +131,10 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     if anim is None:
         raise SceneError("the scene has no animation to export", file=scene.file, path="animation")
     fmt = formats.find(output, format)
-    formats.check_options(fmt, size=size, wireframe=wireframe, background=background)
+    formats.check_options(fmt, size=size, wireframe=wireframe, background=background, tolerance=tolerance,
+                          simplify=simplify)
+    tolerance = KEY_TOLERANCE if tolerance is None else parse_tolerance(tolerance)
+    simplify = None if simplify is None else parse_simplify(simplify)
     inputs = input_files(scene.data)
     (check_folder if fmt.folder else check_file)(output, inputs=inputs)
     for path in fmt.side(output):  # names puppet picks: never through a link
@@ -138,7 +150,8 @@ def animate_to(scene, output: str, *, fps=None, start=None, end=None, size=None,
     n = frame_count(t0, t1, rate)
     bg, alpha = _background(scene, fmt.kind, output, background)
     job = formats.Job(output=output, size=tuple(size or scene.canvas), fps=rate, start=t0, count=n,
-                      alpha=alpha, background=bg, scene=scene, inputs=inputs)
+                      alpha=alpha, background=bg, scene=scene, inputs=inputs, tolerance=tolerance,
+                      simplify=simplify)
     timings = pipeline.Timings() if timings is None else timings
     scene.built  # noqa: B018  (built here, on this thread: the solver thread only reads it)
 

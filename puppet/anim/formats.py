@@ -19,11 +19,14 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from puppet.anim.options import KEY_TOLERANCE
 from puppet.anim.sidefiles import sheet_atlas, spine_side
 from puppet.errors import SceneError
 
 #: Options of ``animate_to`` that some formats cannot honour (the others always apply).
-OPTIONS = ("size", "wireframe", "background")
+OPTIONS = ("size", "wireframe", "background", "tolerance", "simplify")
+#: The options of a format that draws its frames.
+DRAWN = frozenset({"size", "wireframe", "background"})
 
 
 @dataclass
@@ -40,6 +43,11 @@ class Job:
     staged : files beside the output whose names puppet picks (an atlas, a page image),
         written in full by the sink (never through a link, see
         :func:`puppet.anim.sinks.stage_bytes`) and committed together with the output.
+    tolerance : the keyed mesh exports (web player, Spine) keep the frames where
+        interpolating between keys would be further than this from puppet's (pixels; 0:
+        every frame), see :mod:`puppet.anim.keys`.
+    simplify : Spine: pixels; None: the layers' own meshes, else meshes made coarser
+        where they draw within this of puppet's (:mod:`puppet.anim.simplify`).
     """
 
     output: str
@@ -54,6 +62,8 @@ class Job:
     tmp: str = ""
     extra: dict = field(default_factory=dict)
     staged: list = field(default_factory=list)
+    tolerance: float = KEY_TOLERANCE
+    simplify: float | None = None
 
 
 @dataclass(frozen=True)
@@ -81,7 +91,7 @@ class Format:
     open: Callable[[Job], Any]
     pixels: bool = True
     also: tuple[str, ...] = ()
-    options: frozenset = frozenset(OPTIONS)
+    options: frozenset = DRAWN
     side: Callable[[str], list[str]] = lambda output: []
     prepare: Callable[[Job, Callable[[int], Any]], None] | None = None
 
@@ -218,9 +228,10 @@ FORMATS: tuple[Format, ...] = (
            side=lambda output: [sheet_atlas(output)], prepare=_sheet_prepare),
     Format("dir", "/", "folder of frame_00000.png ...", True, _dir),
     Format("html", ".html", "web player (one self-contained HTML file, WebGL2)", True, _html,
-           pixels=False, options=frozenset({"size", "background"})),
+           pixels=False, options=frozenset({"size", "background", "tolerance"})),
     Format("spine", ".spine.json", "Spine 4.2 JSON + .atlas + page PNG (game engines)", True, _spine,
-           pixels=False, also=(".json",), options=frozenset(), side=spine_side, prepare=_spine_prepare),
+           pixels=False, also=(".json",), options=frozenset({"tolerance", "simplify"}), side=spine_side,
+           prepare=_spine_prepare),
     Format("glb", ".glb", "glTF 2.0 binary: a mesh per layer, frames as morph targets", True, _glb,
            pixels=False, options=frozenset(), prepare=_glb_prepare),
 )
@@ -297,10 +308,17 @@ def find(path: str, kind: str | None = None) -> Format:
     return fmt
 
 
-def check_options(fmt: Format, *, size=None, wireframe=False, background=None) -> None:
+def check_options(fmt: Format, *, size=None, wireframe=False, background=None, tolerance=None,
+                  simplify=None) -> None:
     """Refuse an option the format cannot honour (one line naming it)."""
-    asked = {"size": size is not None, "wireframe": bool(wireframe), "background": background is not None}
+    asked = {"size": size is not None, "wireframe": bool(wireframe), "background": background is not None,
+             "tolerance": tolerance is not None, "simplify": simplify is not None}
     for name in OPTIONS:
-        if asked[name] and name not in fmt.options:
+        if not asked[name] or name in fmt.options:
+            continue
+        if name in DRAWN:
             raise SceneError(f"--{name} does not apply to {fmt.label}: it writes meshes and textures, "
                              "not drawn frames")
+        takers = [f".{f.kind}" if f.kind != "spine" else "Spine" for f in FORMATS if name in f.options]
+        raise SceneError(f"--{name} does not apply to {fmt.label}: only {' and '.join(takers)} "
+                         f"{'take' if len(takers) > 1 else 'takes'} it")

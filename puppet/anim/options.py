@@ -9,6 +9,32 @@ from puppet.errors import SceneError
 
 #: Frame rates accepted, frames per second.
 MIN_FPS, MAX_FPS = 0.01, 240.0
+#: Default ``--tolerance`` of the keyed mesh exports (Spine, the web player), canvas
+#: pixels: the most a replayed frame may differ from puppet's; 0 keeps every frame.
+KEY_TOLERANCE = 1.0
+#: Largest ``--tolerance`` accepted, pixels.
+MAX_TOLERANCE = 100.0
+
+
+def parse_tolerance(value, flag: str = "--tolerance", what: str = "0: a key on every frame") -> float:
+    """A ``--tolerance`` (or ``flag``) given by a user: pixels, 0..:data:`MAX_TOLERANCE`
+    (a number or its text). Raises SceneError (one line)."""
+    try:
+        tol = float(value.strip() if isinstance(value, str) else value)
+    except (TypeError, ValueError):
+        raise SceneError(f"{flag} {value!r} is not a number of pixels") from None
+    if isinstance(value, bool) or not 0.0 <= tol <= MAX_TOLERANCE:
+        raise SceneError(f"{flag} {value!r}: give pixels 0..{MAX_TOLERANCE:g} ({what})")
+    return tol
+
+
+def parse_simplify(value) -> float:
+    """A ``--simplify`` given by a user: pixels over 0, at most :data:`MAX_TOLERANCE`."""
+    tol = parse_tolerance(value, "--simplify", "over 0: how far the lighter meshes may draw from puppet's")
+    if tol == 0:
+        raise SceneError(f"--simplify {value!r}: give pixels over 0 (how far the lighter meshes may draw from "
+                         "puppet's); leave it out for the layers' own meshes")
+    return tol
 
 
 def parse_background(text: str) -> str | tuple[int, int, int, int]:

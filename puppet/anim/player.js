@@ -1,7 +1,13 @@
-// puppet's web player: plays the baked frames of one scene (written by puppet/anim/web.py).
+// puppet's web player: plays the solved frames of one scene (written by puppet/anim/web.py).
 // WebGL2, no dependencies. The page holds two data blocks: #puppet-meta (JSON: layers with
 // their textures as PNG data URIs, texture coordinates, triangles) and #puppet-frames
-// (base64 of int16: per frame, every layer's x, y then every layer's depth).
+// (base64 of key records: int32 layer, int32 frame, float32 cx1, cy1, cx2, cy2 of the
+// curve to the layer's next key (NaN: linear), then the layer's int16 x, y (interleaved)
+// and depths at that frame; a layer that draws nothing has none). The frames between a
+// layer's keys are computed on loading, as Spine's runtimes interpolate a deform timeline
+// (puppet/anim/keys.py): a fraction p of the way from one key to the next, linear in time
+// or read off the curve's polyline through its points at parameters 0, 0.1, ... 1; each
+// code rounded to the nearest.
 // Drawing follows puppet's compositor (puppet/render/passes.py, shaders/layer.glsl):
 //   1. clear to the background, depth 1;
 //   2. opaque pass: every non-empty triangle, depth test LEQUAL + write, fragments with
@@ -22,11 +28,53 @@
     for (let i = 0; i < s.length; i++) out[i] = s.charCodeAt(i);
     return out;
   }
-  const frameBytes = bytes(document.getElementById("puppet-frames").textContent);
-  const data = new Int16Array(frameBytes.buffer, 0, frameBytes.length >> 1);
-
   const N = meta.count, NV = meta.vertices, STRIDE = 3 * NV;  // int16 per frame
+
+  // the fraction at time t from a key at ta to the next at tb (curve: [cx1, cy1, cx2, cy2] or null)
+  function percent(t, ta, tb, curve) {
+    if (!curve) return (t - ta) / (tb - ta);
+    const [cx1, cy1, cx2, cy2] = curve;
+    let xa = ta, ya = 0;
+    for (let k = 1; k <= 10; k++) {
+      const s = k / 10, u = 1 - s, b1 = 3 * u * u * s, b2 = 3 * u * s * s, b3 = s * s * s;
+      const x = k === 10 ? tb : u * u * u * ta + b1 * cx1 + b2 * cx2 + b3 * tb;
+      const y = k === 10 ? 1 : b1 * cy1 + b2 * cy2 + b3;
+      if (x >= t) return x > xa ? ya + (t - xa) / (x - xa) * (y - ya) : y;
+      xa = x; ya = y;
+    }
+    return 1;
+  }
+
+  // every frame's codes (per frame: every layer's x, y, then every layer's depth) from the keys
+  function frameData() {
+    const raw = bytes(document.getElementById("puppet-frames").textContent);
+    const view = new DataView(raw.buffer);
+    const keys = meta.layers.map(() => []);
+    for (let o = 0; o < raw.length;) {
+      const li = view.getInt32(o, true), n = meta.layers[li].n;
+      const c = [0, 1, 2, 3].map((k) => view.getFloat32(o + 8 + 4 * k, true));
+      keys[li].push({f: view.getInt32(o + 4, true), curve: isNaN(c[0]) ? null : c,
+                     q: new Int16Array(raw.buffer, o + 24, 3 * n)});
+      o += 24 + 6 * n;
+    }
+    const data = new Int16Array(N * STRIDE);
+    meta.layers.forEach((L, li) => {
+      const ks = keys[li], n = L.n;
+      for (let j = 0; j < ks.length; j++) {
+        const a = ks[j], b = ks[j + 1] || a, last = j + 1 >= ks.length;
+        for (let f = a.f; f <= (last ? a.f : b.f - 1); f++) {
+          const p = f === a.f ? 0 : percent(f / meta.fps, a.f / meta.fps, b.f / meta.fps, a.curve);
+          const xy = f * STRIDE + 2 * L.base, d = f * STRIDE + 2 * NV + L.base;
+          for (let k = 0; k < 2 * n; k++) data[xy + k] = Math.round(a.q[k] + p * (b.q[k] - a.q[k]));
+          for (let k = 0; k < n; k++) data[d + k] = Math.round(a.q[2 * n + k] + p * (b.q[2 * n + k] - a.q[2 * n + k]));
+        }
+      }
+    });
+    return data;
+  }
+  const data = frameData();
   const canvas = document.getElementById("puppet-canvas");
+  canvas.puppetFrames = data;  // every frame's codes, for tests (tests/anim/test_web_keys.py)
   const gl = canvas.getContext("webgl2", {antialias: false, depth: true, alpha: true,
                                           premultipliedAlpha: true, preserveDrawingBuffer: true});
   const status = document.getElementById("puppet-status");

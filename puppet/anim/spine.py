@@ -12,10 +12,12 @@ What is written (keys as in Esoteric Software's "JSON export format" page):
   layer's region, v down), ``vertices`` (the rest mesh), ``triangles``, ``hull`` (the
   outer boundary loop's vertices come first, in order), ``edges`` (every mesh edge,
   vertex index x 2), ``width``/``height`` of the region;
-* ``animations``: ``animation`` (the scene's, from --from) with one ``deform`` key per
-  frame per moving layer (offsets from the setup vertices; linear between keys) and a
-  ``drawOrder`` key wherever the layers' order by mean depth changes; and one animation
-  per named pose, a single key at time 0.
+* ``animations``: ``animation`` (the scene's, from --from) with a ``deform`` timeline per
+  moving layer (offsets from the setup vertices): a key at every frame on a scene key
+  and at the frames the runtimes' interpolation (linear, or the key's Bezier ``curve``)
+  needs to replay every frame within ``--tolerance`` (1 px; :mod:`puppet.anim.keys`;
+  0: a key on every frame, linear), and a ``drawOrder`` key wherever the layers' order
+  by mean depth changes; and one animation per named pose, a single key at time 0.
 
 Coordinates: Spine's y axis points up. A canvas point (x, y) (pixels, y down, origin at
 the top-left) is ``(x - W / 2, H - y)`` in Spine: the skeleton's origin is the
@@ -27,11 +29,11 @@ the draw order follows each layer's mean depth), holes and separate pieces of on
 (Spine meshes have one outline: the longest boundary loop is the hull, the other loops'
 vertices follow as ordinary vertices; the triangles still draw them), the background.
 
-Memory: the deform keys of every frame are held until the JSON is written (as the file
-holds them): frames x vertices x 8 bytes as float32 (one array a frame), then each
-layer's timeline as JSON text (the file's text is never made as one string); frames x
-(vertices x 2 + layers x 4) is bounded by :data:`puppet.anim.sinks.MAX_HELD`, refused
-before any frame is solved.
+Memory: the deform offsets of every frame are held until the JSON is written (the keys
+are chosen from all of them): frames x vertices x 8 bytes as float32 (one array a
+frame), then each layer's timeline as JSON text (the file's text is never made as one
+string); frames x (vertices x 2 + layers x 4) is bounded by
+:data:`puppet.anim.sinks.MAX_HELD`, refused before any frame is solved.
 """
 from __future__ import annotations
 
@@ -45,8 +47,10 @@ import uuid
 
 import numpy as np
 
+from puppet.anim.keys import Key, plan, scene_frames
 from puppet.anim.sheet import write_png
 from puppet.anim.sidefiles import spine_side
+from puppet.anim.simplify import coarser
 from puppet.anim.sinks import Sink, check_held, stage_bytes
 from puppet.errors import SceneError
 from puppet.geom.mesh import boundary_edges, edges
@@ -61,6 +65,9 @@ PAD = 2
 DECIMALS = 2
 #: zlib level of the atlas pages.
 PNG_LEVEL = 6
+#: Pixels the rounding of written vertices and offsets may add to a replayed vertex
+#: (the setup vertex and the interpolated offset, each within 0.005 px per axis).
+ROUNDING = 0.015
 
 
 def page_path(path: str, k: int) -> str:
@@ -259,22 +266,34 @@ class SpineSink(Sink):
         self.frames += 1
 
     # -- writing -------------------------------------------------------------------
+    def _keys(self, frames: list[np.ndarray], times: np.ndarray, forced: list[int]) -> list[Key]:
+        """The deform keys of one layer's offsets (see :mod:`puppet.anim.keys`): within
+        the tolerance less what rounding the written values may add."""
+        if len(frames) < 3 or self.job.tolerance <= 0:
+            return [Key(f) for f in range(len(frames))]
+        return plan(np.stack(frames).astype(np.float64), times, forced, self.job.tolerance - ROUNDING)
+
     def _animation(self, keys: _Offsets, orders: list[list[int]], held: _Held) -> dict:
         """One animation; each deform timeline is JSON text kept in ``held`` (made a key
         at a time: no float objects for every frame), its place in the dict a marker."""
         fps = self.job.fps
         slot_names = [self.names[i] for i in self.slots]
         deform: dict = {}
+        times = np.arange(len(keys.frames)) / fps
+        forced = scene_frames(self.job.scene.data.animation, self.job.start, fps, len(keys.frames))
         for i in self.slots:
             frames = keys.layer(i)
             if not any(np.any(np.abs(f) >= 0.5 * 10.0 ** -DECIMALS) for f in frames):
                 continue  # never moves: no timeline
             region = self.regions[self.slot_of[i]]
             timeline = []
-            for f, off in enumerate(frames):
-                key: dict = {"time": round(f / fps, 6)}
+            for k in self._keys(frames, times, forced):
+                key: dict = {"time": round(k.frame / fps, 6)}
+                off = frames[k.frame]
                 if np.any(np.abs(off) >= 0.5 * 10.0 ** -DECIMALS):
                     key["vertices"] = _r(off)
+                if k.curve is not None:
+                    key["curve"] = list(k.curve)
                 timeline.append(json.dumps(key, separators=(",", ":")))
             deform[self.names[i]] = {region: {"deform": held.add(timeline)}}
         anim: dict = {}
@@ -312,8 +331,36 @@ class SpineSink(Sink):
             out[self.names[i]] = {region: mesh}
         return {"name": "default", "attachments": out}
 
+    def _simplify(self) -> None:
+        """Each layer's mesh swapped for a coarser one where that draws every frame and
+        pose within ``--simplify`` pixels of puppet's (:mod:`puppet.anim.simplify`), its
+        offsets carried over (``W`` keeps offsets: its rows sum to one)."""
+        poses = list(self.poses)
+        frames = [np.concatenate([np.stack(self.keys.layer(i))] + [self.poses[p][0][i][None] for p in poses])
+                  for i in range(len(self.perm))]
+        for i, F in enumerate(frames):
+            perm = self.perm[i]
+            inverse = np.empty_like(perm)
+            inverse[perm] = np.arange(len(perm))
+            c = coarser(self.job.scene, i, self.rest_xy[i][perm], inverse[self.triangles[i]], F, self.job.simplify)
+            if c is None:
+                continue
+            cperm, self.hulls[i] = hull_first(c.F, len(c.V))
+            self.perm[i], self.rest_xy[i], self.triangles[i] = cperm, c.V, c.F
+            self.setup[i] = to_spine(c.V[cperm], self.canvas)
+            frames[i] = (c.W[cperm] @ F.reshape(len(F), -1, 2).transpose(1, 0, 2).reshape(len(perm), -1)) \
+                .reshape(len(cperm), len(F), 2).transpose(1, 0, 2).astype(np.float32)
+        starts = np.concatenate([[0], np.cumsum([len(s) for s in self.setup])]).astype(int).tolist()
+        m = len(self.keys.frames)
+        self.keys = _Offsets(starts)
+        for f in range(m):
+            self.keys.append([F[f] for F in frames])
+        self.poses = {p: ([F[m + j] for F in frames], self.poses[p][1]) for j, p in enumerate(poses)}
+
     def close(self) -> None:
         images = [im.drawn for im in self.job.scene.built.images]
+        if self.job.simplify:
+            self._simplify()
         held = _Held()
         anims = {"animation": self._animation(self.keys, self.orders, held)}
         for name, (offs, order) in self.poses.items():

@@ -3,19 +3,26 @@ animation in a browser with a small WebGL2 player (:file:`player.js`, in this pa
 
 Nothing is referenced outside the file: every layer's texture is a PNG data URI (the
 cropped image the compositor uploads, see :attr:`puppet.scene.rig.build.LayerImage.drawn`)
-and the frames are baked: the deformed vertices and depths of every frame, as puppet's
-solver gives them (in-betweens included), so the page needs no solver.
+and the frames are puppet's solved meshes (in-betweens included), so the page needs no
+solver. They are stored as keys: per layer, the frames on the scene's keys and those
+that interpolation in the page (linear, or a Bezier curve, as Spine's runtimes compute
+it: :mod:`puppet.anim.keys`) needs to give every frame within ``--tolerance`` pixels
+(default 1; 0: every frame stored) and its depths within :data:`DEPTH_TOLERANCE`; the
+page computes the other frames when it loads.
 
 Layout of the page: ``#puppet-meta`` (JSON: canvas, fps, layers with their texture,
 texture coordinates as float32 and triangles as uint32, all base64) and
-``#puppet-frames`` (base64 of int16: per frame, every layer's x, y, then every layer's
-depth). It is streamed: each frame's 6 bytes a vertex encode to base64 on their own (a
-multiple of 3 bytes: no padding), so memory stays flat in the frame count.
+``#puppet-frames`` (base64 of key records of the layers the page draws, each a multiple of 3 bytes, so the records
+encode to base64 one at a time without padding: int32 layer, int32 frame, float32
+``cx1, cy1, cx2, cy2`` of the curve to the layer's next key (NaN: linear), then the
+layer's int16 codes at that frame: its x, y (interleaved), then its depths). Records are
+written as each span between the scene's keys (at most :data:`SPAN` frames) is planned:
+memory is bounded by the span, not by the frame count.
 
 Quantisation (see :func:`quantisation`): positions are int16 over the canvas widened by
 one canvas on each side (``3 W / 65534`` px a step: 0.032 px at 700 px), clamped
 beyond; depths are int16 in steps of ``2**-k`` stacking units, k the largest that holds
-+/-(layers + 64).
++/-(layers + 64). An in-between is rounded to the nearest code.
 """
 from __future__ import annotations
 
@@ -27,15 +34,22 @@ import json
 import math
 import os
 import re
+import struct
 from importlib import resources
 
 import numpy as np
 
+from puppet.anim.keys import SPAN, plan, scene_frames
 from puppet.anim.sinks import Sink
 from puppet.render.layers import classify_triangles
 
 #: int16 codes used (symmetric: -Q..Q).
 Q = 32767
+#: Largest depth error of an in-between computed in the page, stacking units (a layer's
+#: stacking distance is 1).
+DEPTH_TOLERANCE = 0.05
+#: Bytes of a key record's header: int32 layer, int32 frame, 4 float32 of the curve.
+HEADER = struct.Struct("<ii4f")
 
 
 def quantisation(canvas: tuple[int, int], layers: int) -> tuple[tuple[float, float, float, float], float]:
@@ -145,13 +159,19 @@ def _background(bg) -> tuple[list[float], str]:
 
 
 class HtmlSink(Sink):
-    """Writes the page to ``job.tmp`` as frames come (solved layers, not pixels)."""
+    """Writes the page to ``job.tmp`` as frames come (solved layers, not pixels): the
+    frames since the last key are held (int16 codes) until the next scene key, or
+    :data:`SPAN` frames, or the last frame; then each layer's keys up to there are planned
+    and written."""
 
     def __init__(self, job):
         super().__init__()
         self.job = job
         self.fp = open(job.tmp, "w", encoding="utf-8")
         self.quant = self.depth_step = None
+        self.held: list[np.ndarray] = []  # codes of the frames from the span's first key on
+        self.first = 0  # the frame of held[0]
+        self.forced = set(scene_frames(job.scene.data.animation, job.start, job.fps, job.count))
 
     def _head(self, layers) -> None:
         job, scene = self.job, self.job.scene
@@ -161,8 +181,13 @@ class HtmlSink(Sink):
             image, offset = im.drawn
             entries.append(layer_entry(r, image, offset, base, L.visible))
             base += len(r.rest)
+        self.spans = [(e["base"], e["n"]) for e in entries]
+        # the page draws, and reads the frames of, only layers with opaque triangles (a
+        # hidden layer has none): the others get no keys
+        self.drawn = [i for i, e in enumerate(entries) if e["opaque"]]
+        self.nv = base
         clear, css = _background(job.background)
-        meta = {"puppet": 1, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,
+        meta = {"puppet": 2, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,
                 "start": job.start, "count": job.count, "vertices": base, "quant": list(self.quant),
                 "depthStep": self.depth_step, "background": clear, "layers": entries}
         title = html.escape(_utf8(os.path.basename(scene.file or "puppet")))
@@ -175,14 +200,51 @@ class HtmlSink(Sink):
     def add(self, layers) -> None:
         if self.quant is None:
             self._head(layers)
-        self.fp.write(base64.b64encode(encode_frame(layers, self.quant, self.depth_step)).decode("ascii"))
-        self.fp.write("\n")
+        self.held.append(np.frombuffer(encode_frame(layers, self.quant, self.depth_step), "<i2"))
+        f = self.frames
         self.frames += 1
+        if f > self.first and (f in self.forced or f == self.job.count - 1 or f - self.first >= SPAN):
+            self._flush()
+
+    def _layer(self, q: np.ndarray, i: int) -> np.ndarray:
+        """Layer ``i``'s frames of the codes ``q`` (frames, 3 x vertices) as (frames, n,
+        3): x, y in pixels and depth scaled so that :data:`DEPTH_TOLERANCE` counts as the
+        tolerance."""
+        b, n = self.spans[i]
+        sx, sy = self.quant[:2]
+        depth = q[:, 2 * self.nv + b:2 * self.nv + b + n] * (self.depth_step * self.job.tolerance / DEPTH_TOLERANCE)
+        return np.concatenate([q[:, 2 * b:2 * (b + n)].reshape(len(q), n, 2) * (sx, sy), depth[..., None]], axis=2)
+
+    def _flush(self) -> None:
+        """Plan each layer's keys over the held span, write all but its last frame (the
+        next span's first), keep that frame."""
+        m = len(self.held)
+        T = np.arange(self.first, self.first + m) / self.job.fps
+        tol = self.job.tolerance - 2 * max(self.quant[:2])  # a code's rounding, twice
+        q = np.stack(self.held)
+        for i in self.drawn:  # (a tolerance of 0 or less: every frame, linear)
+            for k in plan(self._layer(q, i), T, [], tol)[:-1]:
+                self._record(i, k.frame, k.curve)
+        self.first += m - 1
+        self.held = self.held[-1:]
+
+    def _record(self, i: int, f: int, curve) -> None:
+        """Write layer ``i``'s key at held frame ``f`` with its curve (None: linear)."""
+        b, n = self.spans[i]
+        q = self.held[f]
+        head = HEADER.pack(i, self.first + f, *(curve if curve is not None else (math.nan,) * 4))
+        body = np.concatenate([q[2 * b:2 * (b + n)], q[2 * self.nv + b:2 * self.nv + b + n]]).astype("<i2")
+        self.fp.write(base64.b64encode(head + body.tobytes()).decode("ascii"))
+        self.fp.write("\n")
 
     def close(self) -> None:
         try:
             if self.quant is None:
                 raise ValueError("no frames")
+            if len(self.held) > 1:
+                self._flush()
+            for i in self.drawn:  # every layer's last key: the last frame
+                self._record(i, 0, None)
             script = resources.files("puppet.anim").joinpath("player.js").read_text("utf-8")
             self.fp.write(fill(self.tail, {"player": script_code(script)}))
         finally:

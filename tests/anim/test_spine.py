@@ -1,6 +1,7 @@
 """Spine 4.2 JSON + atlas: the keys the format documents, a valid hull per mesh, and the
-deform keys replayed (setup vertices + offsets, y flipped back) against ``puppet mesh``
-within 1 px; draw-order offsets decoded as the format defines them."""
+deform keys replayed (setup vertices + offsets interpolated as the runtimes do, y flipped
+back) against ``puppet mesh`` within 1 px; draw-order offsets decoded as the format
+defines them."""
 from __future__ import annotations
 
 import json
@@ -14,6 +15,7 @@ from scipy.spatial import cKDTree
 from puppet.anim.spine import hull_first, order_offsets, pack
 from puppet.cli import main
 from puppet.geom.mesh import boundary_edges
+from tests.anim.test_spine_keys import replay_spine
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TREX = os.path.join(ROOT, "assets", "scenes", "trex-layers.json")
@@ -103,8 +105,14 @@ def test_documented_keys(export):
             (att, tl), = by_att.items()
             assert att == slot and list(tl) == ["deform"]
             keys = tl["deform"]
-            assert len(keys) == (13 if name == "animation" else 1)
-            assert all(set(k) <= {"time", "vertices"} for k in keys)  # no curve: linear
+            times = [k["time"] for k in keys]
+            if name == "animation":  # the scene's keys (0, 0.5, 1 s) and what interpolation needs
+                assert {0.0, 0.5, 1.0} <= set(times) and len(keys) <= 13 and times == sorted(times)
+            else:
+                assert times == [0.0]
+            assert all(set(k) <= {"time", "vertices", "curve"} for k in keys)
+            assert all(len(k["curve"]) == 4 and keys[i]["time"] <= k["curve"][0] <= k["curve"][2] <= keys[i + 1]["time"]
+                       for i, k in enumerate(keys) if "curve" in k)  # handles' times within the span
             n = len(atts[slot][att]["vertices"])
             assert all(len(k.get("vertices", [0] * n)) == n for k in keys)
 
@@ -133,8 +141,9 @@ def test_meshes_are_valid_with_the_hull_first(export):
 
 
 def replay(doc, anim: str, t: float, W: int, H: int) -> dict[str, np.ndarray]:
-    """Canvas positions (n, 2) per slot at time t: setup + the deform key (keys are per
-    frame, so t is on one), Spine y up mapped back to canvas y down."""
+    """Canvas positions (n, 2) per slot at time t: the deform timeline interpolated as the
+    Spine runtimes do (:func:`tests.anim.test_spine_keys.replay_spine`), Spine y up mapped
+    back to canvas y down."""
     out = {}
     atts = doc["skins"][0]["attachments"]
     timelines = doc["animations"][anim].get("attachments", {}).get("default", {})
@@ -142,8 +151,7 @@ def replay(doc, anim: str, t: float, W: int, H: int) -> dict[str, np.ndarray]:
         (att, m), = by_att.items()
         v = np.asarray(m["vertices"], float)
         if slot in timelines:
-            key = next(k for k in timelines[slot][att]["deform"] if abs(k.get("time", 0) - t) < 1e-6)
-            v = v + np.asarray(key.get("vertices", np.zeros_like(v)), float)
+            v = replay_spine(timelines[slot][att]["deform"], v, t)
         xy = v.reshape(-1, 2)
         out[slot] = np.stack([xy[:, 0] + W / 2, H - xy[:, 1]], axis=1), np.reshape(m["vertices"], (-1, 2))
     return out

@@ -1,6 +1,7 @@
 """The HTML web player: the file is self-contained, the int16 codes round-trip, and in a
-real browser (headless Chromium, WebGL2 through SwiftShader) each tested frame matches
-``puppet render --time`` (< 2 % of pixels off by more than 40 grey levels)."""
+real browser (headless Chromium, WebGL2 through SwiftShader) each tested frame, keys and
+in-betweens the page computes (linear and on curves), matches ``puppet render --time``
+(< 2 % of pixels off by more than 40 grey levels)."""
 from __future__ import annotations
 
 import json
@@ -109,7 +110,7 @@ def test_page_is_self_contained_and_small(page):
 @needs_browser
 def test_browser_frames_match_puppet_render(page, tmp_path):
     refs = {}
-    for t in (0.0, 0.25, 0.5, 1.0):
+    for t in (0.0, 0.25, 7 / 12, 1.0):  # 7/12 s: in-betweens on curves (the T-rex's head, tail, arm)
         ref = str(tmp_path / f"ref{t}.png")
         assert main(["render", page.scene, "--time", str(t), "-o", ref]) == 0
         refs[t] = np.asarray(Image.open(ref).convert("RGB"))
@@ -117,8 +118,8 @@ def test_browser_frames_match_puppet_render(page, tmp_path):
         off = grey_off(shot, refs[t])
         assert off < 0.02, (t, off)
     # the frames differ from each other, so matching the right one means something
-    assert grey_off(refs[0.0], refs[0.5]) > 0.01
-    assert grey_off(shot, refs[0.5]) > 0.01  # the last shot (t = 1) is not t = 0.5
+    assert grey_off(refs[0.0], refs[7 / 12]) > 0.01
+    assert grey_off(shot, refs[7 / 12]) > 0.01  # the last shot (t = 1) is not t = 7/12
 
 
 DRIVE = """<script>
