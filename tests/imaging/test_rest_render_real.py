@@ -14,9 +14,9 @@ from tests.imaging.test_layered_real import DATA
 
 pytestmark = pytest.mark.gl
 
-#: files with several visible layers; left out: ``adjustments-levels_rgb.psd`` (two masked
-#: levels adjustments overlap: 3.6 % of its pixels differ, by up to 45, in the import
-#: itself, see docs/import.md) and ``stroke-color-descriptors-lab.psd`` (psd-tools'
+#: files with several visible layers; left out: ``adjustments-levels_rgb.psd`` (3.6 % of its
+#: pixels differ, by up to 45, in the import itself: four empty pixel layers with masks
+#: that the file's merged image draws and the import skips, see docs/import.md) and ``stroke-color-descriptors-lab.psd`` (psd-tools'
 #: composite of that Lab file is transparent everywhere: no reference)
 FILES = ["2layers.psd", "16bit5x5.psd", "32bit5x5.psb", "blend-multiply.psd", "clip-opacity.psd", "group.psd",
          "hidden-layer.psd", "masks-2.psd", "passthrough_opacity.psd"]
