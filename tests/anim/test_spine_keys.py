@@ -294,9 +294,12 @@ def test_simplified_meshes_draw_every_frame_within_a_pixel(tmp_path):
             err = np.linalg.norm(got - np.asarray(frames[f][i].deformed), axis=1).max()
             assert err < 1.0, (L.name, f, err)
     # lighter meshes (the T-rex's heads and front arm keep theirs: their outlines bend
-    # more than 0.5 px between coarse outline vertices; measured 7814 -> 3718)
-    assert coarse < 0.6 * fine
-    assert os.path.getsize(out) < 0.6 * os.path.getsize(full)
+    # more than 0.5 px between coarse outline vertices; measured 7943 -> 5277 since an
+    # outline may not cut more than 0.45 px into a layer, 7814 -> 3718 before, when the
+    # coarse meshes left edge pixels out)
+    assert coarse < 0.7 * fine, (coarse, fine)
+    # (the file: 0.99 of 1.40 MB, 0.70; 0.5 or so before)
+    assert os.path.getsize(out) < 0.75 * os.path.getsize(full), (os.path.getsize(out), os.path.getsize(full))
 
 
 def test_a_long_span_gets_a_key_every_span(monkeypatch):

@@ -160,20 +160,20 @@ def test_a_folder_without_a_known_ending_or_with_a_slash_gets_frames(tmp_path, b
 
 # -- exports that hold every frame ---------------------------------------------------
 def test_a_spine_export_too_long_to_hold_is_refused_up_front_within_a_memory_cap(tmp_path):
-    scene = make_bar(tmp_path / "s", seconds=4000)  # 298 vertices; 96001 frames at 24 fps
+    scene = make_bar(tmp_path / "s", seconds=4000)  # 308 vertices; 96001 frames at 24 fps
     before = snapshot(tmp_path)
     line = one_error_line(capped("animate", scene, "-o", tmp_path / "long.spine.json", "--fps", "24",
                                  memory=3 << 30, timeout=60))
-    assert "4000 s at 24 fps (96001 frames) x 298 vertices in 1 layer would hold 5.8e+07 numbers" in line
+    assert "4000 s at 24 fps (96001 frames) x 308 vertices in 1 layer would hold 6e+07 numbers" in line
     assert f"more than the {sinks.MAX_HELD:.2g} that a Spine file" in line and "use .html" in line
     assert snapshot(tmp_path) == before
 
 
 def test_a_glb_with_too_many_vertices_for_its_frames_is_refused_through_the_api(tmp_path, monkeypatch):
-    scene = load_scene(make_bar(tmp_path / "s", seconds=1.0))  # 11 frames x (298 vertices x 3 + 1 layer x 120)
+    scene = load_scene(make_bar(tmp_path / "s", seconds=1.0))  # 11 frames x (308 vertices x 3 + 1 layer x 120)
     monkeypatch.setattr(sinks, "MAX_HELD", 5000)
     before = snapshot(tmp_path)
-    with pytest.raises(SceneError, match=r"11 frames\) x 298 vertices in 1 layer would hold 1\.1e\+04 numbers "
+    with pytest.raises(SceneError, match=r"11 frames\) x 308 vertices in 1 layer would hold 1\.1e\+04 numbers "
                                          r"\(3 a vertex and 120 a layer each frame\), more than the 5e\+03"):
         animate_to(scene, str(tmp_path / "o.glb"))
     assert snapshot(tmp_path) == before
