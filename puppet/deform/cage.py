@@ -32,7 +32,7 @@ from puppet.geom.contour import ring_area
 from puppet.geom.laplacian import cotangent_laplacian
 
 __all__ = ["KINDS", "MAX_COORD", "CageMap", "mvc", "green", "harmonic", "harmonic_mesh",
-           "harmonic_weights", "fit_cage", "check_cage", "auto_cage", "winding"]
+           "harmonic_weights", "CageFit", "fit_cage", "check_cage", "auto_cage", "winding"]
 
 #: The coordinate kinds, the default first.
 KINDS = ("green", "mvc", "harmonic")
@@ -81,6 +81,29 @@ def _half_tan(r, rn, cross, dot):
         return np.where(dot > 0, cross / (rr + dot), (rr - dot) / cross)
 
 
+def _snapped(C: np.ndarray, X: np.ndarray, tol: float) -> np.ndarray:
+    """``X`` with every point within ``tol`` of the cage moved onto it (onto a vertex
+    within ``tol`` of one, else onto the nearest edge), so that the boundary cases below
+    see one consistent position."""
+    E = np.roll(C, -1, axis=0) - C
+    d = X[:, None, :] - C[None]
+    t = np.clip((d * E[None]).sum(axis=2) / (E * E).sum(axis=1)[None], 0.0, 1.0)
+    Q = C[None] + t[..., None] * E[None]
+    dist = np.hypot(*(X[:, None, :] - Q).transpose(2, 0, 1))
+    k = dist.argmin(axis=1)
+    near = dist[np.arange(len(X)), k] <= tol
+    if not near.any():
+        return X
+    X = X.copy()
+    X[near] = Q[near, k[near]]
+    dv = np.hypot(*(X[near, None, :] - C[None]).transpose(2, 0, 1))
+    j = dv.argmin(axis=1)
+    at = dv[np.arange(len(j)), j] <= tol
+    idx = np.flatnonzero(near)[at]
+    X[idx] = C[j[at]]
+    return X
+
+
 def _on_boundary(r, rn, cross, dot, tol):
     """(n, m) masks: the point lies on vertex k; the point lies inside edge k."""
     at_vertex = r <= tol
@@ -113,6 +136,7 @@ def mvc(cage, points, *, tol: float = 1e-9) -> np.ndarray:
     W : (n, m) float, rows summing to 1 with ``W @ cage == points``.
     """
     C, X = _cage(cage), _as_points(points, "points")
+    X = _snapped(C, X, tol * _scale(C))
     r, rn, cross, dot = _edge_frames(C, X)
     at_vertex, on_edge = _on_boundary(r, rn, cross, dot, tol * _scale(C))
     t = _half_tan(r, rn, cross, dot)
@@ -170,6 +194,7 @@ def green(cage, points, *, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     ln = np.hypot(E[:, 0], E[:, 1])
     T = E / ln[:, None]
     N = sigma * (T @ _QUARTER)  # outward unit normals
+    X = _snapped(C, X, tol * _scale(C))
     r, rn, cross, dot = _edge_frames(C, X)
     at_vertex, on_edge = _on_boundary(r, rn, cross, dot, tol * _scale(C))
     d0 = C[None] - X[:, None]
@@ -386,17 +411,70 @@ def _similarity_laplacian(C: np.ndarray) -> np.ndarray:
     return np.block([[Dl - a, -bt], [bt, Dl - a]])
 
 
+def _gradient_jumps(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
+    """(4 p, 2 k) rows: the jump of a map's 2x2 gradient across each of the p interior
+    edges of the mesh (V, F), from the map's x then y values at the k vertices, weighted
+    by the root of the two triangles' mean area (so the squared norm is an integral, px^2).
+    Zero exactly for affine maps."""
+    k, T = len(V), len(F)
+    Einv = np.linalg.inv(np.stack([V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]], axis=-1))  # (T, 2, 2)
+    # d u / d x_c = sum_j (u_j - u_0) Einv[j - 1, c]: per corner the coefficient of u at it
+    coef = np.stack([-Einv[:, 0] - Einv[:, 1], Einv[:, 0], Einv[:, 1]], axis=1)  # (T, 3 corners, 2 columns)
+    rows, cols, vals = [], [], []
+    for comp in range(2):  # the map's x, then y
+        for c in range(2):  # d/dx, d/dy
+            r = np.repeat(np.arange(T) * 4 + comp * 2 + c, 3)
+            rows.append(r)
+            cols.append(F.ravel() + comp * k)
+            vals.append(coef[:, :, c].ravel())
+    G = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(4 * T, 2 * k))
+    half = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    owner = np.tile(np.arange(T), 3)
+    order = np.lexsort((half[:, 1], half[:, 0]))
+    h, o = half[order], owner[order]
+    same = (h[1:] == h[:-1]).all(axis=1)
+    t, u = o[:-1][same], o[1:][same]
+    area = 0.5 * np.abs(np.linalg.det(np.stack([V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]], axis=-1)))
+    w = np.sqrt(0.5 * (area[t] + area[u]))
+    rows = np.arange(4 * len(t))
+    jump = sp.csr_matrix((np.concatenate([np.repeat(w, 4), -np.repeat(w, 4)]),
+                          (np.concatenate([rows, rows]),
+                           np.concatenate([(t[:, None] * 4 + np.arange(4)).ravel(),
+                                           (u[:, None] * 4 + np.arange(4)).ravel()]))),
+                         shape=(len(rows), 4 * T))
+    return jump @ G
+
+
+class CageFit:
+    """What landmark fitting needs of a rest cage, made once per cage and kind: the
+    smoothness energy ``H`` over the cage's x then y coordinates (2m, 2m).
+
+    ``H`` is the squared jump of the cage map's gradient across the edges of a coarse
+    mesh of the cage's interior (a discrete ``int |f''|^2``, as Weber et al. 2009 use for
+    point-to-point Cauchy-Green), plus ``1e-3`` times the cage's similarity-invariant
+    Laplacian (it picks the similarity among the affine maps too few pins leave free).
+    Both vanish on every similarity of the cage."""
+
+    def __init__(self, cage, kind: str = "green", *, samples: int = 12, **options):
+        self.cage = _cage(cage)
+        self.kind = kind
+        hm = harmonic_mesh(self.cage, max_edge=_scale(self.cage) / samples, min_angle=25.0)
+        A = CageMap(self.cage, hm.V, kind, **options).operator()  # (2k, 2m)
+        D = _gradient_jumps(hm.V, hm.F) @ A
+        R = _similarity_laplacian(self.cage)
+        self.H = D.T @ D + 1e-3 * (R.T @ R)
+
+
 def fit_cage(cage, kind: str, pins_rest, pins_target, *, smooth: float = 0.0, fixed=None,
-             cage_map: CageMap | None = None, **options) -> np.ndarray:
+             cage_map: CageMap | None = None, fit: CageFit | None = None, **options) -> np.ndarray:
     """The cage whose map carries the pins to their targets, as smooth as it can be.
 
-    Minimises ``|R C'|^2`` with ``R`` the cage's similarity-invariant Laplacian (a cage
-    that bends like the rest cage up to a similarity at each vertex), the pins held at
-    their targets (``smooth == 0``), or ``|A C' - targets|^2 + smooth * |R C'|^2`` where
-    ``smooth > 0`` lets them give. One dense linear solve (the unknowns are the cage's
-    2m coordinates). A similarity of the pins gives that similarity of the cage (both
-    terms vanish there); for ``green`` this is the point-to-point Cauchy-Green fit of
-    Weber, Ben-Chen & Gotsman (2009, section 5) with a smoothness term on the cage.
+    Minimises the smoothness energy ``E(C')`` of :class:`CageFit` with the pins held at
+    their targets (``smooth == 0``), or ``|A C' - targets|^2 + smooth * E(C')`` where
+    ``smooth > 0`` lets them give (``A`` the pins' cage map). One dense linear solve (the
+    unknowns are the cage's 2m coordinates). ``E`` is zero on similarities, so a
+    similarity of the pins gives that similarity of the cage; for ``green`` this is the
+    point-to-point Cauchy-Green fit of Weber, Ben-Chen & Gotsman (2009, section 5).
 
     Parameters
     ----------
@@ -407,7 +485,8 @@ def fit_cage(cage, kind: str, pins_rest, pins_target, *, smooth: float = 0.0, fi
         can give).
     fixed : optional ``(indices, positions)`` of cage vertices posed directly (handles a
         pose moves); they are held exactly.
-    cage_map : a :class:`CageMap` of the pins already made (else made here).
+    cage_map, fit : the pins' :class:`CageMap` and the cage's :class:`CageFit`, when
+        already made (a drag makes them once and solves at each move).
 
     Returns
     -------
@@ -417,6 +496,7 @@ def fit_cage(cage, kind: str, pins_rest, pins_target, *, smooth: float = 0.0, fi
     m = len(C)
     Pt = _as_points(pins_target, "pins_target")
     cmap = CageMap(C, pins_rest, kind, **options) if cage_map is None else cage_map
+    H = (CageFit(C, kind, **options) if fit is None else fit).H
     A = cmap.operator()
     y = np.concatenate([Pt[:, 0], Pt[:, 1]])
     if fixed is not None and len(fixed[0]):
@@ -427,18 +507,15 @@ def fit_cage(cage, kind: str, pins_rest, pins_target, *, smooth: float = 0.0, fi
         Z = np.zeros_like(S)
         A = np.vstack([A, np.block([[S, Z], [Z, S]])])
         y = np.concatenate([y, pos[:, 0], pos[:, 1]])
-    R = _similarity_laplacian(C)
     x0 = np.concatenate([C[:, 0], C[:, 1]])
-    tiny = 1e-10  # a pull to the rest cage, for the similarity one pin leaves free
+    tiny = 1e-9 * np.trace(H) / (2 * m)  # a pull to the rest cage, for what no pin fixes
+    H = H + tiny * np.eye(2 * m)
     if smooth > 0:
-        H = A.T @ A + smooth * (R.T @ R) + tiny * np.eye(2 * m)
-        x = scipy.linalg.solve(H, A.T @ y + tiny * x0, assume_a="pos")
+        x = scipy.linalg.solve(A.T @ A + smooth * H, A.T @ y + smooth * tiny * x0, assume_a="pos")
     else:
-        H = R.T @ R + tiny * np.eye(2 * m)
         k = len(y)
         K = np.block([[H, A.T], [A, np.zeros((k, k))]])
-        rhs = np.concatenate([tiny * x0, y])
-        x = scipy.linalg.lstsq(K, rhs)[0][: 2 * m]
+        x = scipy.linalg.lstsq(K, np.concatenate([tiny * x0, y]))[0][: 2 * m]
     return np.stack([x[:m], x[m:]], axis=1)
 
 
