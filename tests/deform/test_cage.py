@@ -184,6 +184,11 @@ def test_landmark_fitting():
                 assert np.abs(cm.apply(fitted) - target).max() <= 0.5
                 U = mesh_map.apply(fitted)
                 assert (signed_areas(U, F) * signed_areas(V, F) > 0).all()  # nothing folds
+    # an affine motion of the pins gives that affine motion of the cage (affine-precise kinds)
+    affine = np.array([[0.75, 0.1], [0.05, 1.1]])
+    for kind in ("mvc", "harmonic"):
+        fitted = fit_cage(C, kind, pins[:4], pins[:4] @ affine.T + [3.0, 4.0])
+        assert np.abs(fitted - (C @ affine.T + [3.0, 4.0])).max() <= 0.1
     # soft pins give way as smooth grows; fixed cage vertices are held
     kind, cm = "mvc", CageMap(C, pins, "mvc")
     target = pins + rng.normal(0.0, 5.0, pins.shape)
