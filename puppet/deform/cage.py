@@ -39,6 +39,7 @@ KINDS = ("green", "mvc", "harmonic")
 #: Largest absolute cage coordinate accepted (px), as the scene format's coordinates.
 MAX_COORD = 1e6
 _QUARTER = np.array([[0.0, -1.0], [1.0, 0.0]])  # row vector e @ _QUARTER = (e_y, -e_x)
+_CHUNK = 8192  # points per block of the (n, m) temporaries
 
 
 def _as_points(P, name: str) -> np.ndarray:
@@ -112,8 +113,9 @@ def _on_boundary(r, rn, cross, dot, tol):
 
 
 def winding(cage, points) -> np.ndarray:
-    """Winding number of the cage around each point (0 outside, +-1 inside a simple
-    cage, by its orientation); a point on the cage gets 0.5 (+- for orientation)."""
+    """Winding number of the cage around each point: 0 outside, +-1 inside a simple cage
+    (the sign is its orientation); about +-0.5 on the cage (+-1 or 0 on an edge, by the
+    rounding of the point's side: test distances where that matters)."""
     C, X = _as_points(cage, "cage"), _as_points(points, "points")
     r, rn, cross, dot = _edge_frames(C, X)
     return np.arctan2(cross, dot).sum(axis=1) / (2.0 * np.pi)
@@ -136,9 +138,23 @@ def mvc(cage, points, *, tol: float = 1e-9) -> np.ndarray:
     W : (n, m) float, rows summing to 1 with ``W @ cage == points``.
     """
     C, X = _cage(cage), _as_points(points, "points")
-    X = _snapped(C, X, tol * _scale(C))
+    return _by_chunks(_mvc_rows, C, X, tol * _scale(C))
+
+
+def _by_chunks(rows, C: np.ndarray, X: np.ndarray, tol: float):
+    """``rows(C, X, tol)`` over blocks of ``X`` (the (n, m) temporaries stay small)."""
+    if len(X) <= _CHUNK:
+        return rows(C, X, tol)
+    parts = [rows(C, X[i:i + _CHUNK], tol) for i in range(0, len(X), _CHUNK)]
+    if isinstance(parts[0], tuple):
+        return tuple(np.concatenate(p) for p in zip(*parts))
+    return np.concatenate(parts)
+
+
+def _mvc_rows(C: np.ndarray, X: np.ndarray, tol: float) -> np.ndarray:
+    X = _snapped(C, X, tol)
     r, rn, cross, dot = _edge_frames(C, X)
-    at_vertex, on_edge = _on_boundary(r, rn, cross, dot, tol * _scale(C))
+    at_vertex, on_edge = _on_boundary(r, rn, cross, dot, tol)
     t = _half_tan(r, rn, cross, dot)
     special = at_vertex.any(axis=1) | on_edge.any(axis=1)
     t[special] = 0.0
@@ -188,15 +204,22 @@ def green(cage, points, *, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
         A point outside the cage (the coordinates reproduce nothing there).
     """
     C, X = _cage(cage), _as_points(points, "points")
-    m = len(C)
+    phi, psi, outside = _by_chunks(_green_rows, C, X, tol * _scale(C))
+    if outside.any():
+        raise ValueError(f"green coordinates need points inside the cage: {int(outside.sum())} "
+                         f"of {len(X)} lie outside (the first at {X[outside][0].tolist()})")
+    return phi, psi
+
+
+def _green_rows(C: np.ndarray, X: np.ndarray, tol: float):
     sigma = _orientation(C)
     E = np.roll(C, -1, axis=0) - C
     ln = np.hypot(E[:, 0], E[:, 1])
     T = E / ln[:, None]
     N = sigma * (T @ _QUARTER)  # outward unit normals
-    X = _snapped(C, X, tol * _scale(C))
+    X = _snapped(C, X, tol)
     r, rn, cross, dot = _edge_frames(C, X)
-    at_vertex, on_edge = _on_boundary(r, rn, cross, dot, tol * _scale(C))
+    at_vertex, on_edge = _on_boundary(r, rn, cross, dot, tol)
     d0 = C[None] - X[:, None]
     a = (d0 * T[None]).sum(axis=2)  # the edge runs over u in [a, a + l] of its line
     h = (d0 * N[None]).sum(axis=2)  # distance of the line, > 0 seen from inside
@@ -215,15 +238,11 @@ def green(cage, points, *, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
         logr2 = np.where(r2 > 0, np.log(r2), 0.0)
         logrn2 = np.where(rn2 > 0, np.log(rn2), 0.0)
     I1 = 0.5 * h * (logrn2 - logr2)  # int u h / (u^2 + h^2) du
-    total = I0.sum(axis=1) / (2.0 * np.pi)
-    outside = total < 0.5
-    if outside.any():
-        raise ValueError(f"green coordinates need points inside the cage: {int(outside.sum())} "
-                         f"of {len(X)} lie outside (the first at {X[outside][0].tolist()})")
+    outside = I0.sum(axis=1) < np.pi  # the angles sum to 2 pi inside, 0 outside
     first = (I1 - a * I0) / ln  # int (s / l) dG/dn, times 2 pi
     phi = (I0 - first + np.roll(first, 1, axis=1)) / (2.0 * np.pi)
     psi = -(b * logrn2 - a * logr2 - 2.0 * ln + 2.0 * h * I0) / (4.0 * np.pi)
-    return phi, psi
+    return phi, psi, outside
 
 
 # -- harmonic coordinates -------------------------------------------------------------------------

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import triangle
 
+from puppet.deform import cage
 from puppet.deform.cage import (KINDS, CageFit, CageMap, auto_cage, check_cage, fit_cage, green, harmonic,
                                 mvc, winding)
 from puppet.deform.interp import jacobians
@@ -128,10 +129,21 @@ def test_precision_each_kind():
         np.testing.assert_allclose(CageMap(C[::-1], X, kind).apply((C @ sim.T)[::-1]), X @ sim.T, atol=1e-8)
     with pytest.raises(ValueError, match="kind"):
         CageMap(C, X, "bogus")
+    assert CageMap(C, np.zeros((0, 2)), "green").apply(C).shape == (0, 2)
     with pytest.raises(ValueError, match="20 points"):
         CageMap(C, X, "mvc").apply(C[:-1])
     with pytest.raises(ValueError, match="outside"):
         harmonic(C, [[0.0, 0.0]])
+
+
+def test_blocks_of_points_give_the_same_rows(monkeypatch):
+    C = ellipse_cage(12, jitter=0.2)
+    X = np.random.default_rng(5).random((300, 2)) * 100.0 - 50.0
+    whole = mvc(C, X), green(C, X)
+    monkeypatch.setattr(cage, "_CHUNK", 64)
+    np.testing.assert_array_equal(mvc(C, X), whole[0])
+    for a, b in zip(green(C, X), whole[1]):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_conformality_of_a_stretch():
