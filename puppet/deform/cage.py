@@ -32,7 +32,7 @@ from puppet.geom.contour import ring_area
 from puppet.geom.laplacian import cotangent_laplacian
 
 __all__ = ["KINDS", "MAX_COORD", "CageMap", "mvc", "green", "harmonic", "harmonic_mesh",
-           "harmonic_weights", "CageFit", "fit_cage", "check_cage", "auto_cage", "winding"]
+           "harmonic_weights", "CageFit", "fit_cage", "check_cage", "check_encloses", "auto_cage", "winding"]
 
 #: The coordinate kinds, the default first.
 KINDS = ("green", "mvc", "harmonic")
@@ -82,15 +82,20 @@ def _half_tan(r, rn, cross, dot):
         return np.where(dot > 0, cross / (rr + dot), (rr - dot) / cross)
 
 
-def _snapped(C: np.ndarray, X: np.ndarray, tol: float) -> np.ndarray:
-    """``X`` with every point within ``tol`` of the cage moved onto it (onto a vertex
-    within ``tol`` of one, else onto the nearest edge), so that the boundary cases below
-    see one consistent position."""
+def _nearest_on_edges(C: np.ndarray, X: np.ndarray):
+    """The nearest point of each edge to each point, (n, m, 2), and its distance (n, m)."""
     E = np.roll(C, -1, axis=0) - C
     d = X[:, None, :] - C[None]
     t = np.clip((d * E[None]).sum(axis=2) / (E * E).sum(axis=1)[None], 0.0, 1.0)
     Q = C[None] + t[..., None] * E[None]
-    dist = np.hypot(*(X[:, None, :] - Q).transpose(2, 0, 1))
+    return Q, np.hypot(*(X[:, None, :] - Q).transpose(2, 0, 1))
+
+
+def _snapped(C: np.ndarray, X: np.ndarray, tol: float) -> np.ndarray:
+    """``X`` with every point within ``tol`` of the cage moved onto it (onto a vertex
+    within ``tol`` of one, else onto the nearest edge), so that the boundary cases below
+    see one consistent position."""
+    Q, dist = _nearest_on_edges(C, X)
     k = dist.argmin(axis=1)
     near = dist[np.arange(len(X)), k] <= tol
     if not near.any():
@@ -598,6 +603,22 @@ def check_cage(points) -> str | None:
     if abs(ring_area(P)) <= 1e-12 * max(_scale(P), 1.0) ** 2:
         return "encloses no area"
     return None
+
+
+def check_encloses(cage, points) -> str | None:
+    """What is wrong with a usable cage (see :func:`check_cage`) around ``points`` (a
+    layer's mesh vertices), in words, or None where it holds every point inside (points
+    on the cage count as inside)."""
+    C, X = _as_points(cage, "cage"), _as_points(points, "points")
+    if not len(X):
+        return None
+    out = np.flatnonzero(np.abs(winding(C, X)) < 0.25)
+    if len(out):  # a point on the cage may count either way in the winding number
+        out = out[_nearest_on_edges(C, X[out])[1].min(axis=1) > 1e-9 * _scale(C)]
+    if not len(out):
+        return None
+    return (f"leaves {len(out)} of the layer's {len(X)} mesh vertices outside "
+            f"(the first at [{X[out[0], 0]:g}, {X[out[0], 1]:g}])")
 
 
 def auto_cage(mask, n: int = 16, offset: float = 10.0) -> np.ndarray:

@@ -2,15 +2,22 @@
 conformality, landmark fitting, checks and automatic cages (puppet.deform.cage)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import triangle
+from PIL import Image
 
 from puppet.deform import cage
-from puppet.deform.cage import (KINDS, CageFit, CageMap, auto_cage, check_cage, fit_cage, green, harmonic,
+from puppet.deform.cage import (KINDS, CageFit, CageMap, auto_cage, check_cage, check_encloses, fit_cage, green, harmonic,
                                 mvc, winding)
 from puppet.deform.interp import jacobians
+from puppet.geom.contour import mask_regions
 from puppet.geom.mvc import mean_value_coordinates
+from puppet.geom.triangulate import signed_areas, triangulate_regions
+
+ASSETS = Path(__file__).resolve().parents[2] / "assets"
 
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 # an arrow pointing right with a deep notch on the left: from the lower arm the vertex
@@ -165,12 +172,6 @@ def test_conformality_of_a_stretch():
     assert abs(anis["mvc"] - 1.3) < 0.02
 
 
-def signed_areas(U, F):
-    P = U[F]
-    e1, e2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
-    return e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-
-
 def test_landmark_fitting():
     C = ellipse_cage(20, 100.0, 140.0, centre=(300.0, 300.0))
     V, F = inner_mesh(C - [300.0, 300.0], shrink=0.9, area=150.0)
@@ -224,6 +225,11 @@ def test_check_cage_messages():
     assert "no area" in check_cage([[0, 0], [1, 0], [2, 0]]) or "crosses" in check_cage([[0, 0], [1, 0], [2, 0]])
     assert "list of [x, y]" in check_cage([[0, 0, 0], [1, 0, 0], [0, 1, 0]])
     assert "list of [x, y]" in check_cage("abc")
+    # enclosure of a layer's mesh vertices: points on the cage count as inside
+    assert check_encloses(SQUARE, [[0.5, 0.5], [0.5, 0.0], [1.0, 0.3], [0.0, 0.0], [0.3, 1.0]]) is None
+    assert check_encloses(SQUARE[::-1], [[0.5, 0.5], [0.0, 0.7]]) is None
+    assert check_encloses(SQUARE, [[0.5, 0.5], [1.5, 0.5], [2.0, 2.0]]) == \
+        "leaves 2 of the layer's 3 mesh vertices outside (the first at [1.5, 0.5])"
 
 
 def test_auto_cage_encloses_the_mask():
@@ -247,3 +253,19 @@ def test_auto_cage_encloses_the_mask():
     assert (np.abs(winding(C, [[20.0, 30.0], [80.0, 30.0], [50.0, 30.0]])) > 0.5).all()
     with pytest.raises(ValueError, match="empty"):
         auto_cage(np.zeros((5, 5), bool), 8, 2.0)
+
+
+def test_bundled_dress_fitted_narrower_through_a_cage():
+    # the issue's "no folds" target on the bundled dress (coarse mesh, to stay cheap)
+    alpha = np.asarray(Image.open(ASSETS / "noto-emoji" / "emoji_u1f457.png").convert("RGBA"))[..., 3]
+    mask = alpha > 0
+    mesh = triangulate_regions(mask_regions(mask), max_area=400.0)
+    C = auto_cage(mask, 20, 10.0)
+    assert check_cage(C) is None and check_encloses(C, mesh.V) is None
+    pins = np.array([[182.0, 30.0], [315.0, 30.0], [198.0, 189.0], [302.0, 189.0], [100.0, 428.0], [425.0, 416.0]])
+    target = np.c_[262.5 + 0.75 * (pins[:, 0] - 262.5), pins[:, 1]]
+    for kind in KINDS:
+        fitted = fit_cage(C, kind, pins, target)
+        assert np.abs(CageMap(C, pins, kind).apply(fitted) - target).max() <= 0.5
+        U = CageMap(C, mesh.V, kind).apply(fitted)
+        assert (signed_areas(U, mesh.F) * signed_areas(mesh.V, mesh.F) > 0).all()
