@@ -32,7 +32,7 @@ from puppet.geom.contour import ring_area
 from puppet.geom.laplacian import cotangent_laplacian
 
 __all__ = ["KINDS", "MAX_COORD", "CageMap", "mvc", "green", "harmonic", "harmonic_mesh",
-           "harmonic_weights", "CageFit", "fit_cage", "check_cage", "check_encloses", "auto_cage", "winding"]
+           "harmonic_weights", "HarmonicMesh", "CageFit", "fit_cage", "check_cage", "check_encloses", "auto_cage", "winding"]
 
 #: The coordinate kinds, the default first.
 KINDS = ("green", "mvc", "harmonic")
@@ -122,6 +122,10 @@ def winding(cage, points) -> np.ndarray:
     (the sign is its orientation); about +-0.5 on the cage (+-1 or 0 on an edge, by the
     rounding of the point's side: test distances where that matters)."""
     C, X = _as_points(cage, "cage"), _as_points(points, "points")
+    return _by_chunks(_winding_rows, C, X, 0.0)
+
+
+def _winding_rows(C: np.ndarray, X: np.ndarray, tol: float) -> np.ndarray:
     r, rn, cross, dot = _edge_frames(C, X)
     return np.arctan2(cross, dot).sum(axis=1) / (2.0 * np.pi)
 
@@ -307,7 +311,8 @@ def harmonic_weights(V, F, b, bw) -> np.ndarray:
 
 def _locate(V: np.ndarray, F: np.ndarray, X: np.ndarray, tol: float = 1e-9):
     """The triangle of ``F`` holding each point and its barycentric coordinates; -1 for a
-    point in none. Candidates are the triangles with the nearest centroids."""
+    point in none. Candidates are the triangles with the 4, then 16, 64, 256 nearest
+    centroids (a quality mesh's triangle holding a point is among its nearest few)."""
     from scipy.spatial import cKDTree  # lazy: scipy.spatial costs 0.17 s of every command's start-up
 
     P = V[F]
@@ -318,7 +323,7 @@ def _locate(V: np.ndarray, F: np.ndarray, X: np.ndarray, tol: float = 1e-9):
     lam = np.zeros((len(X), 3))
     tree = cKDTree(P.mean(axis=1))
     todo = np.arange(len(X))
-    for k in (4, 16, 64, len(F)):
+    for k in (4, 16, 64, 256):
         k = min(k, len(F))
         _, cand = tree.query(X[todo], k=k)
         cand = cand.reshape(len(todo), k)
@@ -614,7 +619,8 @@ def check_encloses(cage, points) -> str | None:
         return None
     out = np.flatnonzero(np.abs(winding(C, X)) < 0.25)
     if len(out):  # a point on the cage may count either way in the winding number
-        out = out[_nearest_on_edges(C, X[out])[1].min(axis=1) > 1e-9 * _scale(C)]
+        near = _by_chunks(lambda C, X, tol: _nearest_on_edges(C, X)[1].min(axis=1), C, X[out], 0.0)
+        out = out[near > 1e-9 * _scale(C)]
     if not len(out):
         return None
     return (f"leaves {len(out)} of the layer's {len(X)} mesh vertices outside "
