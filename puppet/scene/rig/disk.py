@@ -160,7 +160,12 @@ class DiskStore:
         is written."""
         packed = self._packed(kind, key, value)
         if packed is not None:
-            WRITER.put(lambda: self._store(kind, *packed))
+            # copies: an array changed in place before the writer gets to it would be
+            # written changed under the shapes recorded now (suspected in a rare test failure:
+            # a mesh entry rewritten after a spoil was rejected at the next open)
+            path, arrays = packed
+            arrays = {k: np.array(a, copy=True) for k, a in arrays.items()}
+            WRITER.put(lambda: self._store(kind, path, arrays))
 
     def _packed(self, kind: str, key: str, value) -> tuple[str, dict] | None:
         """(entry path, arrays) of ``value``, or None when it holds what is not cached."""
