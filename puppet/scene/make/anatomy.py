@@ -168,8 +168,9 @@ class Unit:
 
 @dataclass
 class Contact:
-    """The largest overlap between two units: its layers, its area and its deepest point
-    (:func:`_hinge`), where a hinge would go and where the contact is judged."""
+    """An overlap of a layer of one unit with a layer of another: the two layers, its
+    area and its deepest point (:func:`_hinge`), where a hinge would go and where the
+    contact is judged."""
     a: int
     b: int
     area: int
@@ -179,8 +180,9 @@ class Contact:
 
 @dataclass
 class Rig:
-    """What :func:`propose_rig` found: pins and links in the scene format, and each
-    usable layer's unit (for the app's drawing and the tests)."""
+    """What :func:`propose_rig` found: pins and links in the scene format, the roots'
+    layers (a torso per connected set), and each usable layer's parent layer (the layer
+    its unit is hinged to; None for a root's)."""
     pins: list[dict]
     links: list[dict]
     roots: list[str]
@@ -291,8 +293,12 @@ def _unit(ks: list[int], usable: list[ArtLayer], scale: float, canvas) -> Unit:
     mask = np.zeros((h, w), bool)
     for k in ks:
         lay = usable[k]
+        lx, ly = lay.offset
         x0, y0, x1, y1 = lay.bounds
-        a = (lay.rgba[..., 3] > 0).astype(np.float32)
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)  # the part on the canvas
+        if x1 <= x0 or y1 <= y0:
+            continue
+        a = (lay.rgba[y0 - ly:y1 - ly, x0 - lx:x1 - lx, 3] > 0).astype(np.float32)
         if scale < 1.0:
             X0, Y0 = int(np.floor(x0 * scale)), int(np.floor(y0 * scale))
             X1, Y1 = max(int(np.ceil(x1 * scale)), X0 + 1), max(int(np.ceil(y1 * scale)), Y0 + 1)
