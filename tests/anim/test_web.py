@@ -110,7 +110,7 @@ def test_page_is_self_contained_and_small(page):
 @needs_browser
 def test_browser_frames_match_puppet_render(page, tmp_path):
     refs = {}
-    for t in (0.0, 0.25, 7 / 12, 1.0):  # 7/12 s: in-betweens on curves (the T-rex's head, tail, arm)
+    for t in (0.25, 7 / 12, 1.0):  # 7/12 s: in-betweens on curves (the T-rex's head, tail, arm)
         ref = str(tmp_path / f"ref{t}.png")
         assert main(["render", page.scene, "--time", str(t), "-o", ref]) == 0
         refs[t] = np.asarray(Image.open(ref).convert("RGB"))
@@ -118,7 +118,7 @@ def test_browser_frames_match_puppet_render(page, tmp_path):
         off = grey_off(shot, refs[t])
         assert off < 0.02, (t, off)
     # the frames differ from each other, so matching the right one means something
-    assert grey_off(refs[0.0], refs[7 / 12]) > 0.01
+    assert grey_off(refs[0.25], refs[7 / 12]) > 0.01
     assert grey_off(shot, refs[7 / 12]) > 0.01  # the last shot (t = 1) is not t = 7/12
 
 
