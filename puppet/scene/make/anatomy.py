@@ -237,7 +237,7 @@ def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), dea
     # 3. trees
     roots, chosen = _grow_trees(units, contacts, usable, unit_of, late)
     glue += _glue_leaves(units, chosen, usable)
-    links = [_glue_link(usable[i], usable[j]) for i, j in glue]
+    links = [_glue_link(usable[i], usable[j]) or _point_link(usable[i], usable[j]) for i, j in glue]
     links = [k for k in links if k is not None]
     for u, un in enumerate(units):
         if un.parent is not None and not un.glued:
@@ -615,6 +615,15 @@ def _glue_link(a: ArtLayer, b: ArtLayer) -> dict | None:
     p, q = Q[lo] + pull * axis + box[:2], Q[hi] - pull * axis + box[:2]
     seg = [[round(float(p[0]), 2), round(float(p[1]), 2)], [round(float(q[0]), 2), round(float(q[1]), 2)]]
     return {"layers": [a.name, b.name], "segments": [seg]}
+
+
+def _point_link(a: ArtLayer, b: ArtLayer) -> dict | None:
+    """A hinge at the deepest point of two glued layers' overlap, where no segment fits in
+    it (so the two stay one group), or None."""
+    hit = _hinge(a, b)
+    if hit is None:
+        return None
+    return {"layers": [a.name, b.name], "points": [[round(float(hit[0][0]), 2), round(float(hit[0][1]), 2)]]}
 
 
 def _main(un: Unit, areas: np.ndarray, usable) -> int:
