@@ -166,3 +166,35 @@ def test_the_cli_meshes_a_caged_scene(scene, tmp_path):
     L = json.loads(out.read_text())["layers"][0]
     want = puppet.load_scene(path).layers("p")[0].deformed
     assert np.abs(np.array(L["deformed"]) - want).max() < 1e-3
+
+
+def test_an_automatic_cage_is_saved_with_its_points_and_cage_edits_undo(scene, tmp_path):
+    path = scene(caged({"auto": 8, "offset": 6}, poses={"p": {"box:cage1": [60, 5]}}))
+    doc = puppet.load_scene(path)
+    posed = doc.layers("p")[0]
+    rest = np.array([posed.exterior[f"box:cage{j}"] for j in range(len(posed.exterior))])
+    assert 3 <= len(rest) <= 8
+    out = tmp_path / "saved.json"
+    doc.save(str(out))
+    cage = json.loads(out.read_text())["layers"][0]["cage"]
+    assert cage["auto"] == 8 and cage["offset"] == 6 and len(cage["points"]) == len(rest)
+    assert "points" not in doc.to_dict()["layers"][0]["cage"]  # the document itself is unchanged
+    again = puppet.load_scene(str(out))
+    assert again.data.layers[0].cage.points is not None
+    assert np.array_equal(again.layers("p")[0].deformed, posed.deformed)  # the same cage: the same pose
+    # set_cage: one undo step; a cage with fewer vertices drops the handles it lacks
+    square = {"points": SQUARE, "coordinates": "mvc"}
+    assert doc.set_cage("box", square)
+    assert doc.data.layers[0].cage.coordinates == "mvc" and doc.history.undo_stack[-1].label == "set cage of box"
+    assert doc.to_dict()["poses"]["p"] == {"box:cage1": [60, 5]}  # 4 vertices: cage1 stays
+    doc.undo()
+    assert doc.data.layers[0].cage.auto == 8 and np.array_equal(doc.layers("p")[0].deformed, posed.deformed)
+    doc.set_cage("box", None)
+    assert doc.data.layers[0].cage is None and doc.to_dict()["poses"]["p"] == {}
+    doc.undo()
+    assert doc.data.layers[0].cage is not None
+    with pytest.raises(SceneError, match=r"layers\[0\]\.cage\.points"):
+        doc.set_cage("box", {"points": [[0, 0], [1, 1]]})
+    assert doc.data.layers[0].cage.auto == 8  # a refused edit changes nothing
+    doc.rename_layer("box", "skirt")  # its handles are renamed with it
+    assert doc.to_dict()["poses"]["p"] == {"skirt:cage1": [60, 5]}

@@ -111,9 +111,9 @@ def parse_scene(raw, file: str) -> m.SceneData:
             raise c.fail(f"pins[{i}].name", f"{short(p.name)} is reserved for the layer's automatic exterior points")
         if _cage_of(p.name, layers, names) is not None:
             raise c.fail(f"pins[{i}].name", f"{short(p.name)} is reserved for the layer's cage vertices")
-        if p.kind != "interior" and layers[names[p.layer]].cage is not None:
-            raise c.fail(f"pins[{i}].kind", f"layer {short(p.layer)} has a cage: its pins are interior landmarks "
-                                            f"that drive the cage, not {p.kind} pins")
+        if p.kind == "exterior" and layers[names[p.layer]].cage is not None:
+            raise c.fail(f"pins[{i}].kind", f"layer {short(p.layer)} has a cage: its cage vertices are its exterior "
+                                            "handles (LAYER:cageN), it takes no exterior pins")
 
     bones = []
     for i, b in enumerate(expect_list(c, raw.get("bones", []), "bones")):
