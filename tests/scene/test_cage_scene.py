@@ -118,6 +118,8 @@ def test_animation_keys_pose_handles_like_pins(scene):
     p = doc.layers("p")[0].deformed
     assert np.abs(doc.layers(time=1.0)[0].deformed - p).max() < 1e-6
     assert np.abs(doc.layers(time=0.0)[0].deformed - doc.layers("rest")[0].rest).max() < 1e-6
+    half = CageMap(SQUARE, doc.layers("rest")[0].rest, "green").apply((np.array(SQUARE) + np.array(POSED)) / 2.0)
+    assert np.abs(doc.layers(time=0.5)[0].deformed - half).max() < 1e-6  # in between: the cages blended
     moved = doc.layers(time=2.0)[0].exterior
     assert moved["box:cage0"] == [15.0, 10.0]
 
@@ -198,3 +200,20 @@ def test_an_automatic_cage_is_saved_with_its_points_and_cage_edits_undo(scene, t
     assert doc.data.layers[0].cage.auto == 8  # a refused edit changes nothing
     doc.rename_layer("box", "skirt")  # its handles are renamed with it
     assert doc.to_dict()["poses"]["p"] == {"skirt:cage1": [60, 5]}
+
+
+@pytest.mark.gl
+def test_the_cli_renders_and_animates_a_caged_scene(scene, tmp_path):
+    from puppet.imaging.io import load_rgba
+
+    s = caged(animation={"fps": 5, "keys": [{"time": 0, "pose": "rest"}, {"time": 0.4, "pose": "p"}]})
+    path = scene(s)
+    png = tmp_path / "p.png"
+    assert main(["render", path, "--pose", "p", "-o", str(png)]) == 0
+    img = load_rgba(str(png))
+    ink = np.argwhere(np.abs(img[..., :3].astype(int) - 255).max(axis=2) > 60)  # the box, not the white ground
+    U = puppet.load_scene(path).layers("p")[0].deformed
+    assert abs(ink[:, 1].max() - U[:, 0].max()) <= 2 and abs(ink[:, 0].max() - U[:, 1].max()) <= 2
+    assert ink[:, 1].max() > 78  # widened past the rest box's right side (x = 75)
+    gif = tmp_path / "a.gif"
+    assert main(["animate", path, "-o", str(gif)]) == 0 and gif.stat().st_size > 0
