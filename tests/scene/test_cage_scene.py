@@ -217,3 +217,15 @@ def test_the_cli_renders_and_animates_a_caged_scene(scene, tmp_path):
     assert ink[:, 1].max() > 78  # widened past the rest box's right side (x = 75)
     gif = tmp_path / "a.gif"
     assert main(["animate", path, "-o", str(gif)]) == 0 and gif.stat().st_size > 0
+
+
+def test_a_drag_moves_handles_and_pins_of_a_caged_layer_exactly(scene):
+    doc = puppet.load_scene(scene(caged(pins=PINS[:2])))
+    drag = doc.drag(["box:cage1", "tl"])
+    targets = {"box:cage1": (86, 12), "tl": (29, 24)}
+    preview = drag.move_layers(targets)[0]
+    after = drag.release_layers()[0]
+    assert np.array_equal(preview.deformed, after.deformed)  # a caged layer's preview is its exact pose
+    assert after.exterior["box:cage1"] == [86.0, 12.0] and np.hypot(*(after.deformed[after.pins["tl"]] - (29, 24))) < 0.5
+    assert doc.to_dict()["poses"][doc.active_pose] == {"box:cage1": [86.0, 12.0], "tl": [29.0, 24.0]}
+    assert len(doc.history.undo_stack) == 1  # one undo step
