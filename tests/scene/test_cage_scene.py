@@ -252,3 +252,14 @@ def test_the_bundled_dress_fitted_narrower_through_an_automatic_cage(tmp_path):
         return e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]
     assert (np.sign(area(L.deformed)) == np.sign(area(rest.rest))).all()  # no triangle folded
     assert np.ptp(L.deformed[:, 0]) < 0.85 * np.ptp(rest.rest[:, 0])  # narrower
+
+
+def test_a_reordered_caged_layer_keeps_its_cage(scene):
+    s = caged()
+    s["layers"].insert(0, {"name": "bar", "image": "bar.png", "offset": [10, 10]})
+    doc = puppet.load_scene(scene(s))
+    before = doc.layers("p")[1].deformed
+    doc.reorder_layer("box", 0)  # the same meshes, the caged layer now first
+    L = doc.layers("p")
+    assert L[0].name == "box" and np.array_equal(L[0].deformed, before) and set(L[0].exterior) == {
+        f"box:cage{j}" for j in range(4)} and not L[1].exterior

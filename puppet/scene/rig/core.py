@@ -198,7 +198,7 @@ class Rig:
             if k is None:
                 out.append(None)
                 continue
-            key = fingerprint(group_keys[gi], data.layers[k].cage, base_keys[k], [data.pins[i].at for i in g.pins])
+            key = fingerprint(k, group_keys[gi], data.layers[k].cage, base_keys[k], [data.pins[i].at for i in g.pins])
             out.append(self.memo.get("cage", key, lambda k=k, g=g: build_cage(
                 data, k, rest_cage(data, k, images[k]), g)))
         return out
