@@ -96,6 +96,7 @@ def valid_calls(folder) -> dict:
         "rename_layer": (("b", "body"), {}),
         "set_layer": (("a",), {"order": 2}),
         "set_mask": (("a", {"rect": [0, 12, 120, 16]}), {}),
+        "set_cage": (("a", {"points": [[5, 5], [115, 5], [115, 35], [5, 35]], "coordinates": "mvc"}), {}),
         "set_inpaint": (("a", "telea"), {}),
         "set_mesh_options": (("a",), {"max_area": 20}),
         "set_mask_pixels": (("a", np.ones((40, 120), bool)), {}),

@@ -365,7 +365,7 @@ class Document(Edits, KeyEdits, DeformEdits):
         used: set[str] = set()
         map_paths(self._doc, lambda p: used.add(p) or p)
         moved, undo = self.pending.publish({p for p in used if self.pending.owns(p)}, path, inputs)
-        doc = map_paths(self._doc, lambda p: moved.get(p, p))
+        doc = map_paths(self._with_cage_points(), lambda p: moved.get(p, p))
         text = scene_text(map_paths(doc, relative_to(os.path.dirname(os.path.abspath(path)))))
         try:
             write_text(path, text, inputs=inputs, follow=follow)
@@ -374,6 +374,21 @@ class Document(Edits, KeyEdits, DeformEdits):
             raise
         if moved and not copy:  # from now on the scene reads the saved copies (same pixels, same keys)
             self._set(doc, self._active)
+
+    def _with_cage_points(self) -> dict:
+        """The scene JSON with the points of each automatic cage written beside its
+        ``auto`` (the cage its ``LAYER:cageN`` handles were posed on); itself where none
+        lacks them."""
+        built, doc = None, self._doc
+        for k, L in enumerate(self._doc["layers"]):
+            cage = L.get("cage")
+            if isinstance(cage, dict) and "auto" in cage and "points" not in cage:
+                built = built or self.built
+                rest = next(c.rest for c in built.cages if c is not None and c.layer == k)
+                if doc is self._doc:
+                    doc = dict(doc, layers=list(doc["layers"]))
+                doc["layers"][k] = dict(L, cage=dict(cage, points=rest.tolist()))
+        return doc
 
     @ck.checked(folder=ck.path)
     def adopt_files(self, folder: str) -> None:

@@ -19,7 +19,7 @@ from puppet.scene.document.files import mask_rgba
 from puppet.scene.document.history import Event
 from puppet.scene.format import args as ck
 from puppet.scene.format.extensions import underlay_json
-from puppet.scene.format.load import EXTERIOR_NAME
+from puppet.scene.format.load import CAGE_NAME, EXTERIOR_NAME
 
 
 def _xy(p) -> list[float]:
@@ -201,6 +201,28 @@ class Edits:
         """A layer's mask: ``"alpha"`` or ``{"threshold": T}``, ``{"polygon": ...}``, ``{"rect": ...}``,
         ``{"file": path}``, ``{"grabcut": ...}``."""
         return self.set_layer(name, mask=mask)
+
+    @ck.checked(name=ck.text, cage=ck.plain)
+    def set_cage(self, name: str, cage) -> bool:
+        """A layer's cage (one undo step): ``{"points": [[x, y], ...]}`` or ``{"auto": N,
+        "offset": PX}``, with ``"coordinates"`` (scene format, ``layers[i].cage``), or None
+        to remove it. Targets of its handles ``LAYER:cageN`` in poses and keys that the new
+        cage has no vertex for are dropped (all of them with None; an automatic cage
+        without points keeps them, checked when the scene is built)."""
+        count = 0 if cage is None else len(cage["points"]) if isinstance(cage, dict) and isinstance(
+            cage.get("points"), list) else None
+
+        def m(doc):
+            L = self._layer(doc, name)
+            if cage is None:
+                L.pop("cage", None)
+            else:
+                L["cage"] = cage
+            if count is None:
+                return
+            for owner, t in _pin_tables(doc):
+                owner[t] = {k: v for k, v in owner[t].items() if not _cage_beyond(k, name, count)}
+        return self._edit(Event("layer", name, "mesh", f"{'remove' if cage is None else 'set'} cage of {name}"), m)
 
     @ck.checked(name=ck.text, method=ck.text)
     def set_inpaint(self, name: str, method: str) -> bool:
@@ -436,12 +458,19 @@ def _pin_tables(doc: dict) -> list[tuple[dict, str]]:
 
 
 def _ext_layer(name: str) -> str | None:
-    mt = EXTERIOR_NAME.match(name)
+    """The layer of an automatic point name (``LAYER:extN``, ``LAYER:cageN``), else None."""
+    mt = EXTERIOR_NAME.match(name) or CAGE_NAME.match(name)
     return mt.group("layer") if mt else None
 
 
+def _cage_beyond(name: str, layer: str, count: int) -> bool:
+    """Is ``name`` a handle ``LAYER:cageN`` of ``layer`` with N >= count?"""
+    mt = CAGE_NAME.match(name)
+    return bool(mt) and mt.group("layer") == layer and int(mt.group("i")) >= count
+
+
 def _layer_fields(fields: dict, keep_none: bool = False) -> dict:
-    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior", "deformer", "stiffness", "visible")
+    known = ("offset", "mask", "order", "inpaint", "mesh", "exterior", "deformer", "stiffness", "visible", "cage")
     out = {}
     for k, v in fields.items():
         if k not in known:

@@ -193,8 +193,8 @@ class DragSession:
         for gi in self._moved:
             g = built.groups[gi]
             ext = built.ext_slices()[gi]
-            if not len(g.pins) or not np.isnan(state.ext_to[ext, 0]).all():
-                solved[gi] = rig.solve(built, gi, state)  # no pins, or an exterior point pulls it: exact
+            if not len(g.pins) or not np.isnan(state.ext_to[ext, 0]).all() or (built.cages and built.cages[gi]):
+                solved[gi] = rig.solve(built, gi, state)  # no pins, an exterior point pulls it, a cage: exact
                 continue
             red = reduced_for(rig, built, gi)
             if red is not None:  # a big group: its reduced model is solved and drawn

@@ -35,6 +35,10 @@ MAX_CANVAS = 16384
 #: Most points a polygon mask may have.
 MAX_POLYGON_POINTS = 100_000
 EXTERIOR_NAME = re.compile(r"^(?P<layer>.+):ext(?P<i>\d+)$")
+#: A cage vertex as a handle of poses and keys: ``LAYER:cageN`` (N in the cage's point order).
+CAGE_NAME = re.compile(r"^(?P<layer>.+):cage(?P<i>\d+)$")
+#: Most vertices a cage may have (given or automatic).
+MAX_CAGE_POINTS = 1000
 
 
 def read_json(path: str):
@@ -91,6 +95,11 @@ def parse_scene(raw, file: str) -> m.SceneData:
         names[L.name] = L.index
 
     links = [_link(c, v, f"links[{i}]", names) for i, v in enumerate(expect_list(c, raw.get("links", []), "links"))]
+    for i, k in enumerate(links):
+        for j, nm in enumerate(k.layers):
+            if layers[names[nm]].cage is not None:
+                raise c.fail(f"links[{i}].layers[{j}]", f"layer {short(nm)} has a cage (a caged layer is deformed by "
+                                                        "its cage alone and takes no part in a linked group)")
     pins = [_pin(c, v, f"pins[{i}]", names) for i, v in enumerate(expect_list(c, raw.get("pins", []), "pins"))]
     pin_names: dict[str, int] = {}
     for i, p in enumerate(pins):
@@ -100,6 +109,11 @@ def parse_scene(raw, file: str) -> m.SceneData:
         mt = EXTERIOR_NAME.match(p.name)
         if mt and mt.group("layer") in names and layers[names[mt.group("layer")]].exterior:
             raise c.fail(f"pins[{i}].name", f"{short(p.name)} is reserved for the layer's automatic exterior points")
+        if _cage_of(p.name, layers, names) is not None:
+            raise c.fail(f"pins[{i}].name", f"{short(p.name)} is reserved for the layer's cage vertices")
+        if p.kind == "exterior" and layers[names[p.layer]].cage is not None:
+            raise c.fail(f"pins[{i}].kind", f"layer {short(p.layer)} has a cage: its cage vertices are its exterior "
+                                            "handles (LAYER:cageN), it takes no exterior pins")
 
     bones = []
     for i, b in enumerate(expect_list(c, raw.get("bones", []), "bones")):
@@ -141,7 +155,7 @@ def parse_scene(raw, file: str) -> m.SceneData:
 def _layer(c, v, p, index, file_path, source) -> m.Layer:
     expect_object(c, v, p, required=("name",),
                   optional=("name", "image", "offset", "mask", "order", "inpaint", "mesh", "exterior",
-                            "deformer", "stiffness", "visible"))
+                            "deformer", "stiffness", "visible", "cage"))
     name = expect_string(c, v["name"], join(p, "name"))
     image = file_path(v["image"], join(p, "image")) if "image" in v else None
     if image is None and source is None:
@@ -178,8 +192,46 @@ def _layer(c, v, p, index, file_path, source) -> m.Layer:
         so = expect_object(c, v["stiffness"], sp_, required=("file",))
         stiffness = file_path(so["file"], join(sp_, "file"))
     visible = expect_bool(c, v.get("visible", True), join(p, "visible"))
+    cage = _cage(c, v["cage"], join(p, "cage")) if "cage" in v else None
+    if cage is not None and exterior is not None:
+        raise c.fail(join(p, "exterior"), "a caged layer has no automatic exterior points (its cage shapes its "
+                                          "outline): remove 'exterior' or the cage")
     return m.Layer(name=name, image=image, offset=offset, mask=mask, order=order, inpaint=inpaint,
-                   mesh=mesh, exterior=exterior, index=index, mode=mode, stiffness=stiffness, visible=visible)
+                   mesh=mesh, exterior=exterior, index=index, mode=mode, stiffness=stiffness, visible=visible,
+                   cage=cage)
+
+
+def _cage(c, v, p) -> m.Cage:
+    """``layers[i].cage``: ``{"points": [...]}`` or ``{"auto": N, "offset": PX}`` (a saved
+    automatic cage has both: its points are used), and ``coordinates``."""
+    from puppet.deform.cage import check_cage  # lazy: it loads scipy, which a scene without a cage never needs
+
+    expect_object(c, v, p, optional=("points", "auto", "offset", "coordinates"))
+    if "points" not in v and "auto" not in v:
+        raise c.fail(join(p, "points"), "required key is missing (a cage needs 'points' or 'auto')")
+    kind = expect_string(c, v.get("coordinates", m.CAGE_KINDS[0]), join(p, "coordinates"), choices=m.CAGE_KINDS)
+    auto = expect_number(c, v["auto"], join(p, "auto"), lo=3, hi=MAX_CAGE_POINTS, integer=True) if "auto" in v else None
+    if "offset" in v and auto is None:
+        raise c.fail(join(p, "offset"), "an offset belongs to an automatic cage ('auto': N)")
+    offset = expect_number(c, v.get("offset", 10.0), join(p, "offset"), lo=0, hi=1000)
+    points = None
+    if "points" in v:
+        pp = join(p, "points")
+        P = np.array([expect_point(c, q, join(pp, i)) for i, q in enumerate(expect_list(
+            c, v["points"], pp, max_len=MAX_CAGE_POINTS))], np.float64).reshape(-1, 2)
+        msg = check_cage(P)
+        if msg:
+            raise c.fail(pp, f"the cage {msg}")
+        points = P
+    return m.Cage(points=points, auto=auto, offset=offset, coordinates=kind)
+
+
+def _cage_of(name: str, layers, names) -> m.Cage | None:
+    """The cage a handle name ``LAYER:cageN`` belongs to, None if it names none."""
+    mt = CAGE_NAME.match(name)
+    if mt and mt.group("layer") in names:
+        return layers[names[mt.group("layer")]].cage
+    return None
 
 
 def _mask(c, v, p, file_path, offset=(0.0, 0.0)) -> m.Mask:
@@ -332,7 +384,12 @@ def _pose(c, v, p, pin_names, layers, names, starch=frozenset()) -> dict[str, m.
         q = join(p, pin)
         mt = EXTERIOR_NAME.match(pin)
         auto_ext = mt and mt.group("layer") in names and layers[names[mt.group("layer")]].exterior
-        if pin not in pin_names and not auto_ext:
+        cage = _cage_of(pin, layers, names)
+        if cage is not None and cage.points is not None and int(CAGE_NAME.match(pin).group("i")) >= len(cage.points):
+            layer = CAGE_NAME.match(pin).group("layer")
+            raise c.fail(q, f"layer {short(layer)} has a cage of {len(cage.points)} points ({layer}:cage0 .. "
+                            f"{layer}:cage{len(cage.points) - 1}), so {short(pin)} does not exist")
+        if pin not in pin_names and not auto_ext and cage is None:
             raise c.fail(q, f"no pin named {short(pin)}")
         if pin in starch:
             raise c.fail(q, f"{short(pin)} is a starch pin: it stiffens the shape around it and holds no "

@@ -51,6 +51,22 @@ class Exterior:
     beta: float = 1.0
 
 
+#: ``layers[i].cage.coordinates``, the default first (puppet.deform.cage.KINDS)
+CAGE_KINDS = ("green", "mvc", "harmonic")
+
+
+@dataclass
+class Cage:
+    """A layer's cage: ``points`` (m, 2) canvas coordinates, or None where the cage is made
+    from the layer's mask when the scene is built (``auto`` vertices, ``offset`` px out);
+    a saved automatic cage has both. ``coordinates`` in CAGE_KINDS."""
+
+    points: np.ndarray | None
+    auto: int | None = None
+    offset: float = 10.0
+    coordinates: str = "green"
+
+
 @dataclass
 class Layer:
     name: str
@@ -65,6 +81,7 @@ class Layer:
     mode: str | None = None  # ``deformer.mode`` of this layer (None: the scene's)
     stiffness: str | None = None  # absolute path of the painted stiffness image
     visible: bool = True  # False: built and posed (links, pins), never drawn
+    cage: Cage | None = None  # a caged layer is deformed by its cage, not by ARAP
 
 
 @dataclass

@@ -41,13 +41,14 @@ from puppet.scene.rig.stiffness import group_cells
 #: how many of each kind of built part are kept (least recently used dropped first); the
 #: kinds of :data:`PER_LAYER` keep at least two per layer of the scene built last
 CAPACITY = {"pixels": 16, "reduced": 64, "layer": 64, "image": 64, "mesh": 64, "outline": 64, "groups": 16, "exterior": 8, "precompute": 16, "solve": 64,
-            "pose": 16, "cells": 16, "links": 8, "classes": 64}
+            "pose": 16, "cells": 16, "links": 8, "classes": 64,
+            "cage": 64}
 
 #: threads that read, mask and mesh the layers of a scene (the cores there are, at most 8)
 WORKERS = min(8, os.cpu_count() or 1)
 
 #: kinds of part built once per layer (or per group, at most one per layer)
-PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells", "classes")
+PER_LAYER = ("layer", "image", "mesh", "outline", "reduced", "precompute", "solve", "cells", "classes", "cage")
 
 
 @dataclass
@@ -82,6 +83,7 @@ class Built:
     pre_keys: list[str]
     notes: list[str] = field(default_factory=list)  # for `puppet check` (clipped link segments)
     regions: list = None  # per layer: its mask outline (geom.contour.mask_regions), as meshed
+    cages: list = None  # per group: a LayerCage where its layer is caged, else None (None: no cage at all)
 
     def group_of_pin(self, i: int) -> int | None:
         """Group of scene pin ``i`` (None for exterior pins)."""
@@ -145,7 +147,8 @@ class Rig:
         for k, L in enumerate(data.layers):
             pins = [p.at for _, p in build.layer_pins(data, k)]
             segs = [(path, P) for li, path, P in polylines[k]]
-            stand_in.append(not L.visible and not pins and not segs and L.exterior is None)  # nothing rigs it
+            stand_in.append(not L.visible and not pins and not segs and L.exterior is None
+                            and L.cage is None)  # nothing rigs it
             mesh_keys.append(fingerprint(base_keys[k], L.mesh, areas[k], pins, segs, stand_in[k]))
         meshes = _parallel(len(data.layers), lambda k: memo.get("mesh", mesh_keys[k], lambda: (
             build.stand_in_mesh(images[k]) if stand_in[k] else
@@ -155,10 +158,12 @@ class Rig:
                                  [(p.name, p.layer, p.at, p.kind) for p in data.pins])
         groups = memo.get("groups", groups_key, lambda: build.build_groups(data, meshes, pin_vertex, polylines))
         group_keys = [fingerprint([mesh_keys[k] for k in g.layers], g.mesh.V.shape, g.b) for g in groups]
+        cages = self._cages(data, images, groups, group_keys, base_keys)
+        rests = {lc.layer: lc.rest for lc in cages or () if lc is not None}
         ext_key = fingerprint(group_keys, [(L.exterior, base_keys[k]) for k, L in enumerate(data.layers)],
                               [(p.name, p.layer, p.at) for p in data.pins if p.kind == "exterior"],
-                              {n: sorted(pose) for n, pose in data.poses.items()})
-        exterior = memo.get("exterior", ext_key, lambda: build_exterior(data, images, groups)[0])
+                              {n: sorted(pose) for n, pose in data.poses.items()}, *([rests] if rests else []))
+        exterior = memo.get("exterior", ext_key, lambda: build_exterior(data, images, groups, rests)[0])
         d = data.deformer
         pre_keys, made = [], []
         for gi, g in enumerate(groups):
@@ -177,7 +182,26 @@ class Rig:
         pre = _AllLazy(len(groups), precompute) if lazy_pre else precompute()
         return Built(data=data, rank=rank, images=images, image_keys=image_keys, meshes=meshes,
                      pin_vertex=pin_vertex, groups=groups, exterior=exterior, pre=pre, pre_keys=pre_keys,
-                     notes=parts.notes, regions=outlines)
+                     notes=parts.notes, regions=outlines, cages=cages)
+
+    def _cages(self, data: SceneData, images, groups, group_keys, base_keys) -> list | None:
+        """Per group, the :class:`~puppet.scene.rig.cages.LayerCage` of its caged layer
+        (None for an uncaged group); None where the scene has no cage. Kept in memory only
+        (not a disk-cache kind)."""
+        if not any(L.cage for L in data.layers):
+            return None
+        from puppet.scene.rig.cages import build_cage, rest_cage  # lazy: scipy.linalg, for caged scenes only
+
+        out = []
+        for gi, g in enumerate(groups):
+            k = next((k for k in g.layers if data.layers[k].cage), None)
+            if k is None:
+                out.append(None)
+                continue
+            key = fingerprint(k, group_keys[gi], data.layers[k].cage, base_keys[k], [data.pins[i].at for i in g.pins])
+            out.append(self.memo.get("cage", key, lambda k=k, g=g: build_cage(
+                data, k, rest_cage(data, k, images[k]), g)))
+        return out
 
     # -- posing ------------------------------------------------------------------
     def solve(self, built: Built, gi: int, state: PinState):
@@ -189,10 +213,16 @@ class Rig:
         is never read from nor written to disk."""
         d = built.data.deformer
         gp = built.group_pose(gi, state)
-        key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]])
+        cage = built.cages[gi] if built.cages else None
+        key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]],
+                          *([cage.rest, cage.cmap.kind] if cage else []))
         warm = getattr(self._warm, "starts", {}).get(built.pre_keys[gi])
 
         def exact():
+            if cage is not None:
+                from puppet.scene.rig.cages import cage_solve  # lazy: scipy.linalg, for caged scenes only
+
+                return cage_solve(cage, built.pre[gi], built.groups[gi], d, built.exterior[gi], gp)
             return solve_group(built.pre[gi], built.groups[gi], d, built.exterior[gi], gp, warm=warm)
 
         def first():

@@ -10,7 +10,7 @@ import numpy as np
 from puppet.deform.boundary import ExteriorFrame, exterior_frame
 from puppet.errors import SceneError
 from puppet.geom.contour import mask_regions, ring_area
-from puppet.scene.format.load import EXTERIOR_NAME
+from puppet.scene.format.load import CAGE_NAME, EXTERIOR_NAME
 
 
 @dataclass
@@ -38,12 +38,19 @@ def auto_points(mask: np.ndarray, offset, beta: float) -> np.ndarray:
     return np.concatenate(pts) if pts else np.zeros((0, 2))
 
 
-def build_exterior(data, images, groups) -> tuple[list[GroupExterior], dict[str, tuple[int, int]]]:
-    """Exterior points per group, and name -> (group, index in the group)."""
+def build_exterior(data, images, groups, cages=None) -> tuple[list[GroupExterior], dict[str, tuple[int, int]]]:
+    """Exterior points per group, and name -> (group, index in the group). ``cages``: the
+    rest cage of each caged layer (layer index -> (m, 2)); its vertices are its group's
+    points ``LAYER:cageN`` (no exterior frame: the cage map moves that group)."""
     index = {L.name: L.index for L in data.layers}
     group_of = {k: gi for gi, g in enumerate(groups) for k in g.layers}
     per = [GroupExterior() for _ in groups]
     rest: list[list] = [[] for _ in groups]
+    for k, C in (cages or {}).items():
+        gi = group_of[k]
+        per[gi].names += [f"{data.layers[k].name}:cage{j}" for j in range(len(C))]
+        per[gi].layers += [k] * len(C)
+        rest[gi] += list(C)
     for L in data.layers:
         if L.exterior is None:
             continue
@@ -62,7 +69,7 @@ def build_exterior(data, images, groups) -> tuple[list[GroupExterior], dict[str,
     where = {}
     for gi, (g, ge) in enumerate(zip(groups, per)):
         ge.rest = np.array(rest[gi], float).reshape(-1, 2)
-        if len(ge.rest):
+        if len(ge.rest) and not any(data.layers[k].cage for k in g.layers):
             ge.frame = exterior_frame(g.mesh.V, ge.rest, g.mesh.F)
         for j, nm in enumerate(ge.names):
             where[nm] = (gi, j)
@@ -73,5 +80,11 @@ def build_exterior(data, images, groups) -> tuple[list[GroupExterior], dict[str,
                 count = sum(1 for n in where if n.startswith(layer + ":ext"))
                 raise SceneError(f"layer {layer!r} has {count} automatic exterior points "
                                  f"({layer}:ext0 .. {layer}:ext{max(count - 1, 0)}), so {nm!r} does not exist",
+                                 file=data.file, path=f"poses.{pname}.{nm}")
+            mt = CAGE_NAME.match(nm)
+            if mt and nm not in where and nm not in {p.name for p in data.pins}:
+                layer, C = mt.group("layer"), cages[index[mt.group("layer")]]
+                raise SceneError(f"layer {layer!r} has a cage of {len(C)} points ({layer}:cage0 .. "
+                                 f"{layer}:cage{len(C) - 1}), so {nm!r} does not exist",
                                  file=data.file, path=f"poses.{pname}.{nm}")
     return per, where

@@ -135,7 +135,7 @@ def solve_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior,
         from puppet.deform.skeleton import skeleton_solve  # lazy: only scenes of this method load it
 
         U = skeleton_solve(pre.skeleton, bc)
-    return _finish(pre, g, deformer, ext, pose, U)
+    return finish(pre, g, deformer, ext, pose, U)
 
 
 def _rotated_pose(pre: GroupPre, g: Group, deformer: Deformer, bc, angle) -> np.ndarray:
@@ -201,10 +201,12 @@ def preview_group(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterio
     if U0 is None or deformer.method != "arap" or len(g.pins) == 0 or np.any(pose.angle != 0):
         return solve_group(pre, g, deformer, ext, pose)
     U = arap_solve(pre.arap, pose.bc, iterations=iterations, U0=U0, scale=scale_bounds(pre, g, pose.bc))
-    return _finish(pre, g, deformer, ext, pose, U)
+    return finish(pre, g, deformer, ext, pose, U)
 
 
-def _finish(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose, U: np.ndarray):
+def finish(pre: GroupPre, g: Group, deformer: Deformer, ext: GroupExterior, pose: GroupPose, U: np.ndarray):
+    """A solved ``U`` completed: the pins' depth field and the exterior points (which may
+    pull the boundary); (U, depth, exterior positions)."""
     if len(g.pins) and np.any(pose.depth):
         depth = depth_field(pre.D, pose.depth, alpha=deformer.alpha, weights=pre.weights(deformer.alpha))
     else:  # no pins, or all at depth 0 (the field is 0 then)

@@ -7,7 +7,9 @@ that pose would be) are interpolated as rigidly as possible
 (:mod:`puppet.deform.interp`) with the later key's ease; pins that stay put between the
 two keys are held, the others move with the shape; triangles the least-squares fit
 leaves folded are relaxed as in a solved pose (``deformer.relax_foldovers``). At key times both modes give the key's
-solved mesh exactly. The pin depth follows its track in both modes.
+solved mesh exactly. The pin depth follows its track in both modes. A caged layer's
+``rigid`` in-between is its two key cages blended vertex by vertex (its mesh is the cage
+map of that cage, so it moves on straight lines between the keys' meshes).
 """
 from __future__ import annotations
 
@@ -42,6 +44,11 @@ def layers_at(rig: Rig, built: Built, tracks: Tracks, time: float) -> list[Layer
     sa, sb = state_at(tracks, tracks.times[a]), state_at(tracks, tracks.times[b])
     solved = {}
     for gi in range(len(built.groups)):
+        if built.cages and built.cages[gi]:  # a caged layer: its cage in between, vertex by vertex
+            C = (1.0 - u) * rig.solve(built, gi, sa)[2] + u * rig.solve(built, gi, sb)[2]
+            U = built.cages[gi].cmap.apply(C)
+            solved[gi] = (U, _depth(built, gi, state.depth, U), C)
+            continue
         solved[gi] = rigid_group(rig, built, gi, rig.solve(built, gi, sa)[0], rig.solve(built, gi, sb)[0],
                                  u, state.depth)
     return rig.evaluate(built, state, solved=solved)
