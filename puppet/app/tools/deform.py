@@ -416,7 +416,9 @@ def cage_preview(app) -> tuple[str, np.ndarray] | None:
     """The cage a vertex drag shows (until the snapshot of its edit arrives, or the scene
     thread is idle with its last snapshot shown: the edit was refused)."""
     d, session = state(app).cage_drag, app.session
-    if d is not None and d[2] is not None and (app.snap.done >= d[2] or (session.idle() and session.latest is app.snap)):
+    ended = d is not None and d[2] is not None and (app.snap.done >= d[2] or (session.idle()
+                                                                          and session.latest is app.snap))
+    if ended:
         state(app).cage_drag = d = None
     if d is None:
         return None
