@@ -9,6 +9,7 @@ import pytest
 from pyglet.window import key, mouse
 
 from puppet.app.tools import deform as deformtools
+from puppet.app.ui.actions import ACTIONS
 from puppet.app.ui.deform_overlay import CAGE
 from tests.app.harness import Driver, widget
 from tests.conftest import bar_image
@@ -154,7 +155,7 @@ def test_cage_tool_makes_edits_and_removes_a_cage(open_app):
     d.frame(2)
     v = vertex(d, 0)
     assert not orange_near(d, v)
-    d.app.show_cages = True  # (View > Cages)
+    next(a for a in ACTIONS if a.name == "cages").run(d.app, d.w)  # View > Cages
     d.frame(2)
     assert orange_near(d, v)
 
