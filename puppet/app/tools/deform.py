@@ -252,6 +252,19 @@ def handle(layer: str, j: int) -> str:
     return f"{layer}:cage{j}"
 
 
+def cage_handle_of(app, name: str) -> tuple[str, int] | None:
+    """(layer, vertex index) when ``name`` is a caged layer's handle ``LAYER:cageN``."""
+    layer, _, j = name.rpartition(":cage")
+    k = app.layer_index(layer) if layer and j.isdigit() else None
+    return (layer, int(j)) if k is not None and app.snap.data.layers[k].cage is not None else None
+
+
+def cages_drawn(app) -> bool:
+    """The cages are drawn over their layers (the cage tool is on, or View > Cages):
+    their vertices are then drawn as the cage's squares, not as pin markers."""
+    return bool(getattr(app, "show_cages", False)) or state(app).tool == "cage"
+
+
 def shown_cage(app, k: int) -> np.ndarray | None:
     """Layer ``k``'s cage (m, 2) as shown (canvas xy: the rest cage in Pin mode, the posed
     one in Pose mode, handles being dragged where the pointer has them); None when the
@@ -357,9 +370,9 @@ def delete_selected(app) -> bool:
     if sync(app) != "cage" or app.mode != "pin":
         return False
     for name in app.selection:
-        layer, _, j = name.rpartition(":cage")
-        if layer and j.isdigit() and app.layer_index(layer) is not None:
-            delete_vertex(app, layer, int(j))
+        h = cage_handle_of(app, name)
+        if h is not None:
+            delete_vertex(app, *h)
             return True
     return False
 

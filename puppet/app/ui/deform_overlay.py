@@ -31,7 +31,7 @@ def draw_overlay(dl, app) -> None:
     if app.show_links or st.tool in ("hinge", "patch"):
         draw_hinges(dl, app)
     draw_starch_reach(dl, app)
-    if getattr(app, "show_cages", False) or st.tool == "cage":
+    if deformtools.cages_drawn(app):
         draw_cages(dl, app)
     if st.draft_screen:
         pts = [imgui.ImVec2(*map(float, view.to_screen(p))) for p in st.draft_screen]
