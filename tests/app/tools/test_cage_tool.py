@@ -52,11 +52,11 @@ def vertex(d, j):
     return d.screen_of(d.app.snap.layers[0].exterior[f"bar:cage{j}"])
 
 
-def orange_near(d, p, r=3) -> bool:
-    """Some pixel within ``r`` of window point ``p`` has the cage's colour."""
+def colour_near(d, p, r=3, colour=CAGE) -> bool:
+    """Some pixel within ``r`` of window point ``p`` has the cage's colour (or ``colour``)."""
     x, y = int(round(p[0])), int(round(p[1]))
     patch = d.pixels()[y - r:y + r + 1, x - r:x + r + 1].astype(int)
-    want = np.rint(np.array(CAGE[:3]) * 255)
+    want = np.rint(np.array(colour[:3]) * 255)
     return bool((np.abs(patch - want).max(axis=2) <= 12).any())
 
 
@@ -84,7 +84,7 @@ def test_cage_tool_makes_edits_and_removes_a_cage(open_app):
     C = np.array([ext[f"bar:cage{j}"] for j in range(m)])
     assert (C.min(0) < [BOX[0], BOX[1]]).all() and (C.max(0) > [BOX[2], BOX[3]]).all()  # round the bar
     d.frame(2)
-    assert orange_near(d, vertex(d, 0))  # drawn while the tool is on
+    assert colour_near(d, vertex(d, 0))  # drawn while the tool is on
 
     # drag vertex 0 away from the bar by 12 window px: one step, the rest cage moved there
     p0 = vertex(d, 0)
@@ -116,6 +116,7 @@ def test_cage_tool_makes_edits_and_removes_a_cage(open_app):
     d.click((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)  # added again, selected
     d.settle()
     assert d.app.selection == ["bar:cage2"] and len(cage(d).points) == m + 1
+    assert colour_near(d, vertex(d, 2), colour=(1.0, 0.2, 0.15))  # a selected vertex is red
     d.key(key.DELETE)
     d.settle()
     np.testing.assert_array_equal(cage(d).points, P)
@@ -154,10 +155,10 @@ def test_cage_tool_makes_edits_and_removes_a_cage(open_app):
     d.click(*widget("deform-tool:none"))
     d.frame(2)
     v = vertex(d, 0)
-    assert not orange_near(d, v)
+    assert not colour_near(d, v)
     next(a for a in ACTIONS if a.name == "cages").run(d.app, d.w)  # View > Cages
     d.frame(2)
-    assert orange_near(d, v)
+    assert colour_near(d, v)
 
 
 def test_pose_mode_drags_a_cage_handle_like_a_pin(open_app):
