@@ -1,7 +1,10 @@
 """Canvas tools of the deformation that fits real art (issue 22): the stiffness brush
 (paints grey 0..255 into a layer's stiffness image, Alt erases), the hinge tool (a click
 in the overlap of two layers adds a link point), the patch tool (clicks make a polygon,
-a click on its first point closes it into a link polygon), and the grey levels of the
+a click on its first point closes it into a link polygon), the cage tool (makes, edits
+and removes a layer's ``layers[i].cage``: in Pin mode a click on a cage edge adds a
+vertex, a drag moves one, a right click or Delete deletes one; in Pose mode the handles
+``LAYER:cageN`` drag like pins, by the mode's own tools), and the grey levels of the
 stiffness heat map (drawn by :mod:`puppet.app.ui.deform_overlay`). The Deform panel (:mod:`puppet.app.ui.deform_panel`) chooses the tool.
 
 Each stroke, hinge or patch is one edit on the scene thread, so one undo step. Points
@@ -15,7 +18,7 @@ import numpy as np
 
 from puppet.app.model import pick
 from puppet.app.tools import mask as masktools
-from puppet.app.tools.gestures import click_or_drag, delta, moved, pose_tool
+from puppet.app.tools.gestures import click_or_drag, delta, moved
 from puppet.errors import SceneError
 from puppet.imaging.masks import canvas_to_image
 from puppet.scene.rig.stiffness import layer_grey, stiffness_image
@@ -87,6 +90,8 @@ def sync(app) -> str | None:
 def canvas_tool(app):
     """The tool generator function for a left press (None: the mode's own tool)."""
     t = sync(app)
+    if t == "cage" and app.mode != "pin":
+        return None  # in Pose mode cage handles drag like pins (the pose and animation tools)
     return {"stiffness": stiffness_tool, "hinge": hinge_tool, "patch": patch_tool, "cage": cage_tool}.get(t)
 
 
@@ -379,11 +384,8 @@ def delete_selected(app) -> bool:
 
 def cage_tool(app, press):
     """Pin mode: a click on a cage edge adds a vertex there, a drag of a vertex moves it,
-    a right click on a vertex deletes it (each one undo step). Pose mode: the pose tool
-    (cage handles drag like pins)."""
-    if app.mode != "pin":
-        yield from pose_tool(app, press)
-        return
+    a right click on a vertex deletes it (each one undo step). (In Pose mode the mode's
+    tools run: :func:`canvas_tool`.)"""
     hit = cage_at(app, press.pos)
     if hit is None:
         _, went = yield from click_or_drag(press)

@@ -164,7 +164,11 @@ def test_cage_tool_makes_edits_and_removes_a_cage(open_app):
 def test_pose_mode_drags_a_cage_handle_like_a_pin(open_app):
     d = open_app({"points": [[50, 30], [190, 30], [190, 90], [50, 90]], "coordinates": "mvc"})
     d.app.edit(lambda s: s.set_active_pose("p"))
+    d.click(*widget("header:Deform"))
     d.settle()
+    d.click(*widget("deform-tool:cage"))  # on in Pose mode: the cage drawn, drags as pins do
+    d.frame(2)
+    assert deformtools.state(d.app).tool == "cage"
     n0 = steps(d)
     rest = np.array(d.app.snap.layers[0].deformed)
     start = d.pin_screen("bar:cage2")
@@ -174,6 +178,7 @@ def test_pose_mode_drags_a_cage_handle_like_a_pin(open_app):
         d.drag(start[0] + 5 * k, start[1] + 5 * k)
         d.settle()
         previews += d.app.snap.preview
+    assert colour_near(d, (start[0] + 20, start[1] + 20), colour=(1.0, 0.2, 0.15))  # where the pointer is
     d.release()
     d.settle()
     assert previews > 0 and steps(d) == n0 + 1
