@@ -42,6 +42,7 @@ class App:
         self.depth_view = False
         self.show_links = False
         self.show_stiffness = False  # the stiffness heat map (puppet.app.tools.deform)
+        self.show_cages = False  # layers' cages drawn over them (also while the cage tool is on)
         self.show_help = False
         self.status = Message("Open a scene with File > Open (Ctrl+O)")
         self.overrides: dict[str, tuple[float, float]] = {}  # marker positions during a gesture

@@ -1,7 +1,10 @@
 """Canvas tools of the deformation that fits real art (issue 22): the stiffness brush
 (paints grey 0..255 into a layer's stiffness image, Alt erases), the hinge tool (a click
 in the overlap of two layers adds a link point), the patch tool (clicks make a polygon,
-a click on its first point closes it into a link polygon), and the grey levels of the
+a click on its first point closes it into a link polygon), the cage tool (makes, edits
+and removes a layer's ``layers[i].cage``: in Pin mode a click on a cage edge adds a
+vertex, a drag moves one, a right click or Delete deletes one; in Pose mode the handles
+``LAYER:cageN`` drag like pins, by the mode's own tools), and the grey levels of the
 stiffness heat map (drawn by :mod:`puppet.app.ui.deform_overlay`). The Deform panel (:mod:`puppet.app.ui.deform_panel`) chooses the tool.
 
 Each stroke, hinge or patch is one edit on the scene thread, so one undo step. Points
@@ -15,14 +18,18 @@ import numpy as np
 
 from puppet.app.model import pick
 from puppet.app.tools import mask as masktools
-from puppet.app.tools.gestures import click_or_drag
+from puppet.app.tools.gestures import click_or_drag, delta, moved
 from puppet.errors import SceneError
 from puppet.imaging.masks import canvas_to_image
 from puppet.scene.rig.stiffness import layer_grey, stiffness_image
 
 #: a click this close to a patch's first point (window pixels) closes the patch
 CLOSE_RADIUS = 9.0
-TOOLS = ("stiffness", "hinge", "patch")
+TOOLS = ("stiffness", "hinge", "patch", "cage")
+#: window pixels within which a press picks a cage vertex, and then a cage edge
+CAGE_RADIUS, EDGE_RADIUS = 9.0, 6.0
+#: the automatic cage "Make cage" asks for at first: vertices, offset (canvas px)
+CAGE_AUTO, CAGE_OFFSET = 12, 10.0
 #: The stiffness brush's grey at first (25 %: a cell weighs 100^0.25 = 3.2 times more, a
 #: quarter of it rigid). At 255 one stroke across a garment fitted in `similar` mode kept
 #: the band at its size while the rest shrank round it (issue 32).
@@ -44,6 +51,9 @@ class DeformState:
     stroke: list | None = None  # the brush stroke in progress (canvas xy)
     link: tuple | None = None  # the selected link's layers (strength slider)
     heat: dict = field(default_factory=dict)  # heat-map cache: layer index -> (scene data, vertex count, grey)
+    cage_auto: int = CAGE_AUTO  # "Make cage": about this many vertices
+    cage_offset: float = CAGE_OFFSET  # ... this far (canvas px) outside the layer's mask
+    cage_drag: tuple | None = None  # a cage vertex drag's preview: (layer, cage (m, 2) canvas xy, job or None)
 
 
 def state(app) -> DeformState:
@@ -80,7 +90,9 @@ def sync(app) -> str | None:
 def canvas_tool(app):
     """The tool generator function for a left press (None: the mode's own tool)."""
     t = sync(app)
-    return {"stiffness": stiffness_tool, "hinge": hinge_tool, "patch": patch_tool}.get(t)
+    if t == "cage" and app.mode != "pin":
+        return None  # in Pose mode cage handles drag like pins (the pose and animation tools)
+    return {"stiffness": stiffness_tool, "hinge": hinge_tool, "patch": patch_tool, "cage": cage_tool}.get(t)
 
 
 # -- picking (GL thread, from the snapshot) ------------------------------------------
@@ -237,6 +249,195 @@ def close_patch(app) -> None:
 def cancel_patch(app) -> None:
     st = state(app)
     st.draft, st.draft_screen, st.draft_pair = [], [], None
+
+
+# -- the cage tool ---------------------------------------------------------------------
+def handle(layer: str, j: int) -> str:
+    """The name of cage vertex ``j`` of ``layer`` as a pose handle."""
+    return f"{layer}:cage{j}"
+
+
+def cage_handle_of(app, name: str) -> tuple[str, int] | None:
+    """(layer, vertex index) when ``name`` is a caged layer's handle ``LAYER:cageN``."""
+    layer, _, j = name.rpartition(":cage")
+    k = app.layer_index(layer) if layer and j.isdigit() else None
+    return (layer, int(j)) if k is not None and app.snap.data.layers[k].cage is not None else None
+
+
+def cages_drawn(app) -> bool:
+    """The cages are drawn over their layers (the cage tool is on, or View > Cages):
+    their vertices are then drawn as the cage's squares, not as pin markers."""
+    return bool(getattr(app, "show_cages", False)) or state(app).tool == "cage"
+
+
+def shown_cage(app, k: int) -> np.ndarray | None:
+    """Layer ``k``'s cage (m, 2) as shown (canvas xy: the rest cage in Pin mode, the posed
+    one in Pose mode, handles being dragged where the pointer has them); None when the
+    layer has no cage."""
+    L = app.snap.data.layers[k]
+    if L.cage is None or k >= len(app.snap.layers):
+        return None
+    ext, pts = app.snap.layers[k].exterior, []
+    while (n := handle(L.name, len(pts))) in ext:
+        pts.append(app.overrides.get(n, ext[n]))
+    return np.asarray(pts, float).reshape(-1, 2) if len(pts) >= 3 else None
+
+
+def cages(app) -> list[tuple[str, np.ndarray]]:
+    """(layer name, shown cage) of every visible caged layer."""
+    hidden = app.hidden_indices()
+    out = []
+    for k, L in enumerate(app.snap.data.layers):
+        C = shown_cage(app, k) if k not in hidden else None
+        if C is not None:
+            out.append((L.name, C))
+    return out
+
+
+def cage_at(app, pos) -> tuple[str, str, int, np.ndarray] | None:
+    """What of a cage is at window point ``pos``: ("vertex", layer, j, vertex) for the
+    nearest vertex within :data:`CAGE_RADIUS`, else ("edge", layer, j, point) for the
+    nearest point of edge j (vertex j to j + 1) within :data:`EDGE_RADIUS`; None."""
+    P = np.asarray(pos, float)
+    found = [(layer, C, np.asarray(app.view.to_screen(C), float)) for layer, C in cages(app)]
+    near = [(float(np.hypot(*(S - P).T).min()), layer, int(np.argmin(np.hypot(*(S - P).T))), C)
+            for layer, C, S in found]
+    best = min(near, key=lambda c: c[0], default=None)
+    if best is not None and best[0] <= CAGE_RADIUS:
+        return "vertex", best[1], best[2], best[3][best[2]]
+    edges = []
+    for layer, C, S in found:
+        A, AB = S, np.roll(S, -1, axis=0) - S
+        t = np.clip(((P - A) * AB).sum(1) / np.maximum((AB * AB).sum(1), 1e-12), 0.0, 1.0)
+        d = np.hypot(*(A + t[:, None] * AB - P).T)
+        j = int(np.argmin(d))
+        edges.append((float(d[j]), layer, j, C[j] + t[j] * (np.roll(C, -1, axis=0)[j] - C[j])))
+    best = min(edges, key=lambda c: c[0], default=None)
+    return ("edge", *best[1:]) if best is not None and best[0] <= EDGE_RADIUS else None
+
+
+def cage_value(cage, points=None, coordinates: str | None = None) -> dict:
+    """The scene-format value of ``cage`` (a :class:`~puppet.scene.format.model.Cage`)
+    with its ``points`` and ``coordinates`` replaced where given; an automatic cage keeps
+    its ``auto`` and ``offset`` (they then only say how it was made)."""
+    out: dict = {} if cage.auto is None else {"auto": int(cage.auto), "offset": float(cage.offset)}
+    pts = cage.points if points is None else points
+    if pts is not None:
+        out["points"] = [[float(x), float(y)] for x, y in np.asarray(pts, float)]
+    out["coordinates"] = coordinates or cage.coordinates
+    return out
+
+
+def set_cage(app, layer: str, value, done: str) -> int:
+    """Give ``layer`` the cage ``value`` (None: remove it), one undo step; the status line
+    says ``done``, or the scene's one-line refusal (the cage then stays as it was)."""
+    def fn(s):
+        s.set_cage(layer, value)
+        return done
+    return app.edit(fn)
+
+
+def make_cage(app, layer: str) -> int:
+    """An automatic cage around ``layer`` (the panel's vertices and offset; the layer's
+    coordinates kind, green for a layer without a cage)."""
+    st, k = state(app), app.layer_index(layer)
+    old = app.snap.data.layers[k].cage if k is not None else None
+    value = {"auto": int(st.cage_auto), "offset": float(st.cage_offset),
+             "coordinates": old.coordinates if old is not None else "green"}
+    return set_cage(app, layer, value, f"{layer}: a cage of about {st.cage_auto} vertices, "
+                                       f"{st.cage_offset:g} px out")
+
+
+def set_points(app, layer: str, points, done: str) -> int | None:
+    """Replace ``layer``'s cage points (its kind and ``auto`` stay)."""
+    k = app.layer_index(layer)
+    cage = app.snap.data.layers[k].cage if k is not None else None
+    if cage is None:
+        return None
+    return set_cage(app, layer, cage_value(cage, points), done)
+
+
+def delete_vertex(app, layer: str, j: int) -> None:
+    """Delete vertex ``j`` of ``layer``'s cage (a cage keeps at least 3)."""
+    C = shown_cage(app, app.layer_index(layer))
+    if C is None or j >= len(C):
+        return
+    if len(C) <= 3:
+        app.say(f"the cage of {layer} has 3 vertices, the fewest a cage can have", "error")
+        return
+    app.selection = [n for n in app.selection if n != handle(layer, j)]
+    set_points(app, layer, np.delete(C, j, axis=0), f"{layer}: deleted cage vertex {j}")
+
+
+def delete_selected(app) -> bool:
+    """Delete (the key) with the cage tool on in Pin mode: delete the selected cage vertex
+    (the first one selected); False when no cage vertex is selected there."""
+    if sync(app) != "cage" or app.mode != "pin":
+        return False
+    for name in app.selection:
+        h = cage_handle_of(app, name)
+        if h is not None:
+            delete_vertex(app, *h)
+            return True
+    return False
+
+
+def cage_tool(app, press):
+    """Pin mode: a click on a cage edge adds a vertex there, a drag of a vertex moves it,
+    a right click on a vertex deletes it (each one undo step). (In Pose mode the mode's
+    tools run: :func:`canvas_tool`.)"""
+    hit = cage_at(app, press.pos)
+    if hit is None:
+        _, went = yield from click_or_drag(press)
+        if not went:
+            app.say("cage: click a cage edge to add a vertex, drag a vertex to move it, right-click it to delete "
+                    "it (Make cage in the Deform panel makes one)")
+        return
+    kind, layer, j, at = hit
+    app.selected_layer = layer
+    C = shown_cage(app, app.layer_index(layer))
+    if kind == "edge":
+        _, went = yield from click_or_drag(press)
+        if not went and press.button == 0:
+            app.selection = [handle(layer, j + 1)]
+            set_points(app, layer, np.insert(C, j + 1, at, axis=0), f"{layer}: added cage vertex {j + 1}")
+        return
+    app.selection = [handle(layer, j)]
+    if press.button != 0:
+        _, went = yield from click_or_drag(press)
+        if not went:
+            delete_vertex(app, layer, j)
+        return
+    yield from drag_vertex(app, press, layer, C, j)
+
+
+def drag_vertex(app, press, layer: str, C: np.ndarray, j: int):
+    """Drag vertex ``j`` of ``layer``'s cage ``C``: the moved cage is previewed while
+    dragging and set on the release (shown until that edit's snapshot arrives)."""
+    st, ev, went = state(app), press, False
+    while ev.type != "release":
+        ev = yield
+        went = went or moved(ev, press)
+        if went:
+            P = C.copy()
+            P[j] = C[j] + delta(app, ev, press)
+            st.cage_drag = (layer, P, None)
+    if went:
+        job = set_points(app, layer, st.cage_drag[1], f"{layer}: moved cage vertex {j}")
+        st.cage_drag = (layer, st.cage_drag[1], job)
+
+
+def cage_preview(app) -> tuple[str, np.ndarray] | None:
+    """The cage a vertex drag shows (until the snapshot of its edit arrives, or the scene
+    thread is idle with its last snapshot shown: the edit was refused)."""
+    d, session = state(app).cage_drag, app.session
+    ended = d is not None and d[2] is not None and (app.snap.done >= d[2] or (session.idle()
+                                                                          and session.latest is app.snap))
+    if ended:
+        state(app).cage_drag = d = None
+    if d is None:
+        return None
+    return d[0], d[1]
 
 
 # -- the heat map's grey levels ---------------------------------------------------------------

@@ -29,6 +29,8 @@ def choose_tool(app, ev: CanvasEvent, space_down: bool = False):
     """The tool for a press: pan for the middle button or Space, else the mode's tool."""
     if ev.button == 2 or (ev.button == 0 and space_down):
         return pan_tool
+    if ev.button == 1 and deformtools.sync(app) == "cage" and app.mode == "pin":
+        return deformtools.cage_tool  # a right click deletes a cage vertex
     if ev.button != 0:
         return None
     tool = step_tool(app)  # the task script's mask, clone and link tools

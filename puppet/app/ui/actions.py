@@ -11,6 +11,7 @@ from typing import Callable
 
 from imgui_bundle import imgui
 
+from puppet.app.tools import deform as deformtools
 from puppet.app.ui import export_dialog
 
 K = imgui.Key
@@ -115,7 +116,8 @@ ACTIONS: tuple[Action, ...] = (
       ((K.delete, False, None), (K.backspace, False, None)), lambda app, win: app.timeline.delete_keys(),
       _keys_selected, menu="Edit", separator=True),
     A("remove_pins", "Delete", "Remove selected pins", "remove the selected pins (or Alt + click a pin)",
-      ((K.delete, False, None), (K.backspace, False, None)), lambda app, win: app.remove_pins(list(app.selection)),
+      ((K.delete, False, None), (K.backspace, False, None)),
+      lambda app, win: deformtools.delete_selected(app) or app.remove_pins(list(app.selection)),
       lambda app: bool(app.selection), menu="Edit"),
     A("select_all", "Ctrl+A", "Select all pins", "select every pin", ((K.a, True, None),),
       lambda app, win: setattr(app, "selection", [m.name for m in app.markers()]), _loaded, menu="Edit"),
@@ -147,6 +149,8 @@ ACTIONS: tuple[Action, ...] = (
       menu="View", checked="show_links"),
     A("stiffness", "", "Stiffness heat map", "the stiffness the solver sees, in red (Deform panel)", (),
       _toggle("show_stiffness"), menu="View", checked="show_stiffness"),
+    A("cages", "", "Cages", "draw the layers' cages (Deform panel, cage tool)", (), _toggle("show_cages"),
+      menu="View", checked="show_cages"),
     A("nudge", "Arrows / Shift + Arrows", "Nudge", "nudge the selected pins 1 px / 10 px",
       tuple((k, False, None) for k in (K.left_arrow, K.right_arrow, K.up_arrow, K.down_arrow)), _nudge,
       repeat=True),

@@ -1,7 +1,7 @@
 """What the Deform panel's tools draw over the canvas with ImGui's draw list: the
 stiffness heat map (the grey levels the solver sees, :func:`puppet.app.tools.deform.vertex_grey`),
-hinges and patches, the patch being drawn, the brush stroke and cursor, and the reach of
-the selected starch pins.
+hinges and patches, the patch being drawn, the brush stroke and cursor, the reach of
+the selected starch pins, and the layers' cages (polygon and vertex squares).
 """
 from __future__ import annotations
 
@@ -31,6 +31,8 @@ def draw_overlay(dl, app) -> None:
     if app.show_links or st.tool in ("hinge", "patch"):
         draw_hinges(dl, app)
     draw_starch_reach(dl, app)
+    if deformtools.cages_drawn(app):
+        draw_cages(dl, app)
     if st.draft_screen:
         pts = [imgui.ImVec2(*map(float, view.to_screen(p))) for p in st.draft_screen]
         for p, q in zip(pts, pts[1:]):
@@ -122,3 +124,27 @@ def draw_starch_reach(dl, app) -> None:
             c = app.view.to_screen(app.marker_xy(m))
             dl.add_circle(imgui.ImVec2(float(c[0]), float(c[1])), (p.radius or STARCH_RADIUS) * app.view.scale,
                           white, 0, 1.0)
+
+
+#: the cages' colour (RGBA 0..1): orange, apart from the pins, links and the proposed rig
+CAGE = (1.0, 0.5, 0.05, 1.0)
+
+
+def draw_cages(dl, app) -> None:
+    """Each visible caged layer's cage as shown (a vertex drag's preview instead of its
+    layer's): the polygon with a dark outline, its vertices as small squares, a selected
+    vertex filled red."""
+    col = imgui.get_color_u32
+    c, dark = col(imgui.ImVec4(*CAGE)), col(imgui.ImVec4(0.0, 0.0, 0.0, 0.85))
+    red = col(imgui.ImVec4(1.0, 0.2, 0.15, 1.0))
+    preview = deformtools.cage_preview(app)
+    for layer, C in deformtools.cages(app):
+        if preview is not None and preview[0] == layer:
+            C = preview[1]
+        S = [imgui.ImVec2(*map(float, p)) for p in app.view.to_screen(C)]
+        dl.add_polyline(S, dark, 4.0, imgui.ImDrawFlags_.closed)
+        dl.add_polyline(S, c, 2.0, imgui.ImDrawFlags_.closed)
+        for j, p in enumerate(S):
+            a, b = imgui.ImVec2(p.x - 4.0, p.y - 4.0), imgui.ImVec2(p.x + 4.0, p.y + 4.0)
+            dl.add_rect_filled(a, b, red if deformtools.handle(layer, j) in app.selection else c)
+            dl.add_rect(a, b, dark, 0.0, 1.0)

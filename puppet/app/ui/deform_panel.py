@@ -1,5 +1,6 @@
 """The Deform panel (issue 22): the scene's deformation mode and the selected layer's,
-the tools of :mod:`puppet.app.tools.deform` (stiffness brush, hinge, patch), the heat map,
+the tools of :mod:`puppet.app.tools.deform` (stiffness brush, hinge, patch, cage) with the
+cage tool's controls (make, coordinates, remove), the heat map,
 starch pins and their radius, and the selected link's strength."""
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from imgui_bundle import imgui
 
 from puppet.app.tools import deform as deformtools
 from puppet.app.ui.widgets import button, live, note, toggle
-from puppet.scene.format.model import MODES
+from puppet.scene.format.model import CAGE_KINDS, MODES
 from puppet.scene.rig.stiffness import STARCH_RADIUS
 
 MODE_TIPS = {
@@ -18,7 +19,12 @@ MODE_TIPS = {
 TOOL_LABELS = (("none", None, "the mode's own tool (pins)"),
                ("brush", "stiffness", "paint stiffness into the layer (Alt: erase); one undo step a stroke"),
                ("hinge", "hinge", "click where two layers overlap: they share a point and turn about it"),
-               ("patch", "patch", "click the corners of a shared patch; click the first point to close it"))
+               ("patch", "patch", "click the corners of a shared patch; click the first point to close it"),
+               ("cage", "cage", "the selected layer's cage: Pin mode: click an edge to add a vertex, drag one to "
+                                "move it, right-click (or Delete) to delete it; Pose mode: drag its vertices"))
+CAGE_TIPS = {"green": "Green coordinates: conformal, a pattern keeps its angles (exact for similarities)",
+             "mvc": "mean value coordinates: exact for affine maps of the cage",
+             "harmonic": "harmonic coordinates: non-negative, shape-aware, exact for affine maps (slower to set up)"}
 
 
 def link_step_tools(app) -> None:
@@ -46,7 +52,8 @@ def panel(app) -> None:
     imgui.separator()
     imgui.text("tool:")
     for label, tool, tip in TOOL_LABELS:
-        imgui.same_line()
+        if tool != "cage":  # the cage on a line of its own: the panel is narrow
+            imgui.same_line()
         if imgui.radio_button(f"{label}##deform-tool", st.tool == tool):
             deformtools.choose(app, tool)
             app.say(f"{label}: {tip}")
@@ -69,6 +76,8 @@ def panel(app) -> None:
                   enabled=k is not None and snap.data.layers[k].stiffness is not None):
             name = app.selected_layer
             app.edit(lambda s: s.set_layer(name, stiffness=None))
+    if st.tool == "cage":
+        cage(app)
     if st.tool == "patch" and st.draft:
         if button("Close patch", "the drafted polygon becomes a shared patch", enabled=len(st.draft) >= 3):
             deformtools.close_patch(app)
@@ -106,6 +115,44 @@ def modes(app) -> None:
         value = None if i == 0 else {"mode": items[i]}
         name = L.name
         app.edit(lambda s: s.set_layer(name, deformer=value))
+
+
+def cage(app) -> None:
+    """The cage tool's controls for the selected layer: Make cage (an automatic cage of
+    about N vertices, PX out), its coordinates, Remove cage."""
+    st, k = deformtools.state(app), app.layer_index(app.selected_layer)
+    if k is None:
+        imgui.text_disabled("select a layer for its cage")
+        return
+    L = app.snap.data.layers[k]
+    imgui.set_next_item_width(100)
+    _, n = imgui.input_int("vertices##cage", st.cage_auto, 0)
+    imgui.set_item_tooltip("Make cage: about this many cage vertices (3 to 1000)")
+    note("input:cage vertices")
+    st.cage_auto = min(max(int(n), 3), 1000)
+    imgui.same_line()
+    imgui.set_next_item_width(100)
+    _, off = imgui.input_float("offset##cage", st.cage_offset, 0.0, 0.0, "%.0f px")
+    imgui.set_item_tooltip("Make cage: how far (canvas px) the cage keeps outside the layer")
+    note("input:cage offset")
+    st.cage_offset = min(max(float(off), 0.0), 1000.0)
+    if button("Make cage", f"an automatic cage around {L.name} (replaces its cage; one undo step)"):
+        deformtools.make_cage(app, L.name)
+    if L.cage is None:
+        imgui.same_line()
+        imgui.text_disabled(f"{L.name} has no cage")
+        return
+    imgui.same_line()
+    if button("Remove cage", f"{L.name} is deformed by the pins again (its cage handles leave the poses)"):
+        name = L.name
+        deformtools.set_cage(app, name, None, f"{name}: cage removed")
+    imgui.set_next_item_width(140)
+    i = combo("coordinates", "cage coordinates", list(CAGE_KINDS), CAGE_KINDS.index(L.cage.coordinates),
+              "\n".join(f"{c}: {CAGE_TIPS[c]}" for c in CAGE_KINDS))
+    if i is not None:
+        name, kind = L.name, CAGE_KINDS[i]
+        deformtools.set_cage(app, name, deformtools.cage_value(L.cage, coordinates=kind),
+                             f"{name}: {kind} coordinates")
 
 
 def combo(label: str, key: str, items, current: int, tip: str) -> int | None:

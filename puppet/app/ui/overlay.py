@@ -11,6 +11,7 @@ from imgui_bundle import imgui
 
 from puppet.app.model import pick
 from puppet.app.tools import autorig
+from puppet.app.tools import deform as deformtools
 from puppet.app.tools import link as linkpencil
 
 #: pin colours (RGBA 0..1): interior, exterior pins, automatic exterior points, starch pins
@@ -33,7 +34,10 @@ def draw_pins(dl, app, hovered: pick.Marker | None) -> None:
     light = col((1.0, 1.0, 1.0, 0.85))
     s = app.marker_scale()  # smaller where the view crowds them (a big character in a small window)
     w = max(1.0, 1.5 * s)  # outline width
+    cages = deformtools.cages_drawn(app)
     for m in app.markers():
+        if cages and m.kind == "auto" and deformtools.cage_handle_of(app, m.name) is not None:
+            continue  # drawn as a square of its cage (puppet.app.ui.deform_overlay)
         x, y = view.to_screen(app.marker_xy(m))
         c = col(COLOURS[m.kind])
         r = (4.0 if m.kind == "auto" else 5.5) * s
