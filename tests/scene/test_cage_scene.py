@@ -148,6 +148,13 @@ def test_pins_drive_the_cage_and_handles_hold(scene):
     R = k * np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
     L = doc.layers({p["name"]: (np.array(p["at"], float) @ R.T + t).tolist() for p in PINS})[0]
     assert np.abs(L.deformed - (rest.rest @ R.T + t)).max() < 0.5
+    # handles moved and no pin: the cage is the handles, the pins ride along (held at rest,
+    # they made the fit swing the other handles and a dragged green cage moved the layer 2 px)
+    L = doc.layers({"box:cage3": [95, 40]})[0]
+    C = np.array(octagon, float)
+    C[3] = [95, 40]
+    assert np.abs(L.deformed - CageMap(octagon, rest.rest, "green").apply(C)).max() < 1e-9
+    assert L.exterior["box:cage2"] == [80.0, 15.0]  # the others stay at rest
 
 
 def _hash(layers) -> str:

@@ -4,9 +4,9 @@
 Its cage vertices are handles ``LAYER:cageN``, carried as the group's exterior points (the
 rows of ``PinState.ext_to``, NaN = not moved), so poses, keys, animation and drags treat
 them like exterior points. A pose gives the posed cage: moved handles where the pose puts
-them, the others at rest; where the layer has pins, the pins are landmarks and the cage is
-the smoothest one carrying them to their targets with the moved handles held
-(:func:`~puppet.deform.cage.fit_cage`). The layer's vertices are the cage map of the posed
+them, the others at rest; where the pose moves a pin of the layer, the pins are landmarks
+and the cage is the smoothest one carrying them to their targets with the moved handles
+held (:func:`~puppet.deform.cage.fit_cage`). The layer's vertices are the cage map of the posed
 cage; its depth is the pins' depth field, as for any layer.
 """
 from __future__ import annotations
@@ -37,7 +37,10 @@ class LayerCage:
         """The posed cage for pin targets ``bc`` (p, 2) and handle targets ``want`` (m, 2,
         NaN = not moved)."""
         moved = ~np.isnan(want[:, 0])
-        if not len(self.pins_rest) or (np.array_equal(bc, self.pins_rest) and not moved.any()):
+        if not len(self.pins_rest) or np.array_equal(bc, self.pins_rest):
+            # no pin moved: the cage is posed by its handles alone (held pins would make the
+            # fit swing the other handles round them: a dragged handle then moved the dress
+            # 2.2 px under green while the cage crossed it)
             return np.where(moved[:, None], want, self.rest)
         C = fit_cage(self.rest, self.cmap.kind, self.pins_rest, bc, fixed=(np.flatnonzero(moved), want[moved]),
                      cage_map=self.pin_map, fit=self.fit)
