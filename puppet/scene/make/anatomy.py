@@ -46,8 +46,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from puppet.imaging.layered import ArtLayer
+from puppet.imaging.skeleton import distance_inside
 from puppet.scene.make.auto_links import (MIN_DEPTH, Deadline, box_pairs, crop_mask, find_set, join_sets, link_segment,
-                                          overlap_count)
+                                          overlap_box, overlap_count)
 from puppet.scene.rig.build import layer_image, load_source
 
 #: The deformer an automatic rig is solved with (when the scene sets none): hinged chains
@@ -319,13 +320,6 @@ def _unit(ks: list[int], usable: list[ArtLayer], scale: float, canvas) -> Unit:
     return Unit(list(ks), mask, area, pts.mean(0), pts)
 
 
-def _overlap_box(a: ArtLayer, b: ArtLayer):
-    ax0, ay0, ax1, ay1 = a.bounds
-    bx0, by0, bx1, by1 = b.bounds
-    box = (max(ax0, bx0), max(ay0, by0), min(ax1, bx1), min(ay1, by1))
-    return box if box[0] < box[2] and box[1] < box[3] else None
-
-
 class _Thickness(dict):
     """Layer index -> the radius of the largest disc inside the layer (computed when asked)."""
 
@@ -334,7 +328,7 @@ class _Thickness(dict):
         self.usable = usable
 
     def __missing__(self, k: int) -> float:
-        self[k] = v = max(float(_depth(self.usable[k].rgba[..., 3] > 0).max()), 1.0)
+        self[k] = v = max(float(distance_inside(self.usable[k].rgba[..., 3] > 0).max()), 1.0)
         return v
 
 
@@ -561,13 +555,11 @@ def _hinge(a: ArtLayer, b: ArtLayer) -> tuple[np.ndarray, float] | None:
     """The centre of the largest disc inside both layers' overlap (ties: the nearest to
     the overlap's centroid among those at least 0.8 as deep), a pixel centre, and that
     disc's radius; None when the overlap is nowhere :data:`MIN_DEPTH` / 2 deep."""
-    import cv2
-
-    box = _overlap_box(a, b)
+    box = overlap_box(a, b)
     if box is None:
         return None
     both = crop_mask(a, box) & crop_mask(b, box)
-    depth = cv2.distanceTransform(np.pad(both, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
+    depth = distance_inside(both)
     top = float(depth.max())
     if top < MIN_DEPTH / 2:
         return None
@@ -581,7 +573,7 @@ def _glue_link(a: ArtLayer, b: ArtLayer) -> dict | None:
     """A segment along the overlap of a layer painted on another (its principal axis through
     its centroid, the run inside the overlap, ends pulled in by a tenth), so they bend
     together; the short crossing segment of :func:`link_segment` when the overlap is too short."""
-    box = _overlap_box(a, b)
+    box = overlap_box(a, b)
     if box is None:
         return None
     both = crop_mask(a, box) & crop_mask(b, box)
@@ -675,18 +667,12 @@ def _small(mask: np.ndarray, side: int = 128) -> tuple[np.ndarray, float]:
     return cv2.resize(mask.astype(np.float32), size, interpolation=cv2.INTER_AREA) >= 0.5, s
 
 
-def _depth(mask: np.ndarray) -> np.ndarray:
-    import cv2
-
-    return cv2.distanceTransform(np.pad(mask, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
-
-
 def _axis_pins(mask: np.ndarray) -> list[tuple[str, np.ndarray]]:
     """Two pins along the mask's long axis, in the slabs from 15 to 35 % and from 65 to 85 %
     of its length: of each slab's pixels at least 0.7 as deep as its deepest, the one nearest
     the slab's centroid (``chest``/``hip`` upright, else ``front``/``back``);
     one (``centre``) for a part too small to hold two apart."""
-    depth = _depth(mask)
+    depth = distance_inside(mask)
     ys, xs = np.nonzero(mask)
     P = np.column_stack([xs, ys]) + 0.5
     c = P.mean(0)
@@ -750,7 +736,7 @@ def _free_end(mask: np.ndarray, joint: np.ndarray) -> np.ndarray | None:
     dist[~np.isfinite(dist)] = -1.0
     if s < 1.0:  # each layer pixel takes its small pixel's distance
         dist = cv2.resize(dist, (mask.shape[1], mask.shape[0]), interpolation=cv2.INTER_NEAREST)
-    depth = _depth(mask)
+    depth = distance_inside(mask)
     cy, cx = np.nonzero(mask & (depth >= CORE * depth.max()))
     if len(cx) == 0:
         return None

@@ -87,6 +87,14 @@ def join_sets(root: dict, a: str, b: str) -> bool:
     return True
 
 
+def overlap_box(a: ArtLayer, b: ArtLayer):
+    """(x0, y0, x1, y1), the canvas box two layers' boxes share, or None."""
+    ax0, ay0, ax1, ay1 = a.bounds
+    bx0, by0, bx1, by1 = b.bounds
+    box = (max(ax0, bx0), max(ay0, by0), min(ax1, bx1), min(ay1, by1))
+    return box if box[0] < box[2] and box[1] < box[3] else None
+
+
 def crop_mask(lay: ArtLayer, box) -> np.ndarray:
     x0, y0, x1, y1 = box
     ox, oy = lay.offset
@@ -99,10 +107,8 @@ def link_segment(a: ArtLayer, b: ArtLayer):
     not overlap enough."""
     import cv2
 
-    ax0, ay0, ax1, ay1 = a.bounds
-    bx0, by0, bx1, by1 = b.bounds
-    box = (max(ax0, bx0), max(ay0, by0), min(ax1, bx1), min(ay1, by1))
-    if box[0] >= box[2] or box[1] >= box[3]:
+    box = overlap_box(a, b)
+    if box is None:
         return None
     both = crop_mask(a, box) & crop_mask(b, box)
     if both.sum() < 16:
