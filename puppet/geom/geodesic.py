@@ -12,7 +12,7 @@ import scipy.sparse as sp
 
 from puppet.geom.mesh import check_faces, edges
 
-__all__ = ["edge_graph", "geodesic_distances", "connected_components"]
+__all__ = ["edge_graph", "grid_graph", "geodesic_distances", "connected_components"]
 
 
 def edge_graph(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
@@ -36,6 +36,25 @@ def edge_graph(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
     rows = np.concatenate([E[:, 0], E[:, 1]])
     cols = np.concatenate([E[:, 1], E[:, 0]])
     return sp.csr_matrix((np.concatenate([length, length]), (rows, cols)), shape=(n, n))
+
+
+def grid_graph(on: np.ndarray, step: float = 1.0) -> tuple[np.ndarray, sp.csr_matrix]:
+    """The 8-neighbour graph of the cells of a grid that are ``on``: (idx (h, w) node number
+    of each cell, -1 off; the graph, edges of length ``step`` across and ``step`` sqrt 2
+    diagonally, each pair once: use it undirected)."""
+    h, w = on.shape
+    idx = -np.ones((h, w), np.int64)
+    idx[on] = np.arange(int(on.sum()))
+    rows, cols, lens = [], [], []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = idx[0:h - di, max(0, -dj):w - max(0, dj)]  # cell (i, j) ...
+        b = idx[di:h, max(0, dj):w - max(0, -dj)]  # ... and (i + di, j + dj)
+        ok = (a >= 0) & (b >= 0)
+        rows.append(a[ok])
+        cols.append(b[ok])
+        lens.append(np.full(ok.sum(), step * np.hypot(di, dj)))
+    n = int(on.sum())
+    return idx, sp.csr_matrix((np.concatenate(lens), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
 
 
 def geodesic_distances(V: np.ndarray, F: np.ndarray, sources) -> np.ndarray:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from puppet.deform.skeleton import skeleton_from_distances, skeleton_solve
+from puppet.geom.geodesic import grid_graph
 from puppet.imaging.inpaint import inpaint
 
 __all__ = ["grid_mesh", "backward_map", "skeleton_maps", "WarpMaps", "composite", "background_fill"]
@@ -126,7 +127,6 @@ def interior_distances(mask: np.ndarray, sources: np.ndarray, targets: np.ndarra
         Euclidean distance).
     """
     import cv2
-    import scipy.sparse as sp
     from scipy.sparse.csgraph import dijkstra
 
     S = np.asarray(sources, np.float64).reshape(-1, 2)
@@ -145,19 +145,7 @@ def interior_distances(mask: np.ndarray, sources: np.ndarray, targets: np.ndarra
     r1, c1 = max(oi.max(), ti.max(initial=0)) + 1, max(oj.max(), tj.max(initial=0)) + 1
     on = on[r0:r1, c0:c1]  # the work is on the character's bounding box only
     si, sj, ti, tj = si - r0, sj - c0, ti - r0, tj - c0
-    gh, gw = on.shape
-    idx = -np.ones((gh, gw), np.int64)
-    idx[on] = np.arange(on.sum())
-    rows, cols, lens = [], [], []
-    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        a = idx[0:gh - di, max(0, -dj):gw - max(0, dj)]  # cell (i, j) ...
-        bb = idx[di:gh, max(0, dj):gw - max(0, -dj)]  # ... and (i + di, j + dj)
-        ok = (a >= 0) & (bb >= 0)
-        rows.append(a[ok])
-        cols.append(bb[ok])
-        lens.append(np.full(ok.sum(), res * np.hypot(di, dj)))
-    n = int(on.sum())
-    G = sp.csr_matrix((np.concatenate(lens), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    idx, G = grid_graph(on, res)
     Dn = dijkstra(G, directed=False, indices=idx[si, sj])
     # each target's nearest inside cell (labels of the nearest zero pixel, in raster order)
     _, labels = cv2.distanceTransformWithLabels((~on).astype(np.uint8), cv2.DIST_L2, 3,

@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from puppet.geom.geodesic import grid_graph
 from puppet.imaging.layered import ArtLayer
 from puppet.imaging.skeleton import distance_inside
 from puppet.scene.make.auto_links import (MIN_DEPTH, Deadline, box_pairs, crop_mask, find_set, join_sets, link_segment,
@@ -709,26 +710,14 @@ def _free_end(mask: np.ndarray, joint: np.ndarray) -> np.ndarray | None:
     on a copy at most 128 px wide); the one nearest their centroid. On a limb that is the
     middle of its end cap, on a square hand the inside of its far corner."""
     import cv2
-    from scipy import sparse
     from scipy.sparse.csgraph import dijkstra
 
     small, s = _small(mask)
     h, w = small.shape
-    idx = -np.ones((h, w), int)
     ys, xs = np.nonzero(small)
     if len(xs) == 0:
         return None
-    idx[ys, xs] = np.arange(len(xs))
-    rows, cols, vals = [], [], []
-    for dy, dx, wgt in ((0, 1, 1.0), (1, 0, 1.0), (1, 1, 2 ** 0.5), (1, -1, 2 ** 0.5)):
-        a = idx[0:h - dy, max(0, -dx):w - max(0, dx)]  # (y, x) against (y + dy, x + dx)
-        b = idx[dy:h, max(0, dx):w - max(0, -dx)]
-        ok = (a >= 0) & (b >= 0)
-        rows.append(a[ok])
-        cols.append(b[ok])
-        vals.append(np.full(int(ok.sum()), wgt))
-    G = sparse.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(len(xs), len(xs))).tocsr()
+    _, G = grid_graph(small)
     j = np.asarray(joint, float) * s
     src = int(np.argmin((xs + 0.5 - j[0]) ** 2 + (ys + 0.5 - j[1]) ** 2))
     dist = np.full((h, w), -1.0)
