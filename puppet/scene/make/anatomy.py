@@ -138,17 +138,15 @@ def side_of(name: str) -> str | None:
 
 @dataclass
 class Unit:
-    """Layers glued together (indices into the usable layers), their pixels on the
-    analysis canvas and their tree links."""
+    """Layers glued together (indices into the usable layers), their pixels (cell
+    centres of the analysis canvas) and their tree links."""
     members: list[int]
-    mask: np.ndarray = field(repr=False)  # analysis canvas, bool
     area: float = 0.0  # canvas pixels
     centroid: np.ndarray = field(default_factory=lambda: np.zeros(2))  # canvas (x, y)
     points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)), repr=False)  # canvas (x, y)
     parent: int | None = None
     hinge: np.ndarray | None = None  # canvas point where it joins its parent
     hinge_layer: int | None = None  # the member in that hinge
-    hinge_parent_layer: int | None = None  # the parent's layer in it
     children: list[int] = field(default_factory=list)
     glued: bool = False  # a leaf painted on its parent: joined by a segment, no pins
 
@@ -182,13 +180,11 @@ class Contact:
 
 @dataclass
 class Rig:
-    """What :func:`propose_rig` found: pins and links in the scene format, the roots'
-    layers (a torso per connected set), and each usable layer's parent layer (the layer
-    its unit is hinged to; None for a root's)."""
+    """What :func:`propose_rig` found: pins and links in the scene format, and the roots'
+    layers (a torso per connected set)."""
     pins: list[dict]
     links: list[dict]
     roots: list[str]
-    parent: dict[str, str | None]
 
 
 def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), deadline: Deadline | None = None) -> Rig:
@@ -255,11 +251,7 @@ def propose_rig(layers: list[ArtLayer], *, canvas: tuple[int, int], skip=(), dea
         pins += _unit_pins(u, units, usable, masks, areas, root_unit=u in roots)
     taken: set[tuple] = set()  # one pin a point (two on one hinge vertex would be one vertex)
     pins = [p for p in pins if not (tuple(p["at"]) in taken or taken.add(tuple(p["at"])))]
-    parent = {}
-    for u, un in enumerate(units):
-        for k in un.members:
-            parent[usable[k].name] = None if un.parent is None else usable[un.hinge_parent_layer].name
-    return Rig(pins, links, [usable[_main(units[u], areas, usable)].name for u in roots], parent)
+    return Rig(pins, links, [usable[_main(units[u], areas, usable)].name for u in roots])
 
 
 def rig_scene(scene, *, deadline: Deadline | None = None) -> Rig:
@@ -288,11 +280,13 @@ def rig_scene(scene, *, deadline: Deadline | None = None) -> Rig:
 
 
 def _unit(ks: list[int], usable: list[ArtLayer], scale: float, canvas) -> Unit:
+    """The unit of layers ``ks``: its pixels as cells of the analysis canvas (``scale`` of
+    the canvas), each layer's part on the canvas shrunk on its own box."""
     import cv2
 
     W, H = canvas
     w, h = max(1, round(W * scale)), max(1, round(H * scale))
-    mask = np.zeros((h, w), bool)
+    cells = []  # row-major cell numbers Y * w + X
     for k in ks:
         lay = usable[k]
         lx, ly = lay.offset
@@ -300,25 +294,25 @@ def _unit(ks: list[int], usable: list[ArtLayer], scale: float, canvas) -> Unit:
         x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)  # the part on the canvas
         if x1 <= x0 or y1 <= y0:
             continue
-        a = (lay.rgba[y0 - ly:y1 - ly, x0 - lx:x1 - lx, 3] > 0).astype(np.float32)
+        a = lay.rgba[y0 - ly:y1 - ly, x0 - lx:x1 - lx, 3] > 0
+        X0, Y0 = x0, y0
         if scale < 1.0:
             X0, Y0 = int(np.floor(x0 * scale)), int(np.floor(y0 * scale))
             X1, Y1 = max(int(np.ceil(x1 * scale)), X0 + 1), max(int(np.ceil(y1 * scale)), Y0 + 1)
             X1, Y1 = min(X1, w), min(Y1, h)
             if X1 <= X0 or Y1 <= Y0:
                 continue
-            small = cv2.resize(a, (X1 - X0, Y1 - Y0), interpolation=cv2.INTER_AREA) >= 0.5
-            mask[Y0:Y1, X0:X1] |= small
-        else:
-            mask[y0:y1, x0:x1] |= a > 0
-    ys, xs = np.nonzero(mask)
-    if len(xs) == 0:  # a part thinner than an analysis pixel: its box centre
+            a = cv2.resize(a.astype(np.float32), (X1 - X0, Y1 - Y0), interpolation=cv2.INTER_AREA) >= 0.5
+        ys, xs = np.nonzero(a)
+        cells.append((ys + Y0) * w + xs + X0)
+    cells = np.unique(np.concatenate(cells)) if cells else np.zeros(0, np.int64)
+    if len(cells) == 0:  # a part thinner than an analysis pixel: its box centre
         x0, y0, x1, y1 = usable[ks[0]].bounds
         pts = np.array([[(x0 + x1) / 2, (y0 + y1) / 2]])
     else:
-        pts = (np.column_stack([xs, ys]) + 0.5) / scale
+        pts = (np.column_stack([cells % w, cells // w]) + 0.5) / scale
     area = float(sum(np.count_nonzero(usable[k].rgba[..., 3]) for k in ks))
-    return Unit(list(ks), mask, area, pts.mean(0), pts)
+    return Unit(list(ks), area, pts.mean(0), pts)
 
 
 class _Thickness(dict):
@@ -455,7 +449,6 @@ def _grow_trees(units, contacts, usable, unit_of, late) -> tuple[list[int], dict
             un = units[c]
             un.parent, un.hinge = p, ct.at
             un.hinge_layer = ct.a if unit_of[ct.a] == c else ct.b
-            un.hinge_parent_layer = ct.b if un.hinge_layer == ct.a else ct.a
             units[p].children.append(c)
     return roots, chosen
 
