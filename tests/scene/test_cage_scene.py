@@ -212,6 +212,28 @@ def test_an_automatic_cage_is_saved_with_its_points_and_cage_edits_undo(scene, t
     assert doc.to_dict()["poses"]["p"] == {"skirt:cage1": [60, 5]}
 
 
+def test_handles_follow_their_vertex_when_the_cage_gains_or_loses_one(scene):
+    five = [[10, 10], [50, 2], [90, 10], [90, 70], [10, 70]]
+    targets = {"box:cage1": [50, -4], "box:cage3": [96, 76]}
+    doc = puppet.load_scene(scene(caged({"points": five}, poses={"p": targets})))
+    posed = doc.layers("p")[0].deformed
+    added = np.insert(np.array(five, float), 3, [90, 40], axis=0)  # on edge 2-3: old 3, 4 become 4, 5
+    assert doc.set_cage("box", {"points": added.tolist()}, vertices=[0, 1, 2, None, 3, 4])
+    assert doc.to_dict()["poses"]["p"] == {"box:cage1": [50, -4], "box:cage4": [96, 76]}
+    U = doc.layers("p")[0].deformed  # the same vertices pulled: nearly the same pose (another cage)
+    assert np.abs(U - posed).max() < 3.0 and np.abs(U - doc.layers()[0].deformed).max() > 3.0
+    # delete old vertex 1: its target is dropped, 2.. become 1..
+    assert doc.set_cage("box", {"points": np.delete(added, 1, axis=0).tolist()}, vertices=[0, 2, 3, 4, 5])
+    assert doc.to_dict()["poses"]["p"] == {"box:cage3": [96, 76]}
+    doc.undo()
+    doc.undo()
+    assert doc.to_dict()["poses"]["p"] == targets
+    for bad in ([0, 1, 1, 2, 3, 4], [0, 1, 2], [0, -1, 1, 2, 3, 4], [0, "a", 1, 2, 3, 4]):
+        with pytest.raises(SceneError, match="set_cage: vertices must give"):
+            doc.set_cage("box", {"points": added.tolist()}, vertices=bad)
+    assert np.array_equal(doc.layers("p")[0].deformed, posed)  # refused: nothing changed
+
+
 @pytest.mark.gl
 def test_the_cli_renders_and_animates_a_caged_scene(scene, tmp_path):
     from puppet.imaging.io import load_rgba

@@ -328,11 +328,13 @@ def cage_value(cage, points=None, coordinates: str | None = None) -> dict:
     return out
 
 
-def set_cage(app, layer: str, value, done: str) -> int:
+def set_cage(app, layer: str, value, done: str, vertices=None) -> int:
     """Give ``layer`` the cage ``value`` (None: remove it), one undo step; the status line
-    says ``done``, or the scene's one-line refusal (the cage then stays as it was)."""
+    says ``done``, or the scene's one-line refusal (the cage then stays as it was).
+    ``vertices``: per new point, the old vertex it is (None: added), so handle targets in
+    poses and keys follow their vertex (``Document.set_cage``)."""
     def fn(s):
-        s.set_cage(layer, value)
+        s.set_cage(layer, value, vertices=vertices)
         return done
     return app.edit(fn)
 
@@ -348,13 +350,14 @@ def make_cage(app, layer: str) -> int:
                                        f"{st.cage_offset:g} px out")
 
 
-def set_points(app, layer: str, points, done: str) -> int | None:
-    """Replace ``layer``'s cage points (its kind and ``auto`` stay)."""
+def set_points(app, layer: str, points, done: str, vertices=None) -> int | None:
+    """Replace ``layer``'s cage points (its kind and ``auto`` stay); ``vertices`` as
+    :func:`set_cage`'s."""
     k = app.layer_index(layer)
     cage = app.snap.data.layers[k].cage if k is not None else None
     if cage is None:
         return None
-    return set_cage(app, layer, cage_value(cage, points), done)
+    return set_cage(app, layer, cage_value(cage, points), done, vertices)
 
 
 def delete_vertex(app, layer: str, j: int) -> None:
@@ -366,7 +369,8 @@ def delete_vertex(app, layer: str, j: int) -> None:
         app.say(f"the cage of {layer} has 3 vertices, the fewest a cage can have", "error")
         return
     app.selection = [n for n in app.selection if n != handle(layer, j)]
-    set_points(app, layer, np.delete(C, j, axis=0), f"{layer}: deleted cage vertex {j}")
+    set_points(app, layer, np.delete(C, j, axis=0), f"{layer}: deleted cage vertex {j}",
+               [i for i in range(len(C)) if i != j])
 
 
 def delete_selected(app) -> bool:
@@ -400,7 +404,8 @@ def cage_tool(app, press):
         _, went = yield from click_or_drag(press)
         if not went and press.button == 0:
             app.selection = [handle(layer, j + 1)]
-            set_points(app, layer, np.insert(C, j + 1, at, axis=0), f"{layer}: added cage vertex {j + 1}")
+            set_points(app, layer, np.insert(C, j + 1, at, axis=0), f"{layer}: added cage vertex {j + 1}",
+                       [*range(j + 1), None, *range(j + 1, len(C))])
         return
     app.selection = [handle(layer, j)]
     if press.button != 0:

@@ -202,15 +202,21 @@ class Edits:
         ``{"file": path}``, ``{"grabcut": ...}``."""
         return self.set_layer(name, mask=mask)
 
-    @ck.checked(name=ck.text, cage=ck.plain)
-    def set_cage(self, name: str, cage) -> bool:
+    @ck.checked(name=ck.text, cage=ck.plain, vertices=ck.optional(ck.plain))
+    def set_cage(self, name: str, cage, *, vertices=None) -> bool:
         """A layer's cage (one undo step): ``{"points": [[x, y], ...]}`` or ``{"auto": N,
         "offset": PX}``, with ``"coordinates"`` (scene format, ``layers[i].cage``), or None
         to remove it. Targets of its handles ``LAYER:cageN`` in poses and keys that the new
         cage has no vertex for are dropped (all of them with None; an automatic cage
-        without points keeps them, checked when the scene is built)."""
+        without points keeps them, checked when the scene is built).
+
+        ``vertices``: for new ``points``, per point the number of the old vertex it is
+        (None for an added one), as the app gives it when it adds or deletes a vertex: the
+        targets of each old handle then follow its vertex to its new number, and those of
+        the vertices left out are dropped (without it, handles keep their numbers)."""
         count = 0 if cage is None else len(cage["points"]) if isinstance(cage, dict) and isinstance(
             cage.get("points"), list) else None
+        new_name = self._cage_renumbering(name, vertices, count)
 
         def m(doc):
             L = self._layer(doc, name)
@@ -221,8 +227,31 @@ class Edits:
             if count is None:
                 return
             for owner, t in _pin_tables(doc):
-                owner[t] = {k: v for k, v in owner[t].items() if not _cage_beyond(k, name, count)}
+                renamed = {new_name(k): v for k, v in owner[t].items()}
+                owner[t] = {k: v for k, v in renamed.items() if k is not None and not _cage_beyond(k, name, count)}
         return self._edit(Event("layer", name, "mesh", f"{'remove' if cage is None else 'set'} cage of {name}"), m)
+
+    def _cage_renumbering(self, name: str, vertices, count: int | None):
+        """The handle name -> new handle name (None: dropped) function of :meth:`set_cage`'s
+        ``vertices``; refused in one line where it does not fit the new points."""
+        if vertices is None:
+            return lambda k: k
+        ok = (count is not None and isinstance(vertices, list) and len(vertices) == count
+              and all(v is None or (isinstance(v, int) and not isinstance(v, bool) and v >= 0) for v in vertices))
+        olds = [v for v in vertices if v is not None] if ok else []
+        if not ok or len(set(olds)) != len(olds):
+            raise SceneError(f"set_cage: vertices must give, per new cage point ({count}), the number of the old "
+                             f"vertex it is or null, each old vertex at most once; got {vertices!r}"[:300],
+                             file=self.file)
+        to = {old: j for j, old in enumerate(vertices) if old is not None}
+
+        def new_name(k: str) -> str | None:
+            mt = CAGE_NAME.match(k)
+            if not mt or mt.group("layer") != name:
+                return k
+            j = to.get(int(mt.group("i")))
+            return None if j is None else f"{name}:cage{j}"
+        return new_name
 
     @ck.checked(name=ck.text, method=ck.text)
     def set_inpaint(self, name: str, method: str) -> bool:

@@ -97,12 +97,16 @@ def test_cage_tool_makes_edits_and_removes_a_cage(open_app):
     np.testing.assert_array_equal(P[1:], C[1:])
     assert cage(d).auto == 6  # it says how the cage was made
 
-    # a click on the middle of edge 1-2 adds a vertex there
+    # a click on the middle of edge 1-2 adds a vertex there; a key's target of vertex 2 follows it
+    d.app.edit(lambda s: s.key_pins(0.0, {"bar:cage2": [float(x) + 3 for x in P[2]]}))
+    d.settle()
+    n0 += 1
     a, b = vertex(d, 1), vertex(d, 2)
     d.click((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)
     d.settle()
     Q = np.asarray(cage(d).points)
     assert steps(d) == n0 + 2 and len(Q) == m + 1
+    assert list(d.scene().to_dict()["animation"]["keys"][0]["pins"]) == ["bar:cage3"]
     e = P[2] - P[1]  # on the edge (projected there), within a window pixel of the click
     assert abs(e[0] * (Q[2] - P[1])[1] - e[1] * (Q[2] - P[1])[0]) / np.hypot(*e) < 1e-6
     assert np.hypot(*(Q[2] - (P[1] + P[2]) / 2)) <= 1.0 / d.app.view.scale
@@ -113,6 +117,7 @@ def test_cage_tool_makes_edits_and_removes_a_cage(open_app):
     d.settle()
     np.testing.assert_array_equal(cage(d).points, P)
     assert steps(d) == n0 + 3
+    assert list(d.scene().to_dict()["animation"]["keys"][0]["pins"]) == ["bar:cage2"]
     d.click((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)  # added again, selected
     d.settle()
     assert d.app.selection == ["bar:cage2"] and len(cage(d).points) == m + 1
