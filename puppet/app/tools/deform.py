@@ -19,6 +19,7 @@ import numpy as np
 from puppet.app.model import pick
 from puppet.app.tools import mask as masktools
 from puppet.app.tools.gestures import click_or_drag, delta, moved
+from puppet.deform.cage import check_cage
 from puppet.errors import SceneError
 from puppet.imaging.masks import canvas_to_image
 from puppet.scene.rig.stiffness import layer_grey, stiffness_image
@@ -54,6 +55,7 @@ class DeformState:
     cage_auto: int = CAGE_AUTO  # "Make cage": about this many vertices
     cage_offset: float = CAGE_OFFSET  # ... this far (canvas px) outside the layer's mask
     cage_drag: tuple | None = None  # a cage vertex drag's preview: (layer, cage (m, 2) canvas xy, job or None)
+    cage_crossed: tuple = (None, None, False)  # cache of cage_crossed: (snapshot, layer index, answer)
 
 
 def state(app) -> DeformState:
@@ -255,6 +257,18 @@ def cancel_patch(app) -> None:
 def handle(layer: str, j: int) -> str:
     """The name of cage vertex ``j`` of ``layer`` as a pose handle."""
     return f"{layer}:cage{j}"
+
+
+def cage_crossed(app, k: int) -> bool:
+    """Does layer ``k``'s posed cage cross itself? (Landmarks that ask a ``green`` cage
+    for a change of proportions are met by bending: its vertices, the coefficients of a
+    conformal map, then leave the garment and cross; the Deform panel says so.) Cached
+    per snapshot: the check is quadratic in the cage's vertices."""
+    st = state(app)
+    if st.cage_crossed[:2] != (app.snap, k):
+        C = shown_cage(app, k)
+        st.cage_crossed = (app.snap, k, C is not None and check_cage(C) is not None)
+    return st.cage_crossed[2]
 
 
 def cage_handle_of(app, name: str) -> tuple[str, int] | None:

@@ -153,6 +153,11 @@ def cage(app) -> None:
         name, kind = L.name, CAGE_KINDS[i]
         deformtools.set_cage(app, name, deformtools.cage_value(L.cage, coordinates=kind),
                              f"{name}: {kind} coordinates")
+    if L.cage.coordinates == "green" and app.mode == "pose" and deformtools.cage_crossed(app, k):
+        imgui.text_wrapped("green keeps angles, so this pose's change of proportions is met by bending: the cage "
+                           "leaves the layer and crosses itself (it is a conformal map's coefficients). mvc or "
+                           "harmonic stretch instead.")
+        note("cage:green bends")
 
 
 def combo(label: str, key: str, items, current: int, tip: str) -> int | None:

@@ -11,6 +11,8 @@ from pyglet.window import key, mouse
 from puppet.app.tools import deform as deformtools
 from puppet.app.ui.actions import ACTIONS
 from puppet.app.ui.deform_overlay import CAGE
+from puppet.deform.cage import check_cage
+from puppet.app.ui.widgets import RECTS
 from tests.app.harness import Driver, widget
 from tests.conftest import bar_image
 
@@ -195,3 +197,25 @@ def test_pose_mode_drags_a_cage_handle_like_a_pin(open_app):
     far, near = np.argmin(np.hypot(*(V - [70, 50]).T)), np.argmin(np.hypot(*(V - [170, 70]).T))
     moved = np.hypot(*(np.asarray(r.deformed) - rest).T)
     assert moved[near] > 3 and moved[far] < moved[near] / 3
+
+    # green landmarks asked for a change of proportions: the panel says why the cage crossed
+    eight = [[50, 30], [120, 30], [190, 30], [190, 60], [190, 90], [120, 90], [50, 90], [50, 60]]
+
+    def narrowed(s):
+        s.set_cage("bar", {"points": eight, "coordinates": "green"}, vertices=[0, None, 1, None, None, None, 3, None])  # cage2 dropped
+        for name, at in (("a", (75, 52)), ("b", (165, 52)), ("c", (75, 68)), ("e", (165, 68))):
+            s.add_pin(name, "bar", at)
+            s.set_target(name, (120 + (at[0] - 120) * 0.6, at[1]))
+    d.app.edit(narrowed)
+    d.app.selected_layer = "bar"  # the Deform panel shows the selected layer's cage
+    d.settle()
+    d.frame(2)
+    C = deformtools.shown_cage(d.app, 0)
+    assert len(d.scene().to_dict()["pins"]) == 4
+    assert deformtools.cage_crossed(d.app, 0) and check_cage(C) is not None
+    assert "cage:green bends" in RECTS
+    d.app.edit(lambda s: s.set_cage("bar", {"points": eight, "coordinates": "mvc"}))
+    d.settle()
+    RECTS.pop("cage:green bends")
+    d.frame(2)
+    assert not deformtools.cage_crossed(d.app, 0) and "cage:green bends" not in RECTS
