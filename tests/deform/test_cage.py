@@ -255,17 +255,21 @@ def test_auto_cage_encloses_the_mask():
         auto_cage(np.zeros((5, 5), bool), 8, 2.0)
 
 
-def test_bundled_dress_fitted_narrower_through_a_cage():
-    # the "no folds" target on the bundled dress (coarse mesh, to stay cheap)
-    alpha = np.asarray(Image.open(ASSETS / "noto-emoji" / "emoji_u1f457.png").convert("RGBA"))[..., 3]
+@pytest.mark.parametrize("picture, pins", [  # the "no folds" target on the bundled garments
+    ("emoji_u1f457.png", [[182, 30], [315, 30], [198, 189], [302, 189], [100, 428], [425, 416]]),  # dress
+    ("emoji_u1f455.png", [[56, 168], [456, 168], [150, 100], [362, 100], [150, 430], [362, 430]]),  # t-shirt
+])
+def test_bundled_garments_fitted_narrower_through_a_cage(picture, pins):
+    alpha = np.asarray(Image.open(ASSETS / "noto-emoji" / picture).convert("RGBA"))[..., 3]
     mask = alpha > 0
-    mesh = triangulate_regions(mask_regions(mask), max_area=400.0)
+    mesh = triangulate_regions(mask_regions(mask), max_area=400.0)  # coarse, to stay cheap
     C = auto_cage(mask, 20, 10.0)
     assert check_cage(C) is None and check_encloses(C, mesh.V) is None
-    pins = np.array([[182.0, 30.0], [315.0, 30.0], [198.0, 189.0], [302.0, 189.0], [100.0, 428.0], [425.0, 416.0]])
-    target = np.c_[262.5 + 0.75 * (pins[:, 0] - 262.5), pins[:, 1]]
+    pins = np.array(pins, float)
+    cx = pins[:, 0].mean()
+    target = np.c_[cx + 0.75 * (pins[:, 0] - cx), pins[:, 1]]
     for kind in KINDS:
         fitted = fit_cage(C, kind, pins, target)
         assert np.abs(CageMap(C, pins, kind).apply(fitted) - target).max() <= 0.5
         U = CageMap(C, mesh.V, kind).apply(fitted)
-        assert (signed_areas(U, mesh.F) * signed_areas(mesh.V, mesh.F) > 0).all()
+        assert (signed_areas(U, mesh.F) * signed_areas(mesh.V, mesh.F) > 0).all(), kind
