@@ -23,6 +23,9 @@ import numpy as np
 from puppet.imaging.io import load_rgba
 from puppet.imaging.layered import ArtLayer, LayeredArt
 
+#: an automatic exterior point or a cage handle: named after its layer
+_HANDLE = re.compile(r"(?P<layer>.+):(?P<kind>ext|cage)(?P<i>\d+)")
+
 #: Lowest :func:`content_score` for an old and a new layer to be taken as one renamed.
 MATCH_SCORE = 0.9
 #: Side (pixels) the two layers are shrunk to, at most, to be compared.
@@ -159,12 +162,13 @@ def renamed_by_content(old: dict, art: LayeredArt, pixels: Callable, notes: list
 
 def rename_layers(doc: dict, renames: dict[str, str]) -> dict:
     """A copy of the scene JSON with layers renamed (old -> new) wherever a name is used:
-    the layer, its pins' ``layer``, links, and its automatic exterior points
-    (``LAYER:extN``) in poses, keys and bones."""
+    the layer, its pins' ``layer``, links, and its automatic exterior points and cage
+    handles (``LAYER:extN``, ``LAYER:cageN``) in poses, keys (``pins`` and ``overrides``)
+    and bones."""
     def pin(name: str) -> str:
-        m = re.fullmatch(r"(?P<layer>.+):ext(?P<i>\d+)", name)
+        m = _HANDLE.fullmatch(name)
         if m and m.group("layer") in renames:
-            return f"{renames[m.group('layer')]}:ext{m.group('i')}"
+            return f"{renames[m.group('layer')]}:{m.group('kind')}{m.group('i')}"
         return name
     doc = dict(doc)
     doc["layers"] = [dict(L, name=renames.get(L.get("name"), L.get("name"))) if isinstance(L, dict) else L
@@ -177,9 +181,10 @@ def rename_layers(doc: dict, renames: dict[str, str]) -> dict:
         doc["poses"] = {n: {pin(k): v for k, v in p.items()} for n, p in doc["poses"].items()}
     anim = doc.get("animation")
     if isinstance(anim, dict) and isinstance(anim.get("keys"), list):
-        keys = [dict(k, pins={pin(n): v for n, v in k["pins"].items()}) if isinstance(k.get("pins"), dict) else k
-                for k in anim["keys"]]
-        doc["animation"] = dict(anim, keys=keys)
+        def key(k):
+            return {f: ({pin(n): v for n, v in k[f].items()} if f in ("pins", "overrides") and isinstance(k[f], dict)
+                        else k[f]) for f in k} if isinstance(k, dict) else k
+        doc["animation"] = dict(anim, keys=[key(k) for k in anim["keys"]])
     if "bones" in doc:
         doc["bones"] = [[pin(b[0]), pin(b[1]), *b[2:]] for b in doc["bones"]]
     return doc
@@ -223,7 +228,10 @@ def _pins(doc: dict, layers: dict, res) -> None:
     if gone:
         res.notes.append(f"{len(gone)} pin(s) removed with their layers: " + ", ".join(sorted(gone)))
     removed = set(res.removed)
-    _forget(doc, lambda name: name in gone or name.split(":ext")[0] in removed and ":ext" in name)
+    def dropped(name: str) -> bool:
+        m = _HANDLE.fullmatch(name)
+        return name in gone or (m is not None and m.group("layer") in removed)
+    _forget(doc, dropped)
 
 
 def _forget(doc: dict, dropped) -> None:
@@ -233,8 +241,9 @@ def _forget(doc: dict, dropped) -> None:
     anim = doc.get("animation")
     if isinstance(anim, dict):
         for key in anim.get("keys", []):
-            if isinstance(key.get("pins"), dict):
-                key["pins"] = {k: v for k, v in key["pins"].items() if not dropped(k)}
+            for f in ("pins", "overrides"):
+                if isinstance(key.get(f), dict):
+                    key[f] = {k: v for k, v in key[f].items() if not dropped(k)}
     if "bones" in doc:
         doc["bones"] = [b for b in doc["bones"] if not (dropped(b[0]) or dropped(b[1]))]
 

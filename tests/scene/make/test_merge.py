@@ -49,14 +49,16 @@ def test_rename_reaches_pins_links_poses_keys_bones_and_exterior_points():
     doc = {"layers": [{"name": "a"}, {"name": "b"}],
            "pins": [{"name": "a:end1", "layer": "a", "at": [1, 1]}, {"name": "p", "layer": "b", "at": [2, 2]}],
            "links": [{"layers": ["a", "b"], "segments": []}],
-           "poses": {"up": {"a:end1": [0, 0], "a:ext2": [1, 1], "p": [3, 3]}},
-           "animation": {"keys": [{"time": 0, "pins": {"a:ext2": [0, 0]}}]},
+           "poses": {"up": {"a:end1": [0, 0], "a:ext2": [1, 1], "a:cage3": [2, 2], "p": [3, 3]}},
+           "animation": {"keys": [{"time": 0, "pins": {"a:ext2": [0, 0]}},
+                                  {"time": 1, "pose": "up", "overrides": {"a:cage1": [4, 4]}}]},
            "bones": [["a:end1", "a:ext2"]]}
     out = rename_layers(doc, {"a": "arm"})
     assert [L["name"] for L in out["layers"]] == ["arm", "b"]
     assert out["pins"][0] == {"name": "a:end1", "layer": "arm", "at": [1, 1]}  # pin names stay
     assert out["links"][0]["layers"] == ["arm", "b"]
-    assert set(out["poses"]["up"]) == {"a:end1", "arm:ext2", "p"}
+    assert set(out["poses"]["up"]) == {"a:end1", "arm:ext2", "arm:cage3", "p"}
     assert out["animation"]["keys"][0]["pins"] == {"arm:ext2": [0, 0]}
+    assert out["animation"]["keys"][1] == {"time": 1, "pose": "up", "overrides": {"arm:cage1": [4, 4]}}
     assert out["bones"] == [["a:end1", "arm:ext2"]]
     assert doc["layers"][0]["name"] == "a" and "a:ext2" in doc["poses"]["up"]  # the input is not changed
