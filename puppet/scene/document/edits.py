@@ -20,6 +20,7 @@ from puppet.scene.document.history import Event
 from puppet.scene.format import args as ck
 from puppet.scene.format.extensions import underlay_json
 from puppet.scene.format.load import CAGE_NAME, EXTERIOR_NAME
+from puppet.scene.format.physics import drop_chain_pins, raw_chains
 
 
 def _xy(p) -> list[float]:
@@ -79,7 +80,8 @@ class Edits:
 
     @ck.checked(name=ck.text)
     def remove_pin(self, name: str) -> bool:
-        """Remove a pin, its targets in every pose and the bones that use it."""
+        """Remove a pin, its targets in every pose, the bones that use it and its place in a
+        physics chain (a chain left with one pin goes)."""
         def m(doc):
             self._pin(doc, name)
             doc["pins"] = [p for p in doc["pins"] if p["name"] != name]
@@ -87,6 +89,7 @@ class Edits:
                 owner[k].pop(name, None)
             if "bones" in doc:
                 doc["bones"] = [b for b in doc["bones"] if name not in b]
+            drop_chain_pins(doc, lambda x: x == name)
         return self._edit(Event("pin", name, "precompute", f"remove pin {name}"), m)
 
     @ck.checked(name=ck.text, at=ck.point)
@@ -98,7 +101,7 @@ class Edits:
 
     @ck.checked(old=ck.text, new=ck.text)
     def rename_pin(self, old: str, new: str) -> bool:
-        """Rename a pin everywhere: pins, poses, bones."""
+        """Rename a pin everywhere: pins, poses, bones, physics chains."""
         def m(doc):
             if old != new and any(p["name"] == new for p in doc.get("pins", [])):
                 raise self._fail(f"a pin named {new!r} exists already")
@@ -107,6 +110,8 @@ class Edits:
                 owner[t] = {(new if k == old else k): v for k, v in owner[t].items()}
             if "bones" in doc:
                 doc["bones"] = [[new if x == old else x for x in b] for b in doc["bones"]]
+            for ch in raw_chains(doc):
+                ch["pins"] = [new if x == old else x for x in ch["pins"]]
         return self._edit(Event("pin", new, "none", f"rename pin {old}"), m)
 
     @ck.checked(name=ck.text, depth=ck.optional(ck.COORD), kind=ck.optional(ck.text))
@@ -152,6 +157,7 @@ class Edits:
                 doc["links"] = [k for k in doc["links"] if name not in k["layers"]]
             if "bones" in doc:
                 doc["bones"] = [b for b in doc["bones"] if not gone & set(b)]
+            drop_chain_pins(doc, gone.__contains__)
             for owner, t in _pin_tables(doc):
                 owner[t] = {k: v for k, v in owner[t].items() if k not in gone and _ext_layer(k) != name}
         return self._edit(Event("layer", name, "mesh", f"remove layer {name}"), m)

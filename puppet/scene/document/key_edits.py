@@ -89,6 +89,18 @@ class KeyEdits:
             self._put_key(doc, key)
         return self._edit(Event("animation", pose or "", "none", f"key at {float(time):g} s"), m)
 
+    @ck.checked(chains=ck.plain)
+    def set_physics(self, chains) -> bool:
+        """The scene's secondary motion, one undo step: ``chains`` as the scene format's
+        ``physics.chains`` (``[{"pins": [...], "frequency": 2.0, "damping": 0.3,
+        "gravity": 0.0}, ...]``); an empty list removes ``physics``."""
+        def m(doc):
+            if chains:
+                doc["physics"] = dict(doc.get("physics") or {}, chains=chains)
+            else:
+                doc.pop("physics", None)
+        return self._edit(Event("animation", "", "none", "set physics chains" if chains else "remove physics"), m)
+
     @ck.checked(keys=ck.timed_tables, start=ck.optional(ck.TIME), end=ck.optional(ck.TIME))
     def record_motion(self, keys: dict, *, start: float | None = None, end: float | None = None) -> bool:
         """Write recorded keys of some pins over the span ``start``..``end`` (default: the

@@ -27,10 +27,11 @@ from puppet.scene.format.schema import (
     join,
     short,
 )
+from puppet.scene.format.physics import parse_physics
 from puppet.scene.format.video import parse_video
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
-            "deformer", "poses", "animation", "app", "video")
+            "deformer", "poses", "animation", "app", "video", "physics")
 MAX_CANVAS = 16384
 #: Most points a polygon mask may have.
 MAX_POLYGON_POINTS = 100_000
@@ -147,9 +148,10 @@ def parse_scene(raw, file: str) -> m.SceneData:
                                     lambda v, q: _pose(c, v, q, pin_names, layers, names, starch))
     if "app" in raw:  # app-only settings (a compatible extension; render ignores them)
         parse_app(c, raw["app"], "app", file_path)
+    chains = parse_physics(c, raw["physics"], "physics", pins) if "physics" in raw else []
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
                        links=links, pins=pins, bones=bones, deformer=deformer, poses=poses,
-                       animation=animation, raw=raw, video=video)
+                       animation=animation, raw=raw, video=video, chains=chains)
 
 
 def _layer(c, v, p, index, file_path, source) -> m.Layer:

@@ -153,6 +153,17 @@ class Animation:
     depth: str = "step"
 
 
+@dataclass(frozen=True)
+class Chain:
+    """A chain of pins with secondary motion (``physics.chains[i]``): the first follows the
+    animation, each later one its animated place through a damped spring."""
+
+    pins: tuple[str, ...]
+    frequency: float = 2.0  # natural frequency, Hz
+    damping: float = 0.3  # damping ratio (1: critical)
+    gravity: float = 0.0  # px/s^2 along +y
+
+
 @dataclass
 class SceneData:
     """Everything a scene file says, validated; paths are absolute."""
@@ -170,3 +181,4 @@ class SceneData:
     animation: Animation | None = None
     raw: dict = field(default_factory=dict)  # the JSON as read, for saving
     video: dict | None = None  # a video scene: {"start", "fps", "size", "count"} (puppet.scene.format.video)
+    chains: list[Chain] = field(default_factory=list)  # physics.chains: secondary motion

@@ -22,6 +22,7 @@ import numpy as np
 
 from puppet.imaging.io import load_rgba
 from puppet.imaging.layered import ArtLayer, LayeredArt
+from puppet.scene.format.physics import drop_chain_pins
 
 #: an automatic exterior point or a cage handle: named after its layer
 _HANDLE = re.compile(r"(?P<layer>.+):(?P<kind>ext|cage)(?P<i>\d+)")
@@ -235,7 +236,7 @@ def _pins(doc: dict, layers: dict, res) -> None:
 
 
 def _forget(doc: dict, dropped) -> None:
-    """Drop the named pins from poses, animation keys and bones."""
+    """Drop the named pins from poses, animation keys, bones and physics chains."""
     for name, pose in list(doc.get("poses", {}).items()):
         doc["poses"][name] = {k: v for k, v in pose.items() if not dropped(k)}
     anim = doc.get("animation")
@@ -246,6 +247,7 @@ def _forget(doc: dict, dropped) -> None:
                     key[f] = {k: v for k, v in key[f].items() if not dropped(k)}
     if "bones" in doc:
         doc["bones"] = [b for b in doc["bones"] if not (dropped(b[0]) or dropped(b[1]))]
+    drop_chain_pins(doc, dropped)
 
 
 def _links(doc: dict, layers: dict, res) -> None:

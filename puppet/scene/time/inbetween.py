@@ -7,7 +7,7 @@ that pose would be) are interpolated as rigidly as possible
 (:mod:`puppet.deform.interp`) with the later key's ease; pins that stay put between the
 two keys are held, the others move with the shape; triangles the least-squares fit
 leaves folded are relaxed as in a solved pose (``deformer.relax_foldovers``). At key times both modes give the key's
-solved mesh exactly. The pin depth follows its track in both modes. A caged layer's
+solved mesh exactly (but for groups with a physics chain, solved from each frame's pins). The pin depth follows its track in both modes. A caged layer's
 ``rigid`` in-between is its two key cages blended vertex by vertex (its mesh is the cage
 map of that cage, so it moves on straight lines between the keys' meshes).
 """
@@ -22,28 +22,35 @@ from puppet.deform.relax import relax_foldovers
 from puppet.scene.rig.cache import fingerprint
 from puppet.scene.rig.core import Built, LayerResult, Rig
 from puppet.scene.time.timeline import key_span
-from puppet.scene.time.tracks import Tracks, state_at
+from puppet.scene.time.tracks import Tracks, physics_at, state_at
 
 #: A pin moving less than this (canvas pixels) between two keys is held in the in-between.
 STILL = 1e-9
 
 
 def layers_at(rig: Rig, built: Built, tracks: Tracks, time: float) -> list[LayerResult]:
-    """Per-layer results at ``time`` (seconds) on the animation."""
-    state = state_at(tracks, time)
+    """Per-layer results at ``time`` (seconds) on the animation. Groups holding a pin of a
+    physics chain (:mod:`puppet.scene.time.physics`) are solved from that frame's pins in
+    either mode (their pins leave the keys' paths)."""
+    state, swinging = physics_at(tracks, time)
     if tracks.anim.inbetween == "linear":
         return rig.evaluate(built, state)
+    live = {gi for gi, g in enumerate(built.groups) if np.isin(g.pins, swinging).any()}
     a, b, u = key_span(tracks.anim, time)
     if a == b or u == 0.0 or u == 1.0:  # exactly the key's solved meshes
         key = state_at(tracks, tracks.times[b if u == 1.0 else a])
         solved = {}
         for gi in range(len(built.groups)):
-            U, _, ext = rig.solve(built, gi, key)
+            U, _, ext = rig.solve(built, gi, state if gi in live else key)
             solved[gi] = (U, _depth(built, gi, state.depth, U), ext)
         return rig.evaluate(built, state, solved=solved)
     sa, sb = state_at(tracks, tracks.times[a]), state_at(tracks, tracks.times[b])
     solved = {}
     for gi in range(len(built.groups)):
+        if gi in live:
+            U, _, ext = rig.solve(built, gi, state)
+            solved[gi] = (U, _depth(built, gi, state.depth, U), ext)
+            continue
         if built.cages and built.cages[gi]:  # a caged layer: its cage in between, vertex by vertex
             C = (1.0 - u) * rig.solve(built, gi, sa)[2] + u * rig.solve(built, gi, sb)[2]
             U = built.cages[gi].cmap.apply(C)

@@ -18,6 +18,7 @@ import numpy as np
 from puppet.scene.format.model import Animation, SceneData
 from puppet.scene.rig.exterior import GroupExterior
 from puppet.scene.time.evaluate import PinState, exterior_names, pose_state, rest_state
+from puppet.scene.time.physics import Simulation
 from puppet.scene.time.timeline import around, ease
 
 
@@ -35,6 +36,7 @@ class Tracks:
     rest: PinState
     ext_rest: np.ndarray  # (j, 2)
     anim: Animation
+    physics: object = None  # the chains' Simulation (puppet.scene.time.physics), None without chains
 
 
 def build_tracks(data: SceneData, exterior: list[GroupExterior]) -> Tracks:
@@ -69,12 +71,15 @@ def build_tracks(data: SceneData, exterior: list[GroupExterior]) -> Tracks:
         states.append(pose_state(data, exterior, table))
     nk = len(anim.keys)
     ext_rest = np.concatenate([ge.rest for ge in exterior]) if exterior else np.zeros((0, 2))
-    return Tracks(times=np.array([key.time for key in anim.keys], float),
-                  to=np.array([s.to for s in states]).reshape(nk, k, 2),
-                  angle=np.array([s.angle for s in states]).reshape(nk, k),
-                  depth=np.array([s.depth for s in states]).reshape(nk, k),
-                  ext=np.array([s.ext_to for s in states]).reshape(nk, j, 2),
-                  pin_set=pin_set, ext_set=ext_set, rest=rest, ext_rest=ext_rest.reshape(j, 2), anim=anim)
+    tr = Tracks(times=np.array([key.time for key in anim.keys], float),
+                to=np.array([s.to for s in states]).reshape(nk, k, 2),
+                angle=np.array([s.angle for s in states]).reshape(nk, k),
+                depth=np.array([s.depth for s in states]).reshape(nk, k),
+                ext=np.array([s.ext_to for s in states]).reshape(nk, j, 2),
+                pin_set=pin_set, ext_set=ext_set, rest=rest, ext_rest=ext_rest.reshape(j, 2), anim=anim)
+    if data.chains:
+        tr.physics = Simulation(tr, data.chains, pin_index)
+    return tr
 
 
 def _spans(tr: Tracks, mentions: np.ndarray, time: float):
@@ -97,6 +102,21 @@ def _spans(tr: Tracks, mentions: np.ndarray, time: float):
             patterns[h] = (a, b, u)
         out[col] = patterns[h]
     return out
+
+
+def physics_at(tr: Tracks, time: float) -> tuple[PinState, np.ndarray]:
+    """:func:`state_at` with the chains' pins where their secondary motion has them
+    (:mod:`puppet.scene.time.physics`), and the indices of the pins it moved off their
+    tracks (empty without chains, or while every chain is at rest on its keyed path: the
+    state is then :func:`state_at`'s)."""
+    s = state_at(tr, time)
+    if tr.physics is None:
+        return s, np.zeros(0, np.int64)
+    sim = tr.physics
+    X = sim.positions(time)
+    moved = (sim.parent >= 0) & (np.abs(X - s.to[sim.cols]).max(axis=1) > 1e-6)
+    s.to[sim.cols[moved]] = X[moved]
+    return s, sim.cols[moved]
 
 
 def state_at(tr: Tracks, time: float) -> PinState:
