@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from puppet.app.model import pick
+from puppet.app.tools import chains as chaintools
 from puppet.app.tools import mask as masktools
 from puppet.app.tools.gestures import click_or_drag, delta, moved
 from puppet.deform.cage import check_cage
@@ -26,7 +27,7 @@ from puppet.scene.rig.stiffness import layer_grey, stiffness_image
 
 #: a click this close to a patch's first point (window pixels) closes the patch
 CLOSE_RADIUS = 9.0
-TOOLS = ("stiffness", "hinge", "patch", "cage")
+TOOLS = ("stiffness", "hinge", "patch", "cage", "chain")
 #: window pixels within which a press picks a cage vertex, and then a cage edge
 CAGE_RADIUS, EDGE_RADIUS = 9.0, 6.0
 #: the automatic cage "Make cage" asks for at first: vertices, offset (canvas px)
@@ -56,6 +57,8 @@ class DeformState:
     cage_offset: float = CAGE_OFFSET  # ... this far (canvas px) outside the layer's mask
     cage_drag: tuple | None = None  # a cage vertex drag's preview: (layer, cage (m, 2) canvas xy, job or None)
     cage_crossed: tuple = (None, None, False)  # cache of cage_crossed: (snapshot, layer index, answer)
+    chain_draft: list = field(default_factory=list)  # the chain tool's pins so far, anchor first
+    chain: int | None = None  # the selected chain (index into physics.chains)
 
 
 def state(app) -> DeformState:
@@ -92,8 +95,10 @@ def sync(app) -> str | None:
 def canvas_tool(app):
     """The tool generator function for a left press (None: the mode's own tool)."""
     t = sync(app)
-    if t == "cage" and app.mode != "pin":
+    if t in ("cage", "chain") and app.mode != "pin":
         return None  # in Pose mode cage handles drag like pins (the pose and animation tools)
+    if t == "chain":
+        return lambda app, press: chaintools.chain_tool(app, state(app), press)
     return {"stiffness": stiffness_tool, "hinge": hinge_tool, "patch": patch_tool, "cage": cage_tool}.get(t)
 
 

@@ -68,8 +68,12 @@ def _export(app, win) -> None:
 
 
 def _escape(app, win) -> None:
+    st = deformtools.state(app)
     if app.show_help:
         app.show_help = False
+    elif st.chain_draft:  # the chain tool's draft first
+        st.chain_draft = []
+        app.say("chain draft forgotten")
     else:
         app.selection = []
 

@@ -33,6 +33,8 @@ def draw_overlay(dl, app) -> None:
     draw_starch_reach(dl, app)
     if deformtools.cages_drawn(app):
         draw_cages(dl, app)
+    if st.tool == "chain":
+        draw_chains(dl, app)
     if st.draft_screen:
         pts = [imgui.ImVec2(*map(float, view.to_screen(p))) for p in st.draft_screen]
         for p, q in zip(pts, pts[1:]):
@@ -124,6 +126,29 @@ def draw_starch_reach(dl, app) -> None:
             c = app.view.to_screen(app.marker_xy(m))
             dl.add_circle(imgui.ImVec2(float(c[0]), float(c[1])), (p.radius or STARCH_RADIUS) * app.view.scale,
                           white, 0, 1.0)
+
+
+#: the chains' colour (RGBA 0..1): cyan; the selected chain and the draft are drawn thicker
+CHAIN = (0.2, 0.85, 1.0, 1.0)
+
+
+def draw_chains(dl, app) -> None:
+    """The physics chains through their pins as shown (the selected one thicker, each
+    anchor ringed), and the chain tool's draft."""
+    col = imgui.get_color_u32
+    c, dark = col(imgui.ImVec4(*CHAIN)), col(imgui.ImVec4(0.0, 0.0, 0.0, 0.85))
+    st = deformtools.state(app)
+    at = {m.name: app.marker_xy(m) for m in app.markers()}
+    lines = [(list(ch.pins), i == st.chain) for i, ch in enumerate(app.snap.data.chains)]
+    if st.chain_draft:
+        lines.append((list(st.chain_draft), True))
+    for names, bold in lines:
+        pts = [imgui.ImVec2(*map(float, app.view.to_screen(np.asarray(at[n], float)))) for n in names if n in at]
+        if len(pts) >= 2:
+            dl.add_polyline(pts, dark, 5.0 if bold else 4.0, 0)
+            dl.add_polyline(pts, c, 3.0 if bold else 1.5, 0)
+        if pts:
+            dl.add_circle(pts[0], 9.0, c, 0, 2.0)  # the anchor
 
 
 #: the cages' colour (RGBA 0..1): orange, apart from the pins, links and the proposed rig

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
+from puppet.app.tools import chains as chaintools
 from puppet.app.tools import deform as deformtools
 from puppet.app.ui.widgets import button, live, note, toggle
 from puppet.scene.format.model import CAGE_KINDS, MODES
@@ -21,7 +22,9 @@ TOOL_LABELS = (("none", None, "the mode's own tool (pins)"),
                ("hinge", "hinge", "click where two layers overlap: they share a point and turn about it"),
                ("patch", "patch", "click the corners of a shared patch; click the first point to close it"),
                ("cage", "cage", "the selected layer's cage: Pin mode: click an edge to add a vertex, drag one to "
-                                "move it, right-click (or Delete) to delete it; Pose mode: drag its vertices"))
+                                "move it, right-click (or Delete) to delete it; Pose mode: drag its vertices"),
+               ("chain", "chain", "secondary motion: in Pin mode click a chain's pins, anchor first, and the last "
+                                  "one again to make it; it swings, lags and settles in the playback"))
 CAGE_TIPS = {"green": "Green coordinates: conformal, a pattern keeps its angles (exact for similarities)",
              "mvc": "mean value coordinates: exact for affine maps of the cage",
              "harmonic": "harmonic coordinates: non-negative, shape-aware, exact for affine maps (slower to set up)"}
@@ -52,7 +55,9 @@ def panel(app) -> None:
     imgui.separator()
     imgui.text("tool:")
     for label, tool, tip in TOOL_LABELS:
-        if tool != "cage":  # the cage on a line of its own: the panel is narrow
+        if tool not in ("cage", "chain"):  # the cage and the chain on a line of their own: the panel is narrow
+            imgui.same_line()
+        elif tool == "chain":
             imgui.same_line()
         if imgui.radio_button(f"{label}##deform-tool", st.tool == tool):
             deformtools.choose(app, tool)
@@ -78,6 +83,8 @@ def panel(app) -> None:
             app.edit(lambda s: s.set_layer(name, stiffness=None))
     if st.tool == "cage":
         cage(app)
+    if st.tool == "chain":
+        chain(app)
     if st.tool == "patch" and st.draft:
         if button("Close patch", "the drafted polygon becomes a shared patch", enabled=len(st.draft) >= 3):
             deformtools.close_patch(app)
@@ -158,6 +165,48 @@ def cage(app) -> None:
                            "leaves the layer and crosses itself (it is a conformal map's coefficients). mvc or "
                            "harmonic stretch instead.")
         note("cage:green bends")
+
+
+CHAIN_SLIDERS = (("frequency", 0.1, 10.0, "%.2f Hz", "how fast each link swings back (Hz): low is slow and "
+                                                     "floppy, high is tight"),
+                 ("damping", 0.0, 2.0, "%.2f", "how soon the swing dies: 0 never, 0.3 after a few swings, "
+                                               "1 without overshoot"),
+                 ("gravity", -3000.0, 3000.0, "%.0f px/s2", "pull along +y (down on screen); 0: the chain "
+                                                             "settles on its animated pose"))
+
+
+def chain(app) -> None:
+    """The chain tool's controls: the draft (Make chain, Cancel), the scene's chains (select
+    one), the selected chain's sliders and Remove chain."""
+    st, data = deformtools.state(app), app.snap.data
+    if st.chain_draft:
+        imgui.text_wrapped("new chain: " + " > ".join(st.chain_draft))
+        if button("Make chain", "make the drafted chain (2 pins or more; or click its last pin again)",
+                  enabled=len(st.chain_draft) >= 2):
+            chaintools.finish(app, st)
+        imgui.same_line()
+        if button("Cancel##chain", "forget the drafted chain (Esc)"):
+            chaintools.cancel(app, st)
+    elif not data.chains:
+        imgui.text_disabled("no chains: in Pin mode click a chain's anchor pin, then the pins that hang from it")
+    for i, ch in enumerate(data.chains):
+        clicked, _ = imgui.selectable(f"{' > '.join(ch.pins)}##chain-{i}", st.chain == i)
+        note(f"chain:{i}")
+        if clicked:
+            st.chain = i
+    if st.chain is None or st.chain >= len(data.chains):
+        return
+    ch = data.chains[st.chain]
+    for field, lo, hi, fmt, tip in CHAIN_SLIDERS:
+        flags = imgui.SliderFlags_.logarithmic if field == "frequency" else 0
+        changed, v = imgui.slider_float(f"{field}##chain", getattr(ch, field), lo, hi, fmt, flags)
+        imgui.set_item_tooltip(tip)
+        note(f"slider:chain {field}")
+        live(app, "chain", f"chain {field}")
+        if changed:
+            chaintools.set_field(app, st.chain, field, v)
+    if button("Remove chain", "the chain's pins stop swinging (the pins stay)"):
+        chaintools.remove(app, st, st.chain)
 
 
 def combo(label: str, key: str, items, current: int, tip: str) -> int | None:

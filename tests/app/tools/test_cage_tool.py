@@ -11,8 +11,8 @@ from pyglet.window import key, mouse
 from puppet.app.tools import deform as deformtools
 from puppet.app.ui.actions import ACTIONS
 from puppet.app.ui.deform_overlay import CAGE
-from puppet.deform.cage import check_cage
 from puppet.app.ui.widgets import RECTS
+from puppet.deform.cage import check_cage
 from tests.app.harness import Driver, widget
 from tests.conftest import bar_image
 
