@@ -37,7 +37,7 @@ def link_step_tools(app) -> None:
     st = deformtools.state(app)
     deformtools.sync(app)
     imgui.text("or:")
-    for label, tool, tip in TOOL_LABELS[2:]:
+    for label, tool, tip in TOOL_LABELS[2:4]:  # hinge, patch
         imgui.same_line()
         if imgui.radio_button(f"{label.capitalize()}##link-step", st.tool == tool):
             deformtools.choose(app, tool)
