@@ -18,6 +18,7 @@ from puppet.api import Scene
 from puppet.batch.cages import CageRefused, enclose
 from puppet.batch.template import NoMatch, Template
 from puppet.cli import main
+from puppet.deform.cage import winding
 from puppet.imaging.io import load_rgba
 from tests.batch import garments as G
 
@@ -27,16 +28,7 @@ KEY = {"shirt:cage5": [430, 480]}  # an animation key of inline targets naming a
 
 def _write_template(folder, cage: dict) -> str:
     """The bundled t-shirt template with a cage, a pose moving two handles, a key naming one."""
-    t = json.load(open(G.TSHIRT_TEMPLATE))
-    L = t["layers"][0]
-    L["image"] = os.path.normpath(os.path.join(os.path.dirname(G.TSHIRT_TEMPLATE), L["image"]))
-    L["cage"] = cage
-    t["poses"]["pull"] = PULL
-    t["animation"]["keys"].insert(1, {"time": 0.25, "pins": KEY})
-    path = os.path.join(folder, "caged.json")
-    with open(path, "w") as f:
-        json.dump(t, f)
-    return path
+    return G.caged_template(folder, cage, {"pull": PULL}, [{"time": 0.25, "pins": KEY}])
 
 
 @pytest.fixture(scope="module")
@@ -117,13 +109,26 @@ def test_a_given_cage_maps_vertex_to_vertex_and_keeps_its_coordinates(tmp_path, 
     assert set(r.scene["poses"]["pull"]) == set(PULL)
 
 
-def test_a_cage_that_cannot_hold_the_picture_is_a_mismatch(caged):
-    """A label printed beside the garment is meshed with it; the carried cage would have to
-    grow by far more than a tenth of the garment to hold it: NoMatch naming the cage."""
+def test_a_cage_grows_round_a_tab_and_is_refused_round_a_label(caged):
+    """A tab 24 px below the hem cuts the carried cage: the two vertices of the cut edge
+    are pushed out and the scene builds. A label printed beside the garment is meshed with
+    it; the cage would have to grow by more than a tenth of the garment: NoMatch naming it."""
     tpl, pics, d = caged
-    rgba = load_rgba(pics["small"][0]).copy()
-    rgba[150:170, 320:345] = (30, 30, 30, 255)  # right of the shirt, apart from it
-    path = G.save(d / "labelled.png", rgba)
+    rgba = load_rgba(pics["small"][0])
+    ys, xs = np.nonzero(rgba[..., 3])
+    y, x = ys.max(), xs[ys.argmax()]  # the hem's lowest pixel
+    tab = rgba.copy()
+    tab[y - 4:y + 24, x - 6:x + 6] = rgba[y - 6, x]
+    r = tpl.transfer(G.save(d / "tab.png", tab))
+    assert r.grown == ["shirt:cage4", "shirt:cage5"]
+    C = np.array(r.scene["layers"][0]["cage"]["points"])
+    assert (np.abs(winding(C, [[x - 6, y + 24], [x + 6, y + 24]])) > 0.5).all()  # it holds the tab
+    far = [0, 1, 2, 8, 9, 10, 11]  # the vertices away from the tab (its neighbours follow the outline)
+    assert np.hypot(*(C[far] - _similar(*pics["small"][1:], tpl.cage[far])).T).max() < 1.0
+    assert Scene(r.scene, str(d / "tab.json")).layers("lift")[0].deformed.shape[1] == 2
+    label = rgba.copy()
+    label[150:170, 320:345] = (30, 30, 30, 255)  # right of the shirt, apart from it
+    path = G.save(d / "labelled.png", label)
     with pytest.raises(NoMatch, match=r"the cage of template 'caged\.json' layer 'shirt' \(layers\[0\]\.cage\), "
                                       r"carried to the picture, leaves \d+ of the picture's \d+ mesh vertices outside"
                        ) as e:
