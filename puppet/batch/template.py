@@ -53,7 +53,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from puppet.batch.cages import CageRefused, enclose, nearest_on_ring
-from puppet.deform.cage import mvc as cage_mvc
 from puppet.errors import SceneError
 from puppet.geom.contour import mask_regions, ring_area
 from puppet.geom.mvc import mean_value_coordinates
@@ -162,7 +161,7 @@ def _carry_cage(X: np.ndarray, corr: Correspondence, S: Similarity) -> np.ndarra
     corresponding outline point plus the scaled offset in its tangent frame) is 0.3-4 px
     off at corners; on the re-proportioned t-shirt 0.7-7 px from the true warp against 2.5-31.
     Falls back to that rule where the coordinates are not finite."""
-    Y = cage_mvc(corr.P, X) @ corr.corresponding_ring()
+    Y = mean_value_coordinates(corr.P, X) @ corr.corresponding_ring()
     bad = ~np.isfinite(Y).all(axis=1)
     if bad.any():
         Y[bad] = transfer_points(X[bad], corr, S)
