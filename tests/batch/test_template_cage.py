@@ -182,7 +182,10 @@ def test_the_cli_batch_renders_caged_pictures_and_reports_the_refused(cluster2, 
     assert report["turned.png"]["status"] == "done" and not (out / "labelled.png").exists()
     scene = puppet.Scene(tpl.transfer(str(imgs / "turned.png")).scene, str(imgs / "turned.png"))
     try:
-        assert np.array_equal(np.asarray(Image.open(out / "turned.png").convert("RGBA")),
-                              scene.render(pose="pull", size=(80, 82)))
+        pull = scene.render(pose="pull", size=(80, 82))
+        assert np.array_equal(np.asarray(Image.open(out / "turned.png").convert("RGBA")), pull)
+        lift, rest = scene.render(pose="lift", size=(80, 82)), scene.render(size=(80, 82))  # a landmark pose
+        moved = [(np.abs(im.astype(int) - rest).max(axis=2) > 60).sum() for im in (pull, lift)]
+        assert min(moved) > 30, moved  # pixels each pose changes, of 6560 (measured 72 and 394)
     finally:
         scene.close()
