@@ -52,8 +52,8 @@ def nearest_on_ring(R: np.ndarray, X: np.ndarray):
 
 def enclose(C, V, *, reach: float, rounds: int = GROW_ROUNDS, margin: float = MARGIN,
             ) -> tuple[np.ndarray, list[int]]:
-    """The cage ``C`` (m, 2) grown until it holds every point of ``V`` (n, 2) strictly
-    inside: each round, both ends of the edge nearest to each left-out point are pushed
+    """The cage ``C`` (m, 2) grown until it holds every point of ``V`` (n, 2) inside (a
+    point on the cage may count either way, as for the scene build's check): each round, both ends of the edge nearest to each left-out point are pushed
     out along their vertex normals by that point's distance to the edge plus ``margin``;
     no vertex moves farther than ``reach`` px in all.
 
@@ -81,9 +81,8 @@ def enclose(C, V, *, reach: float, rounds: int = GROW_ROUNDS, margin: float = MA
             break
         edge, _, _, dist, _, _ = nearest_on_ring(C, V[out])
         push = np.zeros(len(C))
-        for i, d in zip(edge, dist):
-            for j in (i, (i + 1) % len(C)):
-                push[j] = max(push[j], d + margin)
+        np.maximum.at(push, edge, dist + margin)
+        np.maximum.at(push, (edge + 1) % len(C), dist + margin)
         C = C + push[:, None] * _outward_normals(C)
         moved |= push > 0
         far = np.hypot(*(C - C0).T)
