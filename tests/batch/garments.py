@@ -3,6 +3,7 @@ copies (known transform), a re-proportioned t-shirt (known smooth warp), a t-shi
 assembled from Kenney parts, a circle."""
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -88,3 +89,20 @@ def circle(dst, size=200, r=80) -> str:
     inside = (xx - size / 2) ** 2 + (yy - size / 2) ** 2 <= r * r
     a[inside] = (200, 60, 60, 255)
     return save(dst, a)
+
+
+def caged_template(folder, cage: dict, poses: dict | None = None, keys: list | None = None) -> str:
+    """The bundled t-shirt template with ``layers[0].cage = cage`` (its image path made
+    absolute), ``poses`` added and animation ``keys`` inserted after the first, written
+    to ``folder/caged.json``; returns the path."""
+    with open(TSHIRT_TEMPLATE) as f:
+        t = json.load(f)
+    L = t["layers"][0]
+    L["image"] = os.path.normpath(os.path.join(os.path.dirname(TSHIRT_TEMPLATE), L["image"]))
+    L["cage"] = cage
+    t["poses"].update(poses or {})
+    t["animation"]["keys"][1:1] = keys or []
+    path = os.path.join(folder, "caged.json")
+    with open(path, "w") as f:
+        json.dump(t, f)
+    return path
