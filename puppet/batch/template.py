@@ -61,6 +61,7 @@ from puppet.geom.outline_match import Similarity
 from puppet.imaging.io import load_rgba
 from puppet.scene.format.load import load_scene_data, parse_scene
 from puppet.scene.format.model import Cage, Layer, SceneData
+from puppet.scene.format.physics import raw_chains
 from puppet.scene.rig import build
 from puppet.scene.rig.cages import cage_handles, rest_cage
 from puppet.scene.rig.exterior import auto_points
@@ -333,7 +334,9 @@ class Template:
                     new_name, at, y = ext[nm]
                 else:
                     continue  # a pin of another layer, or an exterior point with no counterpart
-                if isinstance(t, list):
+                if t is None:  # a key's override leaving the pin out
+                    out[new_name] = None
+                elif isinstance(t, list):
                     out[new_name] = _target(y, S, np.asarray(t, float) - at)
                 else:
                     t = dict(t)
@@ -351,9 +354,13 @@ class Template:
         if "animation" in self.raw:
             anim = copy.deepcopy(self.raw["animation"])
             for key in anim.get("keys", []):
-                if isinstance(key.get("pins"), dict):  # a key of inline pin targets
-                    key["pins"] = pose(key["pins"])
+                for f in ("pins", "overrides"):  # a key of inline pin targets, a pose key's overrides
+                    if isinstance(key.get(f), dict):
+                        key[f] = pose(key[f])
             doc["animation"] = anim
+        chains = [ch for ch in raw_chains(self.raw) if all(nm in moved for nm in ch["pins"])]
+        if chains:  # secondary motion of the garment's own pins
+            doc["physics"] = {"chains": copy.deepcopy(chains)}
 
 
 def _target(y: np.ndarray, S: Similarity, d: np.ndarray) -> list[float]:

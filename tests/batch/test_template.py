@@ -256,3 +256,22 @@ def test_the_transferred_scene_renders_its_pose(tshirt, pictures, tmp_path):
         assert np.array_equal(again.render(pose="lift", size=(140, 128)), lift)
     finally:
         again.close()
+
+
+def test_key_overrides_and_physics_chains_are_carried(pictures, tmp_path):
+    raw = json.loads(open(TEMPLATE).read())
+    raw["layers"][0]["image"] = os.path.join(os.path.dirname(TEMPLATE), raw["layers"][0]["image"])
+    pose = next(iter(raw["poses"]))
+    raw["animation"] = {"fps": 12, "keys": [{"time": 0, "pose": "rest"},
+                                            {"time": 1, "pose": pose, "overrides": {"sleeve_l": [60, 150],
+                                                                                    "hem_c": None}}]}
+    raw["physics"] = {"chains": [{"pins": ["shoulder_l", "sleeve_l"], "damping": 0.5}]}
+    path = tmp_path / "t.json"
+    path.write_text(json.dumps(raw))
+    pic, a, b = pictures["copy"]
+    r = Template(str(path)).transfer(pic)
+    over = r.scene["animation"]["keys"][1]["overrides"]
+    z = a * complex(60, 150) + b
+    assert over["hem_c"] is None and np.hypot(over["sleeve_l"][0] - z.real, over["sleeve_l"][1] - z.imag) < 2.5
+    assert r.scene["physics"] == raw["physics"]
+    Scene(r.scene, os.path.join(str(tmp_path), "t2.json")).layers(time=0.5)  # the carried scene plays
