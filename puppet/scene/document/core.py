@@ -341,6 +341,8 @@ class Document(Edits, KeyEdits, DeformEdits):
         if d.deformer.method not in ("arap", "mls") and any(k.strength < 1 for k in d.links):
             notes.append(f"link strength below 1 is applied by 'arap' and 'mls' only; {d.deformer.method!r} leaves "
                          "such links untied")
+        if d.chains and d.animation is None:
+            notes.append("physics chains swing in an animation only, and the scene has none")
         return notes + list(self.built.notes)
 
     # -- files -------------------------------------------------------------------

@@ -111,7 +111,11 @@ def test_paths_agree_with_the_tracks(scene):
 
 def test_without_physics_frames_are_as_before_and_bad_chains_are_refused(scene, make_scene):
     plain = puppet.load_scene(scene(tail_scene()))
-    assert plain.tracks().physics is None
+    assert plain.tracks().physics is None and plain.not_applied() == []
+    still = tail_scene({"chains": [CHAIN]})
+    del still["animation"]
+    assert puppet.load_scene(scene(still)).not_applied() == [
+        "physics chains swing in an animation only, and the scene has none"]
     with_chain = puppet.load_scene(scene(tail_scene({"chains": [{"pins": ["t1", "t2"]}]})))
     # t0 is no chain's: before t1 moves nothing differs at t = 0
     assert np.array_equal(plain.layers(time=0.0)[0].deformed, with_chain.layers(time=0.0)[0].deformed)
