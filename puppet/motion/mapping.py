@@ -31,8 +31,10 @@ PART_COST = 1.0
 #: Cost of a joint with no part, or a finger or toe, for a pin (heights).
 MINOR_COST = 0.5
 #: Cost of a named side against the other named side (heights).
-SIDE_COST = 0.1
-_NEAR = {frozenset({"hand", "finger"}): 0.3, frozenset({"foot", "toe"}): 0.3, frozenset({"head", "neck"}): 0.3,
+SIDE_COST = 0.3
+#: Times the skeleton is fitted again to the pins it was matched with (per-axis scale and move).
+REFITS = 3
+_NEAR = {frozenset({"hand", "finger"}): 0.5, frozenset({"foot", "toe"}): 0.5, frozenset({"head", "neck"}): 0.3,
          frozenset({"chest", "neck"}): 0.5, frozenset({"hip", "chest"}): 0.5}
 
 
@@ -50,6 +52,19 @@ def _laid_over(pins: np.ndarray, joints: np.ndarray, known: np.ndarray) -> tuple
 #: trunk cost nothing, the middles of limbs a little, fingers, toes and unnamed joints more.
 UNNAMED_COST = {"hand": 0.0, "foot": 0.0, "head": 0.0, "hip": 0.0, "chest": 0.0, "shoulder": 0.0,
                 "elbow": 0.15, "knee": 0.15, "thigh": 0.15, "neck": 0.15}
+
+
+def _refit(p: np.ndarray, q: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """``J`` scaled and moved along each axis so that the matched joints ``q`` come
+    nearest (least squares) to their pins ``p`` (a character of other proportions: a big
+    head, short legs)."""
+    out = np.array(J, np.float64)
+    for k in range(2):
+        A = np.stack([q[:, k], np.ones(len(q))], axis=1)
+        (a, b), *_ = np.linalg.lstsq(A, p[:, k], rcond=None)
+        if a > 0.25:
+            out[:, k] = a * J[:, k] + b
+    return out
 
 
 def _part_cost(pin: tuple, joint: tuple) -> float:
@@ -83,11 +98,13 @@ def auto_map(pins: dict[str, np.ndarray], names: list[str], poses: list[np.ndarr
     best = None
     for pose in poses:
         p, j = _laid_over(P, np.asarray(pose, np.float64)[offered], known)
-        cost = np.linalg.norm(p[:, None] - j[None], axis=2) + prior
-        rows, cols = linear_sum_assignment(cost)
-        total = float(cost[rows, cols].sum())
-        if best is None or total < best[0]:
-            best = (total, {pn[r]: jn[c] for r, c in zip(rows, cols)})
+        for _ in range(REFITS + 1):
+            cost = np.linalg.norm(p[:, None] - j[None], axis=2) + prior
+            rows, cols = linear_sum_assignment(cost)
+            total = float(cost[rows, cols].sum())
+            if best is None or total < best[0] - 1e-12:
+                best = (total, {pn[r]: jn[c] for r, c in zip(rows, cols)})
+            j = _refit(p[rows], j[cols], j)
     out = best[1]
     have = {p for p, _ in jparts}
     for n in pn:

@@ -68,8 +68,8 @@ def _frames(motion: Motion, start: float | None, end: float | None) -> np.ndarra
     sel = np.flatnonzero((t >= lo - 1e-9) & (t <= hi + 1e-9))
     if sel.size == 0:
         span = f"0-{t[-1]:g} s" if t.size else "no frames"
-        raise SceneError(f"no frame between {lo:g} and {hi:g} s (the motion has {motion.count} frames, {span})",
-                         file=motion.file)
+        when = f"between {lo:g} and {hi:g} s" if end is not None else f"from {lo:g} s on"
+        raise SceneError(f"no frame {when} (the motion has {motion.count} frames, {span})", file=motion.file)
     return sel
 
 
