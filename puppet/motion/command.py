@@ -21,6 +21,9 @@ def add_parser(sub, *, size, time) -> argparse.ArgumentParser:
                         'or a file {"PIN": "JOINT"} (as OUT.map.json is written)')
     r.add_argument("--projection", default="auto", choices=("auto", "frontal", "sagittal", "pca"),
                    help="the plane the motion is seen in (auto: frontal, or sagittal for a character in profile)")
+    r.add_argument("--scale", default="body", choices=("body", "limbs"),
+                   help="one scale for the whole motion (body, the default: by leg length, else height), "
+                        "or each limb's own (limbs: its length on the character over the motion's)")
     r.add_argument("--in-place", action="store_true", help="take out the root's move along the ground")
     r.add_argument("--start", type=time, metavar="S", help="first second of the motion used (default 0)")
     r.add_argument("--end", type=time, metavar="S", help="last second of the motion used (default: its end)")
@@ -55,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
         raise SceneError("the scene has no pins to move", file=scene.file)
     given = None if args.map == "auto" else read_map(args.map, list(pins), motion.names)
     r = retarget(motion, pins, mapping=given, projection=args.projection, in_place=args.in_place,
-                 start=args.start, end=args.end)
+                 start=args.start, end=args.end, scale=args.scale)
     doc = scene.to_dict()
     doc["animation"] = animation(r)
     out = Document(doc, os.path.abspath(args.output))  # validated as a loaded file would be

@@ -12,6 +12,9 @@
 4. A pin's target is its rest place plus the scaled projected move of its joint since
    the first frame used (``at + s (q_j(t) - q_j(t0))``): the first frame is the
    character's rest pose, and each pin follows its joint's path.
+   4b. With ``scale="limbs"``, a pin whose joint has a mapped ancestor joint (the hand's
+   chest, the foot's hips) moves with that ancestor's pin, plus its joint's move
+   relative to the ancestor scaled by the limb: the pins' distance over the joints'.
 5. Feet that are down hold their pins (:mod:`puppet.motion.contact`), unless ``in_place``
    (the ground then moves under them).
 6. Keys: the frames a linear in-between reproduces within :data:`TOLERANCE` px are left
@@ -33,12 +36,15 @@ from puppet.motion.mapping import auto_map
 from puppet.motion.names import part_and_side
 from puppet.motion.project import PROJECTIONS, axes_of, character_facing, plane
 
-__all__ = ["TOLERANCE", "Retargeted", "animation", "retarget"]
+__all__ = ["SCALES", "TOLERANCE", "Retargeted", "animation", "retarget"]
 
 #: Most a pin's in-between may be off its target between two kept keys (px).
 TOLERANCE = 0.5
 #: Decimals of a written target (px).
 DECIMALS = 3
+#: How the motion is sized to the character: one scale (``body``), or each limb's own
+#: (``limbs``: a T-rex's short arms swing short).
+SCALES = ("body", "limbs")
 #: Highest frame rate given to the animation (a 120 fps capture exports at 60).
 MAX_FPS = 60
 
@@ -116,13 +122,39 @@ def _scale(motion, mapping, pins, P0, Q0) -> tuple[float, float]:
     return (hp / hq if hp > 0 and hq > 0 else 1.0), body / 2
 
 
+def _limb_paths(motion: Motion, mapping: dict[str, str], pins, Q: np.ndarray, P0: np.ndarray,
+                s: float) -> dict[str, np.ndarray]:
+    """Step 4b: each pin's path from the pin of its nearest mapped ancestor joint, its
+    joint's move relative to that joint scaled by their distance on the character over
+    their distance in the motion's first frame; a pin with no such ancestor as in step 4."""
+    index = {n: i for i, n in enumerate(motion.names)}
+    by_joint: dict[str, str] = {}
+    for p, j in mapping.items():
+        by_joint.setdefault(j, p)
+    out: dict[str, np.ndarray] = {}
+    for p in sorted(mapping, key=lambda p: len(_ancestors(motion, index[mapping[p]]))):
+        j = index[mapping[p]]
+        at = np.asarray(pins[p], np.float64)
+        a = next((a for a in _ancestors(motion, j) if by_joint.get(motion.names[a], p) != p), None)
+        q = by_joint.get(motion.names[a]) if a is not None else None
+        if q is None or q not in out:
+            out[p] = at + s * (Q[:, j] - Q[0, j])
+            continue
+        dm, dc = float(np.linalg.norm(P0[j] - P0[a])), float(np.linalg.norm(at - pins[q]))
+        k = dc / dm if dm > 0 and dc > 0 else s
+        out[p] = out[q] + (at - pins[q]) + k * ((Q[:, j] - Q[:, a]) - (Q[0, j] - Q[0, a]))
+    return out
+
+
 def retarget(motion: Motion, pins: dict[str, np.ndarray], *, mapping: dict[str, str] | None = None,
              projection: str = "auto", in_place: bool = False, start: float | None = None,
-             end: float | None = None) -> Retargeted:
+             end: float | None = None, scale: str = "body") -> Retargeted:
     """The pins' targets that play ``motion`` on a character whose pins rest at ``pins``
-    ``{name: (x, y)}`` (see the module's steps)."""
+    ``{name: (x, y)}`` (see the module's steps; ``scale`` "limbs": step 4b)."""
     if projection not in PROJECTIONS + ("auto",):
         raise SceneError(f"--projection {projection!r}: one of auto, {', '.join(PROJECTIONS)}")
+    if scale not in SCALES:
+        raise SceneError(f"--scale {scale!r}: one of {', '.join(SCALES)}")
     sel = _frames(motion, start, end)
     times = motion.times[sel] - motion.times[sel[0]]
     P = motion.positions(sel)
@@ -140,7 +172,11 @@ def retarget(motion: Motion, pins: dict[str, np.ndarray], *, mapping: dict[str, 
                            root=root, screen_left=float(B[0] @ axes.left))
     s, leg = _scale(motion, mapping, pins, P[0], Q[0])
     index = {n: i for i, n in enumerate(motion.names)}
-    free = {p: np.asarray(pins[p], np.float64) + s * (Q[:, index[j]] - Q[0, index[j]]) for p, j in mapping.items()}
+    if scale == "limbs":
+        free = _limb_paths(motion, mapping, pins, Q, P[0], s)
+    else:
+        free = {p: np.asarray(pins[p], np.float64) + s * (Q[:, index[j]] - Q[0, index[j]])
+                for p, j in mapping.items()}
     targets, down = dict(free), {}
     if not in_place and len(times) > 1:
         H = P @ axes.up
@@ -154,7 +190,8 @@ def retarget(motion: Motion, pins: dict[str, np.ndarray], *, mapping: dict[str, 
                 down[p] = d
                 targets[p] = contact.hold(free[p], d, times)
     fps = min(1.0 / motion.frame_time, MAX_FPS)
-    return Retargeted(times, dict(mapping), kind, B, s, targets, free, down, round(fps, 3))
+    fps = float(round(fps)) if abs(fps - round(fps)) < 0.01 else round(fps, 3)  # 0.03333 s: 30 fps
+    return Retargeted(times, dict(mapping), kind, B, s, targets, free, down, fps)
 
 
 def animation(r: Retargeted) -> dict:

@@ -219,3 +219,23 @@ def test_the_command_line_loads_no_motion_module_until_retarget_runs():
             "print(sorted(m for m in sys.modules if m.startswith(('numpy', 'scipy', 'puppet.motion.'))))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0 and r.stdout.strip() == "['puppet.motion.command']", r.stdout + r.stderr
+
+
+def test_limbs_scale_each_limb_by_its_own_length():
+    """``scale="limbs"``: a T-rex hand moves with the chest's pin plus the hand's move
+    about the chest's joint, scaled by the hand-chest distance on the T-rex over the
+    motion's; ``body`` scales the same relative move by the one body scale."""
+    m, pins = _clip("walk"), _pins("trex-layers")
+    body, limbs = retarget(m, pins, in_place=True), retarget(m, pins, in_place=True, scale="limbs")
+    assert limbs.map == body.map and limbs.map["chest"] == "Spine"
+    i = {n: k for k, n in enumerate(m.names)}
+    P = m.positions()
+    for hand in ("hand_front", "hand_back"):
+        h, c = i[limbs.map[hand]], i["Spine"]
+        rel = (P[:, h] - P[:, c]) @ limbs.plane.T
+        k = np.linalg.norm(pins[hand] - pins["chest"]) / np.linalg.norm(P[0, h] - P[0, c])
+        assert k < 0.5 * body.scale  # the T-rex's arms are short
+        np.testing.assert_allclose(limbs.targets[hand] - limbs.targets["chest"] - (pins[hand] - pins["chest"]),
+                                   k * (rel - rel[0]), atol=1e-9)
+        np.testing.assert_allclose(body.targets[hand] - body.targets["chest"] - (pins[hand] - pins["chest"]),
+                                   body.scale * (rel - rel[0]), atol=1e-9)
