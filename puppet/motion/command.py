@@ -62,11 +62,14 @@ def run(args: argparse.Namespace) -> int:
     doc = scene.to_dict()
     doc["animation"] = animation(r)
     out = Document(doc, os.path.abspath(args.output))  # validated as a loaded file would be
-    inputs = input_files(scene.data) + [(args.motion, "MOTION")] + ([(args.map, "--map")] if given else [])
+    # a map read back from OUT.map.json is left as it is (the map used is the map given)
+    same = given is not None and os.path.realpath(args.map) == os.path.realpath(maps)
+    inputs = input_files(scene.data) + [(args.motion, "MOTION")] + ([(args.map, "--map")] if given and not same else [])
     text = scene_text(map_paths(out.to_dict(), relative_to(os.path.dirname(os.path.abspath(args.output)))))
+    writes = [(args.output, text)] + ([] if same else [(maps, json.dumps(r.map, indent=2) + "\n")])
     staged = []
     try:
-        for path, body in ((args.output, text), (maps, json.dumps(r.map, indent=2) + "\n")):
+        for path, body in writes:
             staged.append(Staged(path, lambda tmp, body=body: _write(tmp, body), inputs=inputs))
     except BaseException:
         for s in staged:

@@ -180,6 +180,13 @@ def test_the_written_scene_plays_the_joint_paths_through_the_public_api(tmp_path
     again = tmp_path / "again.json"
     assert main(["retarget", scene, clip, "-o", str(again), "--end", "2", "--map", str(tmp_path / "jj.map.json")]) == 0
     assert json.loads(again.read_text())["animation"] == json.loads(out.read_text())["animation"]
+    # corrected in place and passed back under the same -o: the scene is written again, the map left as given
+    mapping["shoulder_l"] = "RightElbow"
+    (tmp_path / "jj.map.json").write_text(json.dumps(mapping))
+    assert main(["retarget", scene, clip, "-o", str(out), "--end", "2", "--map", str(tmp_path / "jj.map.json")]) == 0
+    assert json.loads((tmp_path / "jj.map.json").read_text()) == mapping
+    keys = json.loads(out.read_text())["animation"]["keys"]
+    assert keys[-1]["pins"]["shoulder_l"] != json.loads(again.read_text())["animation"]["keys"][-1]["pins"]["shoulder_l"]
 
 
 BAD_MAP_PIN = {"hand_l": "LeftWrist", "paw": "LeftWrist"}
@@ -239,3 +246,14 @@ def test_limbs_scale_each_limb_by_its_own_length():
                                    k * (rel - rel[0]), atol=1e-9)
         np.testing.assert_allclose(body.targets[hand] - body.targets["chest"] - (pins[hand] - pins["chest"]),
                                    body.scale * (rel - rel[0]), atol=1e-9)
+
+
+def test_a_bad_clip_through_the_command_in_a_process_of_its_own(tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0 zero\n")
+    out = tmp_path / "o.json"
+    r = subprocess.run([sys.executable, "-m", "puppet", "retarget", os.path.join(SCENES, "character.json"), str(bad),
+                        "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.strip() == f"puppet: error: {bad}: line 4: an OFFSET value: 'zero' is not a number"
+    assert sorted(os.listdir(tmp_path)) == ["bad.bvh"]
