@@ -1,18 +1,20 @@
 """Which joint each pin follows: by name and by place, without a hand-written map.
 
 Each pin and joint gets a part and a side from its name (:mod:`puppet.motion.names`).
-The motion's first frame used is projected and laid over the pins: scaled to the same
-height and put on the same middle and bottom (the y extent, the x middle of the pins
-against the joints that have a part). A pin's cost for a joint is the distance between
-them (in heights), plus :data:`PART_COST` where their parts differ (a pin with no known
-part, ``p3``, pays only for a joint with no part or a finger or toe), and
-:data:`SIDE_COST` where their named sides differ. The map is the assignment of least
-total cost (Hungarian, one joint per pin).
+The skeleton, projected (in the first frame used and in its HIERARCHY rest pose), is laid
+over the pins: scaled to the same height, on the same bottom and x middle (the pins'
+extent against that of the joints that have a part), then fitted again :data:`REFITS`
+times along each axis to the pins it was matched with. A pin's cost for a joint is
+their distance (in heights), plus :data:`PART_COST` where their parts differ (less for a
+near part, :data:`_NEAR`), :data:`UNNAMED_COST` for a pin whose name says nothing
+(``p3``), and :data:`SIDE_COST` where their named sides differ. The map is the
+assignment of least total cost (Hungarian, one joint per pin) over both poses.
 
 Sides are decided by place: a character facing the viewer has its left hand on the
 screen's right, where the frontal projection puts the performer's left hand; a pin named
-``hand_l`` drawn on the screen's left therefore follows ``RightHand``. The named side
-only breaks near ties (a profile, where both legs are drawn on top of each other).
+``hand_l`` drawn on the screen's left therefore follows ``RightHand``. Two pins of one
+part on one side of the skeleton are split over both sides; the named side decides
+where places do not (a profile, where both legs are drawn on top of each other).
 """
 from __future__ import annotations
 
