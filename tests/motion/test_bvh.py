@@ -3,12 +3,14 @@ joints; forward kinematics against hand-computed positions; bad files in one lin
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
 
 from puppet.errors import SceneError
 from puppet.motion.bvh import parse_bvh, rotation_matrices
+from tests.conftest import ASSETS
 
 
 def _bvh(hierarchy: str, rows: list[str], dt: float = 0.04) -> str:
@@ -143,3 +145,21 @@ def test_bad_files_are_refused_in_one_line_naming_the_file_and_line(text, where)
 def test_a_file_with_no_frames_reads():
     m = parse_bvh(_bvh(_arm("Zrotation Xrotation Yrotation"), []))
     assert m.count == 0 and m.positions().shape == (0, 3, 3) and math.isclose(m.frame_time, 0.04)
+
+
+def test_a_broken_file_is_read_or_refused_in_one_line_never_anything_else():
+    """Bytes cut, words dropped or doubled anywhere in a real clip: a Motion or one SceneError line."""
+    path = os.path.join(ASSETS, "motion", "jumping_jacks.bvh")
+    text = open(path, encoding="utf-8").read()
+    head = text[:text.index("MOTION") + 200]
+    rng = np.random.default_rng(7)
+    words = head.split(" ")
+    for _ in range(300):
+        k = int(rng.integers(len(words)))
+        middle = ([], [words[k], words[k]], ["?"])[int(rng.integers(3))]  # dropped, doubled, replaced
+        w = words[:k] + middle + words[k + 1:]
+        cut = " ".join(w) if rng.random() < 0.5 else head[:int(rng.integers(len(head)))]
+        try:
+            parse_bvh(cut, file="x.bvh")
+        except SceneError as e:
+            assert str(e).startswith("x.bvh: line ") and "\n" not in str(e)

@@ -16,6 +16,7 @@ from puppet.anim.keys import Key, span_error
 from puppet.cli import main
 from puppet.motion.bvh import read_bvh
 from puppet.motion.names import part_and_side
+from puppet.motion.project import axes_of
 from puppet.motion.retarget import TOLERANCE, animation, retarget
 from tests.conftest import ASSETS, SCENES
 
@@ -102,9 +103,13 @@ def test_projection_axes_and_scale_by_leg_length():
     legs = [(np.linalg.norm(pins[f] - pins["hip"]), np.linalg.norm(P0[i[r.map[f]]] - P0[i["Hips"]]))
             for f in ("foot_l", "foot_r")]
     assert r.scale == pytest.approx(np.mean([c for c, _ in legs]) / np.mean([d for _, d in legs]))
-    for clip in CLIPS:
+    for clip, up in zip(CLIPS, ([0, 0, 1], [0, 0, 1], [0, 1, 0], [0, 1, 0])):  # AnimatedDrawings' own are Z up
         m = _clip(clip)
         P = m.positions()
+        axes = axes_of(m.names, P)
+        np.testing.assert_array_equal(axes.up, up)
+        np.testing.assert_allclose([axes.left @ axes.up, axes.forward @ axes.up, np.linalg.norm(axes.left)], [0, 0, 1],
+                                   atol=1e-12)
         X = (P - P[:, :1]).reshape(-1, 3)
         X = X - X.mean(axis=0)
         held = {k: float(((X @ retarget(m, pins, projection=k).plane.T) ** 2).sum()) for k in ("pca", "frontal", "sagittal")}
