@@ -146,6 +146,23 @@ def _limb_paths(motion: Motion, mapping: dict[str, str], pins, Q: np.ndarray, P0
     return out
 
 
+def _down(motion: Motion, mapping: dict[str, str], H: np.ndarray, P: np.ndarray, times: np.ndarray,
+          leg: float) -> dict[str, np.ndarray]:
+    """Step 5: the down frames of each pin on a foot or toe joint that is ever down
+    (``H`` (f, j): the joints' heights, ``P`` (f, j, 3) their places)."""
+    index = {n: i for i, n in enumerate(motion.names)}
+    feet = [p for p, j in mapping.items() if part_and_side(j)[0] in ("foot", "toe")]
+    ground = min((float(H[:, index[mapping[p]]].min()) for p in feet), default=0.0)
+    out = {}
+    for p in feet:
+        j = index[mapping[p]]
+        speed = np.linalg.norm(np.gradient(P[:, j], times, axis=0), axis=1)
+        d = contact.down_frames(H[:, j] - ground, speed, leg)
+        if d.any():
+            out[p] = d
+    return out
+
+
 def retarget(motion: Motion, pins: dict[str, np.ndarray], *, mapping: dict[str, str] | None = None,
              projection: str = "auto", in_place: bool = False, start: float | None = None,
              end: float | None = None, scale: str = "body") -> Retargeted:
@@ -179,16 +196,8 @@ def retarget(motion: Motion, pins: dict[str, np.ndarray], *, mapping: dict[str, 
                 for p, j in mapping.items()}
     targets, down = dict(free), {}
     if not in_place and len(times) > 1:
-        H = P @ axes.up
-        feet = [p for p, j in mapping.items() if part_and_side(j)[0] in ("foot", "toe")]
-        ground = min((float(H[:, index[mapping[p]]].min()) for p in feet), default=0.0)
-        for p in feet:
-            j = index[mapping[p]]
-            speed = np.linalg.norm(np.gradient(P[:, j], times, axis=0), axis=1)
-            d = contact.down_frames(H[:, j] - ground, speed, leg)
-            if d.any():
-                down[p] = d
-                targets[p] = contact.hold(free[p], d, times)
+        down = _down(motion, mapping, P @ axes.up, P, times, leg)
+        targets.update({p: contact.hold(free[p], d, times) for p, d in down.items()})
     fps = min(1.0 / motion.frame_time, MAX_FPS)
     fps = float(round(fps)) if abs(fps - round(fps)) < 0.01 else round(fps, 3)  # 0.03333 s: 30 fps
     return Retargeted(times, dict(mapping), kind, B, s, targets, free, down, fps)
