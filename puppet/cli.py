@@ -1,4 +1,4 @@
-"""The ``puppet`` command: render, animate, mesh, check, init, app, video, batch.
+"""The ``puppet`` command: render, animate, mesh, check, init, app, video, batch, retarget.
 
 Exit status: 0 success; 2 bad input (one line ``puppet: error: ...`` on stderr, no
 traceback, no output file); 1 only for a bug.
@@ -18,6 +18,7 @@ from puppet.anim import formats  # the one table of output formats (cheap: no nu
 from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background, parse_simplify, parse_tolerance, parse_workers
 from puppet.batch import command as batch
 from puppet.errors import SceneError
+from puppet.motion import command as motion
 from puppet.output import check_file, check_folder, remove_leftovers, save_png
 from puppet.video import command as video
 
@@ -194,7 +195,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-_PLUGGED = {"video": video, "batch": batch}
+_PLUGGED = {"video": video, "batch": batch, "retarget": motion}
 
 
 def _output_file(path: str, exts: tuple[str, ...]) -> str:

@@ -84,10 +84,12 @@ def _fit_curve(T: np.ndarray, s: np.ndarray, ta: float, tb: float) -> tuple[floa
     return tuple(round(float(v), CURVE_DECIMALS) for v in (cx1, cy[0], cx2, cy[1]))  # type: ignore[return-value]
 
 
-def fit_span(F: np.ndarray, T: np.ndarray, a: int, b: int, tol: float) -> tuple[bool, Key | None, int]:
+def fit_span(F: np.ndarray, T: np.ndarray, a: int, b: int, tol: float, *,
+             curves: bool = True) -> tuple[bool, Key | None, int]:
     """Whether frames ``a..b`` of ``F`` (frames, vertices, k) at times ``T`` are
-    reproduced within ``tol`` by interpolating between ``a`` and ``b``: ``(True, key a
-    with its curve, -1)``, or ``(False, None, the worst inner frame)``."""
+    reproduced within ``tol`` by interpolating between ``a`` and ``b`` (linearly, or
+    with a curve where ``curves``): ``(True, key a with its curve, -1)``, or ``(False,
+    None, the worst inner frame)``."""
     if b - a < 2:
         return True, Key(a), -1
     inner = T[a + 1:b]
@@ -97,7 +99,7 @@ def fit_span(F: np.ndarray, T: np.ndarray, a: int, b: int, tol: float) -> tuple[
         return True, Key(a), -1
     d = (F[b] - F[a]).astype(np.float64)
     dd = float((d * d).sum())
-    if dd > 0:
+    if dd > 0 and curves:
         s = ((F[a + 1:b] - F[a][None]) * d[None]).sum(axis=(1, 2)) / dd  # each frame's best fraction
         curve = _fit_curve(inner, s, ta, tb)
         cerr = _errors(F, a, b, curve_percent(inner, ta, tb, curve))
@@ -107,12 +109,12 @@ def fit_span(F: np.ndarray, T: np.ndarray, a: int, b: int, tol: float) -> tuple[
     return False, None, a + 1 + int(np.argmax(err))
 
 
-def plan(F: np.ndarray, T: np.ndarray, forced: Sequence[int], tol: float) -> list[Key]:
+def plan(F: np.ndarray, T: np.ndarray, forced: Sequence[int], tol: float, *, curves: bool = True) -> list[Key]:
     """The keys of one layer's frames ``F`` (frames, vertices, k) at times ``T``: every
     frame of ``forced`` (and the first and last), and as few more as keep every frame
     within ``tol`` of its interpolation: a span that does not fit is split at its worst
     frame and each half checked again; every :data:`SPAN` th frame is a key too. ``tol``
-    <= 0: every frame, linear."""
+    <= 0: every frame, linear; ``curves`` False: linear spans only (no Bezier curve)."""
     m = len(F)
     if tol <= 0:
         return [Key(f) for f in range(m)]
@@ -122,7 +124,7 @@ def plan(F: np.ndarray, T: np.ndarray, forced: Sequence[int], tol: float) -> lis
         todo = [(a, b)]
         while todo:  # the left half first: keys come out in order
             lo, hi = todo.pop()
-            ok, key, worst = fit_span(F, T, lo, hi, tol)
+            ok, key, worst = fit_span(F, T, lo, hi, tol, curves=curves)
             if ok:
                 keys.append(key)
             else:
