@@ -98,6 +98,7 @@ def valid_calls(folder) -> dict:
         "set_mask": (("a", {"rect": [0, 12, 120, 16]}), {}),
         "set_cage": (("a", {"points": [[5, 5], [115, 5], [115, 35], [5, 35]], "coordinates": "mvc"}), {}),
         "set_physics": (([{"pins": ["a1", "b1"], "frequency": 3.0}],), {}),
+        "set_animation": (({"fps": 12, "keys": [{"time": 0, "pins": {"a1": [10, 10]}}]},), {"label": "motion"}),
         "set_inpaint": (("a", "telea"), {}),
         "set_mesh_options": (("a",), {"max_area": 20}),
         "set_mask_pixels": (("a", np.ones((40, 120), bool)), {}),

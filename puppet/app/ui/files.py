@@ -33,9 +33,10 @@ FILTERS = {
     "save_as": ["Scenes (.json)", "*.json"],
     "export": ["Video, GIF, frames", "*.mp4 *.webm *.mov *.gif *.apng *.png", "All files", "*"],
     "picture": ["Pictures", " ".join("*" + e for e in PICTURES), "All files", "*"],
+    "motion": ["Motion capture (.bvh)", "*.bvh", "All files", "*"],
 }
 TITLES = {"open": "Open a scene, picture or layered art", "save_as": "Save scene as",
-          "export": "Export animation to", "picture": "Reference picture"}
+          "export": "Export animation to", "picture": "Reference picture", "motion": "Motion capture clip"}
 #: seconds between two looks at the art file's date
 ART_POLL = 1.0
 

@@ -89,6 +89,17 @@ class KeyEdits:
             self._put_key(doc, key)
         return self._edit(Event("animation", pose or "", "none", f"key at {float(time):g} s"), m)
 
+    @ck.checked(animation=ck.optional(ck.plain), label=ck.text)
+    def set_animation(self, animation, label: str = "set animation") -> bool:
+        """Replace the scene's whole ``animation`` (the scene format's value; None removes
+        it), one undo step labelled ``label``: a retargeted motion written at once."""
+        def m(doc):
+            if animation is None:
+                doc.pop("animation", None)
+            else:
+                doc["animation"] = animation
+        return self._edit(Event("animation", "", "none", label), m)
+
     @ck.checked(chains=ck.plain)
     def set_physics(self, chains) -> bool:
         """The scene's secondary motion, one undo step: ``chains`` as the scene format's
