@@ -3,19 +3,22 @@ a cage of each kind (mean value, harmonic, Green coordinates driven by landmark 
 ``python -m benchmarks.fit_compare [OUT]`` prints a table and writes ``OUT/*.png`` and
 ``OUT/README.md`` (default ``docs/fit``). Run by hand; not a test.
 
-Each target is a smooth map ``T`` of the canvas (``TARGETS``): the landmark pins go to
-``T(landmark)``, and the garment should take the outline ``T(rest outline)``. Every
-method is run through the public API (``puppet.load_scene`` of a scene file written
-here, ad-hoc poses, ``scene.layers``, ``scene.render``), on a copy of the garment with a
-check pattern printed on it.
+Each target is a smooth map ``T`` of the canvas (``GARMENTS``): the landmark pins go to
+``T(landmark)``, and the garment should take the outline ``T(rest outline)`` (within
+``OUTLINE_TOL``, the landmarks within ``LANDMARK_TOL``). Every method is run through the
+public API (``puppet.load_scene`` of a scene file written here, ad-hoc poses,
+``scene.layers``, ``scene.render``), on a copy of the garment with a check pattern printed
+on it.
 
-- ``arap``: the landmark pins, plus the layer's automatic exterior points
-  (``exterior: {"auto": true, "beta": b}``) each posed at ``T(point)``; ``beta`` grows
-  until the outline is reached (``OUTLINE_TOL``) or ``BETAS`` runs out.
-- ``mvc``, ``harmonic``, ``green``: an automatic cage (``CAGE``), the same landmark pins
-  (which drive the cage by the landmark fit); where the outline is not reached, cage
-  handles ``LAYER:cageK`` are posed at ``T(vertex)`` one at a time (the vertex nearest
-  the worst outline point), at most ``MAX_HANDLES``.
+- ``arap``: the landmark pins and the layer's automatic exterior points
+  (``exterior: {"auto": true, "beta": b}``, each posed at ``T(point)``) for each ``b`` of
+  ``BETAS``; from the best, exterior pins added one at a time where the outline is
+  farthest from the target, up to ``MAX_ARAP`` controls (``fit_arap``); also, with the
+  automatic points only, in the deformer's ``OTHER_MODES``.
+- ``mvc``, ``harmonic``, ``green``: an automatic cage (``CAGE``) driven by the same
+  landmark pins (the landmark fit); where the outline is not reached, cage handles
+  ``LAYER:cageK`` posed at ``T(vertex)``, one at a time, the most useful first, at most
+  ``MAX_HANDLES`` (``fit_cage``).
 """
 from __future__ import annotations
 
@@ -240,7 +243,8 @@ class Result:
 def evaluate(scene, method: str, pose: dict, landmarks: dict, T, detail: str) -> Result:
     """``scene`` posed by ``pose``, measured against the target map ``T``."""
     r = scene.layers(pose)[0]
-    lm = max(float(np.hypot(*(r.deformed[r.pins[n]] - T(np.array([at], np.float64))[0]))) for n, at in landmarks.items())
+    goal = mapped(landmarks, T)
+    lm = max(float(np.hypot(*(r.deformed[r.pins[n]] - goal[n]))) for n in landmarks)
     gap, _ = outline_gap(boundary_edges(r.triangles), r.deformed, T(r.rest))
     return Result(method, len(pose), detail, lm, gap, distortion(r.rest, r.triangles, r.deformed),
                   lm < LANDMARK_TOL and gap < OUTLINE_TOL, pose, scene, r)
@@ -474,7 +478,8 @@ def write_readme(out_dir: str, lines: list, exact: list, figures: list, paths: l
           "A target is a smooth map `T` of the canvas (coordinates of the garment's picture, y down). The "
           "garment's **landmark pins** (its scene's pins: dress `strap_l/r`, `waist_l/r`, `hem_l/r`; t-shirt "
           "`shoulder_l/r`, `sleeve_l/r`, `hem_l/r`) are posed at `T(pin)`, and the garment should take the "
-          "outline `T(rest outline)` (red in the pictures). The meshes are made with the scenes' mesh settings (" + "; ".join(meshes)
+          "outline `T(rest outline)` (red in the pictures). The meshes are made with the scenes' mesh settings ("
+          + "; ".join(meshes)
           + f"), the picture placed {MARGIN} px into a canvas {MARGIN} px larger on every side (the coordinates "
           "below are the picture's).", ""]
     seen = set()
@@ -511,12 +516,15 @@ def write_readme(out_dir: str, lines: list, exact: list, figures: list, paths: l
            "What the target maps themselves do to the rest mesh (a fit that reaches the outline exactly has "
            "about these):", "",
            "| garment | target | anisotropy mean | anisotropy max | area |", "|---|---|---|---|---|"]
-    md += [f"| {g} | {t.name} | {d['aniso_mean']:.3f} | {d['aniso_max']:.2f} | {d['area_min']:.2f}..{d['area_max']:.2f} |"
+    md += [f"| {g} | {t.name} | {d['aniso_mean']:.3f} | {d['aniso_max']:.2f} | "
+           f"{d['area_min']:.2f}..{d['area_max']:.2f} |"
            for g, t, d in exact]
     md += ["", "ARAP in the deformer's other modes (`deformer.mode`; `similar` is the garment-fitting mode), with "
            "the landmark pins and the automatic exterior points only (the best `beta`):", "",
-           "| garment | target | mode | controls | outline px | anisotropy mean | folded |", "|---|---|---|---|---|---|---|"]
-    md += [f"| {g} | {t} | {m} | {r.controls} | {r.outline_err:.1f} | {r.dist['aniso_mean']:.3f} | {r.dist['flipped']} |"
+           "| garment | target | mode | controls | outline px | anisotropy mean | folded |",
+           "|---|---|---|---|---|---|---|"]
+    md += [f"| {g} | {t} | {m} | {r.controls} | {r.outline_err:.1f} | {r.dist['aniso_mean']:.3f} | "
+           f"{r.dist['flipped']} |"
            for g, t, m, r in modes]
     md += ["", "Each try of each method, as `controls: outline px (folded triangles)`:", ""]
     md += [f"- {g} {t} {m}: " + ", ".join(f"{c}: {o:.1f}" + (f" ({f})" if f else "") for c, o, f in path)
@@ -575,9 +583,9 @@ NOTES = """
   were not tried. mvc's sleeve fit also shears the armpit (anisotropy up to 13).
 - **A cage pose costs about 1.5-4.5 ms** on these meshes (the landmark fit's small dense solve
   and one matrix product), against about 50-110 ms for ARAP with exterior points (CPU time, load
-  average 3-7 over several runs). Every method holds the landmark pins exactly (0.00 px). mvc and harmonic give the
-  same fits on the width targets; on the sleeve harmonic shears the armpit less (largest
-  anisotropy 2.2 against 13). Harmonic's precompute is the slower (`benchmarks/bench_cage.py`).
+  average 3-10 over several runs). Every method holds the landmark pins exactly (0.00 px). mvc and
+  harmonic give the same fits on the width targets; on the sleeve harmonic shears the armpit less
+  (largest anisotropy 2.2 against 13). Harmonic's precompute is the slower (`benchmarks/bench_cage.py`).
 """
 
 
