@@ -547,7 +547,8 @@ def write_readme(out_dir: str, lines: list, exact: list, figures: list, paths: l
            "Each: the rest garment with its landmarks, then each method's fit, with a check pattern printed on "
            "the garment (a copy of its picture) to show angles. Red: the target outline and the landmark "
            "targets; orange: the posed cage (its handles posed as squares), or ARAP's exterior points.", ""]
-    md += [f"![{g.name}, {t.name}]({png})" for g, t, png in figures]
+    for g, t, png in figures:
+        md += [f"**{g.name}, {t.name}**", "", f"![{g.name}, {t.name}: rest, arap, mvc, harmonic, green]({png})", ""]
     md += ["", "## What each is good at", "", NOTES.strip(), "", "## Found on the way", "", FOUND.strip(), "",
            "The other pictures in this folder (`garment-modes.png`, `garment-on-mannequin.png`, "
            "`hinge-vs-segment.png`) belong to [algorithms.md](../algorithms.md) section 15 and are made by "
