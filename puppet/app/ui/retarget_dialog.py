@@ -69,6 +69,7 @@ def draw(app) -> None:
             imgui.set_next_item_width(WIDTH - 160)
             cur = joints.index(f.map[pin]) if f.map[pin] in joints else 0
             changed, i = imgui.combo(f"##retarget-joint-{pin}", cur, joints)
+            imgui.set_item_tooltip(f"the joint of the clip {pin} follows ((none): {pin} is not keyed)")
             note(f"retarget:joint:{pin}")
             if changed:
                 f.map[pin] = joints[i]
