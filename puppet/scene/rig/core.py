@@ -214,7 +214,7 @@ class Rig:
         d = built.data.deformer
         gp = built.group_pose(gi, state)
         cage = built.cages[gi] if built.cages else None
-        key = fingerprint(built.pre_keys[gi], d, gp, [ge.names for ge in built.exterior[gi:gi + 1]],
+        key = fingerprint(built.pre_keys[gi], d, gp, [(ge.names, ge.rest) for ge in built.exterior[gi:gi + 1]],
                           *([cage.rest, cage.cmap.kind] if cage else []))
         warm = getattr(self._warm, "starts", {}).get(built.pre_keys[gi])
 
