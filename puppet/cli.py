@@ -1,4 +1,4 @@
-"""The ``puppet`` command: render, animate, mesh, check, init, app, video, batch.
+"""The ``puppet`` command: render, animate, mesh, check, init, app, video, batch, dressroom.
 
 Exit status: 0 success; 2 bad input (one line ``puppet: error: ...`` on stderr, no
 traceback, no output file); 1 only for a bug.
@@ -19,6 +19,7 @@ from puppet.anim.options import MAX_FPS, MIN_FPS, parse_background, parse_simpli
 from puppet.batch import command as batch
 from puppet.errors import SceneError
 from puppet.output import check_file, check_folder, remove_leftovers, save_png
+from puppet.room import command as dressroom
 from puppet.video import command as video
 
 if "numpy" not in sys.modules and "OPENBLAS_NUM_THREADS" not in os.environ:
@@ -194,7 +195,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-_PLUGGED = {"video": video, "batch": batch}
+_PLUGGED = {"video": video, "batch": batch, "dressroom": dressroom}
 
 
 def _output_file(path: str, exts: tuple[str, ...]) -> str:

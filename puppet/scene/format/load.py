@@ -15,6 +15,7 @@ from puppet.imaging.io import MAX_SIDE
 from puppet.scene.format import model as m
 from puppet.scene.format.animation import parse_animation
 from puppet.scene.format.extensions import parse_app
+from puppet.scene.format.garment import parse_garment
 from puppet.scene.format.reader import parse_text, read_text
 from puppet.scene.format.schema import (
     Ctx,
@@ -30,7 +31,7 @@ from puppet.scene.format.schema import (
 from puppet.scene.format.video import parse_video
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
-            "deformer", "poses", "animation", "app", "video")
+            "deformer", "poses", "animation", "app", "video", "garment")
 MAX_CANVAS = 16384
 #: Most points a polygon mask may have.
 MAX_POLYGON_POINTS = 100_000
@@ -147,9 +148,10 @@ def parse_scene(raw, file: str) -> m.SceneData:
                                     lambda v, q: _pose(c, v, q, pin_names, layers, names, starch))
     if "app" in raw:  # app-only settings (a compatible extension; render ignores them)
         parse_app(c, raw["app"], "app", file_path)
+    garment = parse_garment(c, raw["garment"], "garment") if "garment" in raw else None  # puppet dressroom's
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
                        links=links, pins=pins, bones=bones, deformer=deformer, poses=poses,
-                       animation=animation, raw=raw, video=video)
+                       animation=animation, raw=raw, video=video, garment=garment)
 
 
 def _layer(c, v, p, index, file_path, source) -> m.Layer:

@@ -170,3 +170,4 @@ class SceneData:
     animation: Animation | None = None
     raw: dict = field(default_factory=dict)  # the JSON as read, for saving
     video: dict | None = None  # a video scene: {"start", "fps", "size", "count"} (puppet.scene.format.video)
+    garment: dict | None = None  # {"category", "order", "name"?} (puppet.scene.format.garment)

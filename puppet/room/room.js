@@ -1,0 +1,197 @@
+// puppet dressroom: the shopper's page. The mannequin, then the worn garments in draw
+// order (category, then order), each drawn "over" on a 2D canvas. The outfit is kept in
+// the address: #outfit=NAME,NAME[&tuck=1].
+(() => {
+  "use strict";
+  const doc = document, body = doc.body;
+  const meta = JSON.parse(doc.getElementById("room-meta").textContent);
+  const [W, H] = meta.canvas, garments = meta.garments;
+  const canvas = doc.getElementById("room-canvas"), ctx = canvas.getContext("2d");
+  const status = doc.getElementById("room-status"), tuckBox = doc.getElementById("room-tuck");
+  const ghost = doc.getElementById("room-ghost");
+  const byName = new Map(garments.map((g, i) => [g.name, i]));
+  const HINT = "Click or drag a garment onto the mannequin to put it on; click it there to take it off.";
+  let worn = new Set(), tuck = false, images = null, mannequin = null, draws = 0;
+
+  const decoded = (src) => { const im = new Image(); im.src = src; return im.decode().then(() => im); };
+  const pixels = (im) => {  // the image's RGBA bytes (an offscreen canvas of its size)
+    const c = doc.createElement("canvas");
+    c.width = im.naturalWidth; c.height = im.naturalHeight;
+    const g = c.getContext("2d", { willReadFrequently: true });
+    g.drawImage(im, 0, 0);
+    return g.getImageData(0, 0, c.width, c.height);
+  };
+  const cache = new Map();  // garment -> {alpha, depth}: read from its images when first needed
+  function data(i) {
+    if (!cache.has(i)) {
+      const g = garments[i], a = pixels(images[i].image).data, d = pixels(images[i].depth).data;
+      const [low, steps] = meta.depthCode, n = g.size[0] * g.size[1];
+      const alpha = new Uint8Array(n), depth = new Float32Array(n);
+      for (let k = 0; k < n; k++) {
+        alpha[k] = a[4 * k + 3];
+        depth[k] = d[4 * k + 2] ? (d[4 * k] * 256 + d[4 * k + 1]) / steps + low : NaN;
+      }
+      cache.set(i, { alpha, depth });
+    }
+    return cache.get(i);
+  }
+
+  // -- the outfit ------------------------------------------------------------------------
+  function put(i) {  // wear i: it replaces the garment of its category (accessories stack)
+    const cat = garments[i].category;
+    if (cat !== "accessory") for (const j of [...worn]) if (garments[j].category === cat) worn.delete(j);
+    worn.add(i);
+  }
+  const wornOf = (cat) => [...worn].filter((i) => garments[i].category === cat);
+  const names = () => [...worn].sort((a, b) => a - b).map((i) => garments[i].name);
+
+  function tucked(top, bottom) {  // the bottom's pixels in front of the top's (depths), as a canvas
+    const t = garments[top], b = garments[bottom], td = data(top), bd = data(bottom);
+    const c = doc.createElement("canvas");
+    c.width = b.size[0]; c.height = b.size[1];
+    const g = c.getContext("2d");
+    const img = pixels(images[bottom].image);
+    for (let y = 0; y < b.size[1]; y++) {
+      for (let x = 0; x < b.size[0]; x++) {
+        const k = y * b.size[0] + x, tx = x + b.at[0] - t.at[0], ty = y + b.at[1] - t.at[1];
+        const inTop = tx >= 0 && ty >= 0 && tx < t.size[0] && ty < t.size[1];
+        const front = inTop && td.alpha[ty * t.size[0] + tx] > 0 && bd.depth[k] > td.depth[ty * t.size[0] + tx];
+        if (!front) img.data[4 * k + 3] = 0;
+      }
+    }
+    g.putImageData(img, 0, 0);
+    return c;
+  }
+
+  function draw() {
+    ctx.clearRect(0, 0, W, H);
+    ctx.drawImage(mannequin, 0, 0);
+    const order = [...worn].sort((a, b) => a - b), top = wornOf("top")[0], bottom = wornOf("bottom")[0];
+    tuckBox.disabled = top === undefined || bottom === undefined;
+    for (const i of order) {
+      const g = garments[i];
+      ctx.drawImage(images[i].image, g.at[0], g.at[1]);
+      if (i === top && tuck && !tuckBox.disabled) {
+        const b = garments[bottom];
+        ctx.drawImage(tucked(top, bottom), b.at[0], b.at[1]);
+      }
+    }
+    for (const el of doc.querySelectorAll(".room-item")) el.classList.toggle("worn", worn.has(+el.dataset.index));
+    body.dataset.outfit = names().join(",");
+    body.dataset.draws = String(++draws);
+  }
+
+  function changed() {  // the outfit changed here: draw it and keep the address up to date
+    const hash = "#outfit=" + names().map(encodeURIComponent).join(",") + (tuck ? "&tuck=1" : "");
+    history.replaceState(null, "", hash);
+    draw();
+  }
+
+  function fromAddress() {  // #outfit=a,b[&tuck=1]: exactly those garments on
+    const fields = new Map(location.hash.replace(/^#/, "").split("&").filter(Boolean).map((kv) => {
+      const at = kv.indexOf("=");
+      return at < 0 ? [kv, ""] : [kv.slice(0, at), kv.slice(at + 1)];
+    }));
+    worn = new Set();
+    const unknown = [];
+    for (const part of (fields.get("outfit") || "").split(",").filter(Boolean)) {
+      let name;
+      try { name = decodeURIComponent(part); } catch (e) { name = part; }
+      if (byName.has(name)) put(byName.get(name)); else unknown.push(name);
+    }
+    tuck = fields.get("tuck") === "1";
+    tuckBox.checked = tuck;
+    status.textContent = unknown.length ? "No garment named " + unknown.join(", ") + " in this room." : HINT;
+    draw();
+  }
+
+  // -- the shelf: thumbnails by category; a click toggles, a drag onto the mannequin wears --
+  function shelf() {
+    const root = doc.getElementById("room-shelf");
+    for (const cat of meta.categories) {
+      const items = garments.map((g, i) => [g, i]).filter(([g]) => g.category === cat);
+      if (!items.length) continue;
+      const sec = doc.createElement("section"), h = doc.createElement("h2"), row = doc.createElement("div");
+      sec.className = "room-category"; sec.dataset.category = cat; h.textContent = cat; row.className = "room-items";
+      for (const [g, i] of items) {
+        const item = doc.createElement("div"), img = doc.createElement("img"), label = doc.createElement("span");
+        item.className = "room-item"; item.dataset.index = String(i); item.dataset.name = g.name;
+        item.title = g.name; img.src = g.image; img.alt = ""; img.draggable = false; label.textContent = g.name;
+        item.append(img, label);
+        item.addEventListener("pointerdown", (e) => press(e, i));
+        row.append(item);
+      }
+      sec.append(h, row);
+      root.append(sec);
+    }
+  }
+
+  const SLOP = 6;  // px a press may move and still be a click
+  let held = null;  // {i, x, y, dragging}
+  function press(e, i) {
+    if (e.button > 0) return;
+    e.preventDefault();
+    held = { i, x: e.clientX, y: e.clientY, dragging: false };
+  }
+  window.addEventListener("pointermove", (e) => {
+    if (!held) return;
+    if (!held.dragging && Math.hypot(e.clientX - held.x, e.clientY - held.y) > SLOP) {
+      held.dragging = true;
+      ghost.src = garments[held.i].image;
+      ghost.style.display = "block";
+    }
+    if (held.dragging) { ghost.style.left = e.clientX + "px"; ghost.style.top = e.clientY + "px"; }
+  });
+  window.addEventListener("pointerup", (e) => {
+    if (!held) return;
+    const { i, dragging } = held;
+    held = null;
+    ghost.style.display = "none";
+    if (!dragging) {
+      if (worn.has(i)) worn.delete(i); else put(i);
+      changed();
+    } else if (onCanvas(e.clientX, e.clientY)) {
+      put(i);
+      changed();
+    }
+  });
+  window.addEventListener("pointercancel", () => { held = null; ghost.style.display = "none"; });
+
+  function onCanvas(x, y) {
+    const r = canvas.getBoundingClientRect();
+    return x >= r.left && x < r.right && y >= r.top && y < r.bottom;
+  }
+
+  canvas.addEventListener("click", (e) => {  // a click on a worn garment takes it off
+    const r = canvas.getBoundingClientRect();
+    const x = Math.floor((e.clientX - r.left) * W / r.width), y = Math.floor((e.clientY - r.top) * H / r.height);
+    const front = [...worn].sort((a, b) => b - a).find((i) => {
+      const g = garments[i], gx = x - g.at[0], gy = y - g.at[1];
+      return gx >= 0 && gy >= 0 && gx < g.size[0] && gy < g.size[1] && data(i).alpha[gy * g.size[0] + gx] > 0;
+    });
+    if (front !== undefined) { worn.delete(front); changed(); }
+  });
+
+  tuckBox.addEventListener("change", () => { tuck = tuckBox.checked; changed(); });
+  doc.getElementById("room-undress").addEventListener("click", () => { worn = new Set(); changed(); });
+  doc.getElementById("room-download").addEventListener("click", () => {
+    canvas.toBlob((blob) => {
+      const a = doc.createElement("a");
+      a.href = URL.createObjectURL(blob);
+      a.download = (names().join("+") || "mannequin") + ".png";
+      doc.body.append(a); a.click(); a.remove();
+      setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+    }, "image/png");
+  });
+  window.addEventListener("hashchange", fromAddress);
+
+  Promise.all([decoded(meta.mannequin),
+               ...garments.map((g) => Promise.all([decoded(g.image), decoded(g.depth)]))]).then(([m, ...ims]) => {
+    mannequin = m;
+    images = ims.map(([image, depth]) => ({ image, depth }));
+    shelf();
+    fromAddress();
+    body.dataset.firstDrawMs = performance.now().toFixed(1);
+    body.dataset.ready = "1";
+  }, (err) => { status.textContent = "This room could not be opened: " + err; });
+})();
