@@ -1,0 +1,159 @@
+"""The dressing room's page in a real browser (headless Chromium, as the web player's
+tests): outfits opened from ``#outfit=`` draw what ``puppet render`` draws of the same
+garments composited in draw order (< 2 % of pixels off by more than 40 grey levels),
+and clicks and drags dispatched in the page put garments on and take them off."""
+from __future__ import annotations
+
+import base64
+import io
+import os
+import re
+import subprocess
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from puppet.cli import main
+from tests.anim.test_web import CHROMIUM, grey_off, needs_browser
+from tests.room.art import GARMENTS, SIZE, room_files
+
+pytestmark = [pytest.mark.gl, pytest.mark.slow, needs_browser]
+
+
+@pytest.fixture(scope="module")
+def room(tmp_path_factory):
+    from puppet.room.model import load_room
+
+    folder = str(tmp_path_factory.mktemp("room"))
+    body, files = room_files(folder, ("shirt", "jeans", "hat", "vest"))
+    out = os.path.join(folder, "room.html")
+    assert main(["dressroom", body, *files, "-o", out]) == 0
+    return SimpleNamespace(path=out, folder=folder, model=load_room(body, files))
+
+
+def browse(page: str, hash_: str, script: str, size=(800, 600), extra=()) -> dict[str, str]:
+    """The ``data-*`` attributes of the body after ``script`` (appended to the page) ran
+    in headless Chromium opened at ``page#hash_``."""
+    driven = page.replace(".html", "-driven.html")
+    with open(page, encoding="utf-8") as f, open(driven, "w", encoding="utf-8") as g:
+        g.write(f.read().replace("</body>", f"<script>\n{WAIT}{script}\n</script></body>"))
+    cmd = [CHROMIUM, "--headless=new", "--no-sandbox", "--hide-scrollbars", f"--window-size={size[0]},{size[1]}",
+           "--virtual-time-budget=30000", *extra, f"file://{driven}#{hash_}"]
+    dom = subprocess.run(cmd + ["--dump-dom"], capture_output=True, text=True, timeout=180).stdout
+    body = re.search(r"<body([^>]*)>", dom)
+    assert body, dom[-2000:]
+    return dict(re.findall(r'data-([\w-]+)="([^"]*)"', body.group(1)))
+
+
+def png(uri: str) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(base64.b64decode(uri.split(",", 1)[1]))).convert("RGBA"))
+
+
+WAIT = """const doc = document, wait = (ms) => new Promise((r) => setTimeout(r, ms));
+const draws = () => +(doc.body.dataset.draws || 0);
+async function ready() { while (doc.body.dataset.ready !== "1") await wait(20); }
+async function after(n) { while (draws() <= n) await wait(20); }
+const shot = () => doc.getElementById("room-canvas").toDataURL();
+"""
+
+OUTFITS = """(async () => {
+  await ready();
+  const out = {o0: shot(), w0: doc.body.dataset.outfit};
+  const hashes = ["#outfit=vest,cap,jeans", "#outfit=shirt,jeans&tuck=1"];
+  for (let k = 0; k < hashes.length; k++) {
+    const n = draws(); location.hash = hashes[k]; await after(n);
+    out["o" + (k + 1)] = shot(); out["w" + (k + 1)] = doc.body.dataset.outfit;
+  }
+  out.tuck = String(doc.getElementById("room-tuck").checked);
+  Object.assign(doc.body.dataset, out);
+})();"""
+
+
+def tucked_reference(room) -> np.ndarray:
+    """shirt over jeans, then the jeans again where their depth is in front of the shirt's."""
+    from puppet.room.model import wear
+
+    jeans, shirt = (next(g for g in room.garments if g.name == n) for n in ("jeans", "shirt"))
+    out = wear(room, {"shirt", "jeans"}).copy()
+    front = (jeans.depth > shirt.depth) & (shirt.rgba[..., 3] > 0) & (jeans.rgba[..., 3] > 0)
+    a = jeans.rgba[..., 3:].astype(float) / 255.0
+    mixed = jeans.rgba[..., :3] * a + out[..., :3] * (1 - a)
+    out[..., :3] = np.where(front[..., None], np.rint(mixed), out[..., :3]).astype(np.uint8)
+    return out
+
+
+def test_outfits_from_the_address_are_puppet_render_composited(room):
+    from puppet.room.model import wear
+
+    seen = browse(room.path, "outfit=jeans,shirt", OUTFITS)
+    assert [seen["w0"], seen["w1"], seen["w2"]] == ["jeans,shirt", "jeans,vest,cap", "jeans,shirt"]
+    assert seen["tuck"] == "true"
+    refs = [wear(room.model, {"jeans", "shirt"}), wear(room.model, {"vest", "cap", "jeans"}), tucked_reference(room.model)]
+    for k, ref in enumerate(refs):
+        got = png(seen[f"o{k}"])
+        assert got.shape == ref.shape and grey_off(got, ref) < 0.02, k
+    assert grey_off(refs[0], refs[2]) > 0.02  # tucking in shows the jeans over the shirt's hem
+    assert tuple(png(seen["o2"])[45, 32, :3]) == GARMENTS["jeans"][0]
+    assert tuple(png(seen["o0"])[45, 32, :3]) == GARMENTS["shirt"][0]
+    # what the screen shows: the canvas at the page's top left, 1:1 on a desktop-sized window
+    shot = os.path.join(room.folder, "shot.png")
+    subprocess.run([CHROMIUM, "--headless=new", "--no-sandbox", "--hide-scrollbars", "--window-size=800,600",
+                    "--virtual-time-budget=30000", f"--screenshot={shot}", f"file://{room.path}#outfit=cap,vest"],
+                   check=True, timeout=180, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    w, h = SIZE
+    screen = np.asarray(Image.open(shot).convert("RGB"))[:h, :w]
+    assert grey_off(screen, wear(room.model, {"cap", "vest"})[..., :3]) < 0.02
+    assert grey_off(screen, wear(room.model, set())[..., :3]) > 0.05  # the garments show
+
+
+CLICKS = """(async () => {
+  await ready();
+  const log = [], canvas = doc.getElementById("room-canvas");
+  const item = (name) => doc.querySelector(`.room-item[data-name="${name}"]`);
+  const centre = (el) => { const r = el.getBoundingClientRect(); return [r.left + r.width / 2, r.top + r.height / 2]; };
+  const pointer = (type, [x, y], target) => target.dispatchEvent(new PointerEvent(type,
+      {bubbles: true, clientX: x, clientY: y, pointerId: 7, pointerType: "touch", isPrimary: true, button: 0}));
+  const state = () => log.push(doc.body.dataset.outfit + "|" + decodeURIComponent(location.hash));
+  async function tap(name) { const n = draws(); pointer("pointerdown", centre(item(name)), item(name));
+                             pointer("pointerup", centre(item(name)), item(name)); await after(n); state(); }
+  async function drag(name, to) {
+    const n = draws(), from = centre(item(name));
+    pointer("pointerdown", from, item(name));
+    for (let k = 1; k <= 5; k++) pointer("pointermove", [from[0] + (to[0] - from[0]) * k / 5, from[1] + (to[1] - from[1]) * k / 5], window);
+    pointer("pointerup", to, doc.elementFromPoint(to[0], to[1]) || window);
+    await wait(50); if (draws() > n) await after(n); state();
+  }
+  const onCanvas = (x, y) => { const r = canvas.getBoundingClientRect();  // canvas pixel -> client point
+                               return [r.left + (x + 0.5) * r.width / canvas.width, r.top + (y + 0.5) * r.height / canvas.height]; };
+  state();
+  await tap("shirt");
+  await drag("jeans", onCanvas(32, 60));
+  await drag("vest", onCanvas(32, 30));       // a second top replaces the first
+  await drag("cap", centre(doc.getElementById("room-shelf")));  // dropped off the mannequin: nothing
+  await drag("cap", onCanvas(10, 10));        // anywhere on the mannequin's picture
+  let n = draws(); const [x, y] = onCanvas(32, 30);
+  canvas.dispatchEvent(new MouseEvent("click", {bubbles: true, clientX: x, clientY: y})); await after(n); state();
+  n = draws(); canvas.dispatchEvent(new MouseEvent("click", {bubbles: true, ...Object.fromEntries(
+      [["clientX", onCanvas(2, 78)[0]], ["clientY", onCanvas(2, 78)[1]]])})); await wait(100);
+  log.push(String(draws() === n));          // a click on the bare mannequin takes nothing off
+  await tap("jeans");
+  let saved = null;
+  HTMLAnchorElement.prototype.click = function () { saved = this.download + " " + this.href.slice(0, 5); };
+  doc.getElementById("room-download").click();
+  while (!saved) await wait(20);
+  log.push(saved);
+  const r = canvas.getBoundingClientRect();
+  log.push(String(Math.round(r.width) === innerWidth));
+  doc.body.dataset.log = log.join(";");
+})();"""
+
+
+def test_clicks_and_drags_put_garments_on_and_off_on_a_phone_sized_page(room):
+    seen = browse(room.path, "", CLICKS, size=(390, 844))
+    log = seen["log"].split(";")
+    assert log[:7] == ["|", "shirt|#outfit=shirt", "jeans,shirt|#outfit=jeans,shirt", "jeans,vest|#outfit=jeans,vest",
+                       "jeans,vest|#outfit=jeans,vest", "jeans,vest,cap|#outfit=jeans,vest,cap",
+                       "jeans,cap|#outfit=jeans,cap"], log
+    assert log[7:] == ["true", "cap|#outfit=cap", "cap.png blob:", "true"], log
