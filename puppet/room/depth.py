@@ -6,8 +6,9 @@ Each layer's triangles are filled with their index (OpenCV, 8 bits of sub-pixel
 precision; where a mesh folds over itself the later triangle holds the pixel), then the
 depth of every covered pixel is interpolated in its triangle from the barycentric
 coordinates of the pixel centre, and the pixel is kept where the layer's texture at the
-matching rest point (nearest texel) has alpha > 0. The garment's depth is the
-front-most layer's, grown by one pixel over the soft edge (:func:`front_depth`).
+matching rest point (nearest texel) has alpha > 0. A garment's depth is its front-most
+layer's pin depth (its stacking rank taken off), grown by one pixel over the soft edge
+(:func:`front_depth`).
 """
 from __future__ import annotations
 
@@ -67,12 +68,16 @@ def _barycentric(corners: np.ndarray, p: np.ndarray) -> np.ndarray:
     return np.stack([1.0 - l1 - l2, l1, l2], axis=1)
 
 
-def front_depth(per_layer) -> np.ndarray:
-    """The front-most (largest) of several (H, W) layer depths, NaN where none shows;
-    grown by one pixel (the largest of the 3x3 neighbours) into the pixels around, where
-    the compositor's soft edges still draw some of the layer."""
+def front_depth(per_layer, orders) -> np.ndarray:
+    """The depth the pins carry at each pixel: of several (H, W) layer depths (stacking
+    rank + pin depth, as posed layers give them) the front-most (largest), less the rank
+    of its layer (``orders``), so that two garments compare by their pins alone; NaN
+    where no layer shows. Grown by one pixel (the largest of the 3x3 neighbours) into the
+    pixels around, where the compositor's soft edges still draw some of the garment."""
     stack = np.stack(list(per_layer))
-    front = np.where(np.isnan(stack), -np.inf, stack).max(axis=0)
+    full = np.where(np.isnan(stack), -np.inf, stack)
+    k = full.argmax(axis=0)
+    front = np.take_along_axis(full, k[None], axis=0)[0] - np.asarray(orders, np.float64)[k]
     grown = cv2.dilate(front, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
     return np.where(np.isfinite(front), front, np.where(np.isfinite(grown), grown, np.nan))
 

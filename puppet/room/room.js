@@ -13,10 +13,11 @@
   const HINT = "Click or drag a garment onto the mannequin to put it on; click it there to take it off.";
   let worn = new Set(), tuck = false, images = null, mannequin = null, draws = 0;
 
-  const decoded = (src) => { const im = new Image(); im.src = src; return im.decode().then(() => im); };
+  // the PNGs' bytes as they are (no colour management: the depth images hold codes)
+  const decoded = async (src) => createImageBitmap(await (await fetch(src)).blob(), { colorSpaceConversion: "none" });
   const pixels = (im) => {  // the image's RGBA bytes (an offscreen canvas of its size)
     const c = doc.createElement("canvas");
-    c.width = im.naturalWidth; c.height = im.naturalHeight;
+    c.width = im.width; c.height = im.height;
     const g = c.getContext("2d", { willReadFrequently: true });
     g.drawImage(im, 0, 0);
     return g.getImageData(0, 0, c.width, c.height);
@@ -45,21 +46,26 @@
   const wornOf = (cat) => [...worn].filter((i) => garments[i].category === cat);
   const names = () => [...worn].sort((a, b) => a - b).map((i) => garments[i].name);
 
-  function tucked(top, bottom) {  // the bottom's pixels in front of the top's (depths), as a canvas
+  // A tucked top is hidden where its depth is below the bottom's: where the bottom shows,
+  // and inside the waistband (in each column, below the bottom's first row, against the
+  // bottom's depth on that row). Returns the top's image with those pixels clear.
+  function tucked(top, bottom) {
     const t = garments[top], b = garments[bottom], td = data(top), bd = data(bottom);
-    const c = doc.createElement("canvas");
-    c.width = b.size[0]; c.height = b.size[1];
-    const g = c.getContext("2d");
-    const img = pixels(images[bottom].image);
-    for (let y = 0; y < b.size[1]; y++) {
-      for (let x = 0; x < b.size[0]; x++) {
-        const k = y * b.size[0] + x, tx = x + b.at[0] - t.at[0], ty = y + b.at[1] - t.at[1];
-        const inTop = tx >= 0 && ty >= 0 && tx < t.size[0] && ty < t.size[1];
-        const front = inTop && td.alpha[ty * t.size[0] + tx] > 0 && bd.depth[k] > td.depth[ty * t.size[0] + tx];
-        if (!front) img.data[4 * k + 3] = 0;
+    const [tw, th] = t.size, [bw, bh] = b.size, img = pixels(images[top].image);
+    for (let x = 0; x < tw; x++) {
+      const bx = x + t.at[0] - b.at[0];
+      let edge = -1;
+      if (bx >= 0 && bx < bw) for (let y = 0; y < bh && edge < 0; y++) if (bd.alpha[y * bw + bx] > 0) edge = y;
+      if (edge < 0) continue;
+      for (let y = Math.max(0, edge + b.at[1] - t.at[1]); y < th; y++) {
+        const by = y + t.at[1] - b.at[1], k = y * tw + x;
+        const shows = by < bh && bd.alpha[by * bw + bx] > 0;
+        if (td.depth[k] < bd.depth[(shows ? by : edge) * bw + bx]) img.data[4 * k + 3] = 0;
       }
     }
-    g.putImageData(img, 0, 0);
+    const c = doc.createElement("canvas");
+    c.width = tw; c.height = th;
+    c.getContext("2d").putImageData(img, 0, 0);
     return c;
   }
 
@@ -69,12 +75,8 @@
     const order = [...worn].sort((a, b) => a - b), top = wornOf("top")[0], bottom = wornOf("bottom")[0];
     tuckBox.disabled = top === undefined || bottom === undefined;
     for (const i of order) {
-      const g = garments[i];
-      ctx.drawImage(images[i].image, g.at[0], g.at[1]);
-      if (i === top && tuck && !tuckBox.disabled) {
-        const b = garments[bottom];
-        ctx.drawImage(tucked(top, bottom), b.at[0], b.at[1]);
-      }
+      const g = garments[i], tuckIt = i === top && tuck && !tuckBox.disabled;
+      ctx.drawImage(tuckIt ? tucked(top, bottom) : images[i].image, g.at[0], g.at[1]);
     }
     for (const el of doc.querySelectorAll(".room-item")) el.classList.toggle("worn", worn.has(+el.dataset.index));
     body.dataset.outfit = names().join(",");

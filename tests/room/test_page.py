@@ -5,6 +5,7 @@ and clicks and drags dispatched in the page put garments on and take them off.""
 from __future__ import annotations
 
 import base64
+import dataclasses
 import io
 import os
 import re
@@ -72,16 +73,21 @@ OUTFITS = """(async () => {
 
 
 def tucked_reference(room) -> np.ndarray:
-    """shirt over jeans, then the jeans again where their depth is in front of the shirt's."""
+    """shirt and jeans, the shirt tucked in: its pixels hidden where its depth is below the
+    jeans', where they show and below their first row in each column (against their depth
+    on that row)."""
     from puppet.room.model import wear
 
     jeans, shirt = (next(g for g in room.garments if g.name == n) for n in ("jeans", "shirt"))
-    out = wear(room, {"shirt", "jeans"}).copy()
-    front = (jeans.depth > shirt.depth) & (shirt.rgba[..., 3] > 0) & (jeans.rgba[..., 3] > 0)
-    a = jeans.rgba[..., 3:].astype(float) / 255.0
-    mixed = jeans.rgba[..., :3] * a + out[..., :3] * (1 - a)
-    out[..., :3] = np.where(front[..., None], np.rint(mixed), out[..., :3]).astype(np.uint8)
-    return out
+    h, w = jeans.depth.shape
+    shows = jeans.rgba[..., 3] > 0
+    edge = np.where(shows.any(axis=0), shows.argmax(axis=0), h)
+    bottom = np.where(shows, jeans.depth, jeans.depth[np.minimum(edge, h - 1), np.arange(w)][None, :])
+    hide = (np.arange(h)[:, None] >= edge[None, :]) & (shirt.depth < bottom)
+    rgba = shirt.rgba.copy()
+    rgba[hide, 3] = 0
+    garments = [dataclasses.replace(g, rgba=rgba) if g is shirt else g for g in room.garments]
+    return wear(dataclasses.replace(room, garments=garments), {"shirt", "jeans"})
 
 
 def test_outfits_from_the_address_are_puppet_render_composited(room):

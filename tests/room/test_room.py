@@ -48,8 +48,10 @@ def test_layer_depth_interpolates_at_pixel_centres_where_the_texture_shows():
     # posed: the same rest mesh moved 2 px right keeps its depths on the moved pixels
     moved = layer_depth(V + (2, 0), V, F, np.array([0.0, 4.0, 4.0, 0.0]), image, (1, 1), (7, 4))
     assert np.allclose(moved[1:3, 3:6], d[1:3, 1:4])
-    front = front_depth([d, np.where(np.isnan(d), np.nan, 1.0)])
+    front = front_depth([d, np.where(np.isnan(d), np.nan, 1.0)], [0, 0])
     assert np.allclose(front[1:3, 1:4], [[1.0, 1.5, 2.5]] * 2)
+    # ranks: the second layer (rank 3, pin depth 1) is in front everywhere; its pin depth is kept
+    assert np.allclose(front_depth([d, np.where(np.isnan(d), np.nan, 4.0)], [0, 3])[1:3, 1:4], 1.0)
     assert np.isnan(front[0, 6]) and front[0, 0] == 1.0  # grown one pixel round what shows, no further
 
 
