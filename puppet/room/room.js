@@ -38,12 +38,13 @@
   }
 
   // -- the outfit ------------------------------------------------------------------------
-  function put(i) {  // wear i: it replaces the garment of its category (accessories stack)
+  function put(i, set = worn) {  // wear i: it replaces the garment of its category (accessories stack)
     const cat = garments[i].category;
-    if (cat !== "accessory") for (const j of [...worn]) if (garments[j].category === cat) worn.delete(j);
-    worn.add(i);
+    if (cat !== "accessory") for (const j of [...set]) if (garments[j].category === cat) set.delete(j);
+    set.add(i);
+    return set;
   }
-  const wornOf = (cat) => [...worn].filter((i) => garments[i].category === cat);
+  const wornOf = (cat, set = worn) => [...set].filter((i) => garments[i].category === cat);
   const names = () => [...worn].sort((a, b) => a - b).map((i) => garments[i].name);
 
   // A tucked top is hidden where its depth is below the bottom's: where the bottom shows,
@@ -69,15 +70,16 @@
     return c;
   }
 
-  function draw() {
+  function draw(set = worn) {  // the outfit (or a preview of one while a garment is dragged over the mannequin)
     ctx.clearRect(0, 0, W, H);
     ctx.drawImage(mannequin, 0, 0);
-    const order = [...worn].sort((a, b) => a - b), top = wornOf("top")[0], bottom = wornOf("bottom")[0];
-    tuckBox.disabled = top === undefined || bottom === undefined;
+    const order = [...set].sort((a, b) => a - b), top = wornOf("top", set)[0], bottom = wornOf("bottom", set)[0];
     for (const i of order) {
-      const g = garments[i], tuckIt = i === top && tuck && !tuckBox.disabled;
+      const g = garments[i], tuckIt = i === top && tuck && bottom !== undefined;
       ctx.drawImage(tuckIt ? tucked(top, bottom) : images[i].image, g.at[0], g.at[1]);
     }
+    if (set !== worn) return;
+    tuckBox.disabled = top === undefined || bottom === undefined;
     for (const el of doc.querySelectorAll(".room-item")) el.classList.toggle("worn", worn.has(+el.dataset.index));
     body.dataset.outfit = names().join(",");
     body.dataset.draws = String(++draws);
@@ -133,7 +135,7 @@
   function press(e, i) {
     if (e.button > 0) return;
     e.preventDefault();
-    held = { i, x: e.clientX, y: e.clientY, dragging: false };
+    held = { i, x: e.clientX, y: e.clientY, dragging: false, over: false };
   }
   window.addEventListener("pointermove", (e) => {
     if (!held) return;
@@ -142,11 +144,17 @@
       ghost.src = garments[held.i].image;
       ghost.style.display = "block";
     }
-    if (held.dragging) { ghost.style.left = e.clientX + "px"; ghost.style.top = e.clientY + "px"; }
+    if (!held.dragging) return;
+    ghost.style.left = e.clientX + "px"; ghost.style.top = e.clientY + "px";
+    const over = onCanvas(e.clientX, e.clientY);
+    if (over !== held.over) {  // over the mannequin: shown worn until the drop (or the way out)
+      held.over = over;
+      draw(over ? put(held.i, new Set(worn)) : worn);
+    }
   });
   window.addEventListener("pointerup", (e) => {
     if (!held) return;
-    const { i, dragging } = held;
+    const { i, dragging, over } = held;
     held = null;
     ghost.style.display = "none";
     if (!dragging) {
@@ -155,9 +163,13 @@
     } else if (onCanvas(e.clientX, e.clientY)) {
       put(i);
       changed();
-    }
+    } else if (over) draw();  // dropped elsewhere: the preview goes
   });
-  window.addEventListener("pointercancel", () => { held = null; ghost.style.display = "none"; });
+  window.addEventListener("pointercancel", () => {
+    if (held && held.over) draw();
+    held = null;
+    ghost.style.display = "none";
+  });
 
   function onCanvas(x, y) {
     const r = canvas.getBoundingClientRect();

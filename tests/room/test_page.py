@@ -137,6 +137,15 @@ CLICKS = """(async () => {
   await tap("shirt");
   await drag("jeans", onCanvas(32, 60));
   await drag("vest", onCanvas(32, 30));       // a second top replaces the first
+  {  // dragged over the mannequin a garment shows worn before the drop, and goes when dragged away
+    const from = centre(item("shirt")), rgb = () => Array.from(canvas.getContext("2d").getImageData(32, 30, 1, 1).data)
+        .slice(0, 3).join(" ");
+    pointer("pointerdown", from, item("shirt"));
+    pointer("pointermove", [from[0] + 10, from[1]], window); pointer("pointermove", onCanvas(32, 30), window);
+    const over = rgb();
+    pointer("pointermove", from, window); pointer("pointerup", from, item("shirt"));
+    log.push(over + "/" + rgb() + "/" + doc.body.dataset.outfit);
+  }
   await drag("cap", centre(doc.getElementById("room-shelf")));  // dropped off the mannequin: nothing
   await drag("cap", onCanvas(10, 10));        // anywhere on the mannequin's picture
   let n = draws(); const [x, y] = onCanvas(32, 30);
@@ -159,10 +168,12 @@ CLICKS = """(async () => {
 def test_clicks_and_drags_put_garments_on_and_off_on_a_phone_sized_page(room):
     seen = browse(room.path, "", CLICKS, size=(390, 844))
     log = seen["log"].split(";")
-    assert log[:7] == ["|", "shirt|#outfit=shirt", "jeans,shirt|#outfit=jeans,shirt", "jeans,vest|#outfit=jeans,vest",
+    shirt, vest = (" ".join(map(str, GARMENTS[n][0])) for n in ("shirt", "vest"))
+    assert log[:8] == ["|", "shirt|#outfit=shirt", "jeans,shirt|#outfit=jeans,shirt", "jeans,vest|#outfit=jeans,vest",
+                       f"{shirt}/{vest}/jeans,vest",  # the shirt previewed over the mannequin, then not
                        "jeans,vest|#outfit=jeans,vest", "jeans,vest,cap|#outfit=jeans,vest,cap",
                        "jeans,cap|#outfit=jeans,cap"], log
-    assert log[7:10] == ["true", "cap|#outfit=cap", "cap.png blob:"], log
+    assert log[8:11] == ["true", "cap|#outfit=cap", "cap.png blob:"], log
     # the mannequin as large as the phone allows: its width, or 55 % of its height (the shelf below)
-    w, h, sw, sh = map(int, log[10].split("x"))
-    assert abs(w * SIZE[1] - h * SIZE[0]) <= SIZE[1] and (w == sw or abs(h - 0.55 * sh) <= 1) and w > 300, log[10]
+    w, h, sw, sh = map(int, log[11].split("x"))
+    assert abs(w * SIZE[1] - h * SIZE[0]) <= SIZE[1] and (w == sw or abs(h - 0.55 * sh) <= 1) and w > 300, log[11]
