@@ -70,7 +70,7 @@ def load_garment(path: str, canvas: tuple[int, int], mannequin: str) -> Garment:
     try:
         if tuple(scene.canvas) != tuple(canvas):
             raise SceneError(f"canvas {scene.canvas[0]}x{scene.canvas[1]} differs from the mannequin's "
-                             f"{canvas[0]}x{canvas[1]} ({mannequin})", file=path)
+                             f"{canvas[0]}x{canvas[1]} ({mannequin})", file=scene.file)
         spec = scene.data.garment or {}
         name = spec.get("name", os.path.splitext(os.path.basename(path))[0])
         pose = FIT_POSE if FIT_POSE in scene.data.poses else "rest"
@@ -82,7 +82,7 @@ def load_garment(path: str, canvas: tuple[int, int], mannequin: str) -> Garment:
                                          *images[k].drawn, canvas) for k in shown] or [np.full(rgba.shape[:2], np.nan)],
                             [layers[k].order for k in shown] or [0])
         return Garment(name=name, category=spec.get("category", DEFAULT_CATEGORY), order=spec.get("order", 0.0),
-                       file=path, rgba=rgba, depth=depth)
+                       file=scene.file, rgba=rgba, depth=depth)
     finally:
         scene.close()
 
@@ -102,8 +102,8 @@ def load_room(mannequin: str, garments: list[str]) -> Room:
         g = load_garment(path, (w, h), mannequin)
         if g.name in names:
             raise SceneError(f"garment name {g.name!r} is also the name of {names[g.name]} "
-                             "(give one a \"garment\": {\"name\": ...})", file=path)
-        names[g.name] = path
+                             "(give one a \"garment\": {\"name\": ...})", file=g.file)
+        names[g.name] = g.file
         loaded.append(g)
     return Room(mannequin=body, garments=draw_order(loaded))
 
