@@ -80,7 +80,10 @@
     }
     if (set !== worn) return;
     tuckBox.disabled = top === undefined || bottom === undefined;
-    for (const el of doc.querySelectorAll(".room-item")) el.classList.toggle("worn", worn.has(+el.dataset.index));
+    for (const el of doc.querySelectorAll(".room-item")) {
+      el.classList.toggle("worn", worn.has(+el.dataset.index));
+      el.setAttribute("aria-pressed", String(worn.has(+el.dataset.index)));
+    }
     body.dataset.outfit = names().join(",");
     body.dataset.draws = String(++draws);
   }
@@ -121,8 +124,15 @@
         const item = doc.createElement("div"), img = doc.createElement("img"), label = doc.createElement("span");
         item.className = "room-item"; item.dataset.index = String(i); item.dataset.name = g.name;
         item.title = g.name; img.src = g.image; img.alt = ""; img.draggable = false; label.textContent = g.name;
+        item.tabIndex = 0; item.setAttribute("role", "button"); item.setAttribute("aria-pressed", "false");
         item.append(img, label);
         item.addEventListener("pointerdown", (e) => press(e, i));
+        item.addEventListener("keydown", (e) => {  // the keyboard: Enter or Space puts on / takes off
+          if (e.key !== "Enter" && e.key !== " ") return;
+          e.preventDefault();
+          if (worn.has(i)) worn.delete(i); else put(i);
+          changed();
+        });
         row.append(item);
       }
       sec.append(h, row);

@@ -154,6 +154,9 @@ CLICKS = """(async () => {
       [["clientX", onCanvas(2, 78)[0]], ["clientY", onCanvas(2, 78)[1]]])})); await wait(100);
   log.push(String(draws() === n));          // a click on the bare mannequin takes nothing off
   await tap("jeans");
+  n = draws(); item("jeans").dispatchEvent(new KeyboardEvent("keydown", {key: "Enter", bubbles: true})); await after(n);
+  log.push(doc.body.dataset.outfit + "|" + item("jeans").getAttribute("aria-pressed"));
+  n = draws(); item("jeans").dispatchEvent(new KeyboardEvent("keydown", {key: " ", bubbles: true})); await after(n);
   let saved = null;
   HTMLAnchorElement.prototype.click = function () { saved = this.download + " " + this.href.slice(0, 5); };
   doc.getElementById("room-download").click();
@@ -173,7 +176,7 @@ def test_clicks_and_drags_put_garments_on_and_off_on_a_phone_sized_page(room):
                        f"{shirt}/{vest}/jeans,vest",  # the shirt previewed over the mannequin, then not
                        "jeans,vest|#outfit=jeans,vest", "jeans,vest,cap|#outfit=jeans,vest,cap",
                        "jeans,cap|#outfit=jeans,cap"], log
-    assert log[8:11] == ["true", "cap|#outfit=cap", "cap.png blob:"], log
+    assert log[8:12] == ["true", "cap|#outfit=cap", "jeans,cap|true", "cap.png blob:"], log  # keys: on, off
     # the mannequin as large as the phone allows: its width, or 55 % of its height (the shelf below)
-    w, h, sw, sh = map(int, log[11].split("x"))
-    assert abs(w * SIZE[1] - h * SIZE[0]) <= SIZE[1] and (w == sw or abs(h - 0.55 * sh) <= 1) and w > 300, log[11]
+    w, h, sw, sh = map(int, log[12].split("x"))
+    assert abs(w * SIZE[1] - h * SIZE[0]) <= SIZE[1] and (w == sw or abs(h - 0.55 * sh) <= 1) and w > 300, log[12]
