@@ -1,6 +1,8 @@
 // puppet dressroom: the shopper's page. The mannequin, then the worn garments in draw
 // order (category, then order), each drawn "over" on a 2D canvas. The outfit is kept in
-// the address: #outfit=NAME,NAME[&tuck=1].
+// the address: #outfit=NAME,NAME[&tuck=1]. A garment's picture and depth are loaded when
+// it is first worn, a thumbnail when it comes near the screen (a folder room of
+// thousands loads what it shows).
 (() => {
   "use strict";
   const doc = document, body = doc.body;
@@ -11,7 +13,8 @@
   const ghost = doc.getElementById("room-ghost");
   const byName = new Map(garments.map((g, i) => [g.name, i]));
   const HINT = "Click or drag a garment onto the mannequin to put it on; click it there to take it off.";
-  let worn = new Set(), tuck = false, images = null, mannequin = null, draws = 0;
+  let worn = new Set(), tuck = false, mannequin = null, draws = 0;
+  const images = [], loading = new Map();  // garment -> {image, depth} once loaded; its loading
 
   // the PNGs' bytes as they are (no colour management: the depth images hold codes)
   const decoded = async (src) => createImageBitmap(await (await fetch(src)).blob(), { colorSpaceConversion: "none" });
@@ -22,6 +25,13 @@
     g.drawImage(im, 0, 0);
     return g.getImageData(0, 0, c.width, c.height);
   };
+  function load(i) {
+    if (!loading.has(i)) {
+      loading.set(i, Promise.all([decoded(garments[i].image), decoded(garments[i].depth)])
+        .then(([image, depth]) => { images[i] = { image, depth }; }));
+    }
+    return loading.get(i);
+  }
   const cache = new Map();  // garment -> {alpha, depth}: read from its images when first needed
   function data(i) {
     if (!cache.has(i)) {
@@ -78,6 +88,7 @@
       const g = garments[i], tuckIt = i === top && tuck && bottom !== undefined;
       ctx.drawImage(tuckIt ? tucked(top, bottom) : images[i].image, g.at[0], g.at[1]);
     }
+    body.dataset.shown = [...set].sort((a, b) => a - b).map((i) => garments[i].name).join(",");
     if (set !== worn) return;
     tuckBox.disabled = top === undefined || bottom === undefined;
     for (const el of doc.querySelectorAll(".room-item")) {
@@ -88,10 +99,17 @@
     body.dataset.draws = String(++draws);
   }
 
+  let asked = 0;
+  async function show(set = worn) {  // draw once its garments are loaded (unless asked for another since)
+    const token = ++asked;
+    await Promise.all([...set].map(load));
+    if (token === asked) draw(set);
+  }
+
   function changed() {  // the outfit changed here: draw it and keep the address up to date
     const hash = "#outfit=" + names().map(encodeURIComponent).join(",") + (tuck ? "&tuck=1" : "");
     history.replaceState(null, "", hash);
-    draw();
+    return show();
   }
 
   function fromAddress() {  // #outfit=a,b[&tuck=1]: exactly those garments on
@@ -109,7 +127,7 @@
     tuck = fields.get("tuck") === "1";
     tuckBox.checked = tuck;
     status.textContent = unknown.length ? "No garment named " + unknown.join(", ") + " in this room." : HINT;
-    draw();
+    return show();
   }
 
   // -- the shelf: thumbnails by category; a click toggles, a drag onto the mannequin wears --
@@ -123,7 +141,9 @@
       for (const [g, i] of items) {
         const item = doc.createElement("div"), img = doc.createElement("img"), label = doc.createElement("span");
         item.className = "room-item"; item.dataset.index = String(i); item.dataset.name = g.name;
-        item.title = g.name; img.src = g.image; img.alt = ""; img.draggable = false; label.textContent = g.name;
+        item.title = g.name; img.dataset.src = g.thumb || g.image; img.alt = ""; img.draggable = false;
+        label.textContent = g.name;
+        near.observe(img);
         item.tabIndex = 0; item.setAttribute("role", "button"); item.setAttribute("aria-pressed", "false");
         item.append(img, label);
         item.addEventListener("pointerdown", (e) => press(e, i));
@@ -139,6 +159,11 @@
       root.append(sec);
     }
   }
+
+  // thumbnails load when they come within a screen's margin (their src set then)
+  const near = new IntersectionObserver((entries) => {
+    for (const e of entries) if (e.isIntersecting) { e.target.src = e.target.dataset.src; near.unobserve(e.target); }
+  }, { rootMargin: "200px" });
 
   const SLOP = 6;  // px a press may move and still be a click
   let held = null;  // {i, x, y, dragging}
@@ -159,7 +184,7 @@
     const over = onCanvas(e.clientX, e.clientY);
     if (over !== held.over) {  // over the mannequin: shown worn until the drop (or the way out)
       held.over = over;
-      draw(over ? put(held.i, new Set(worn)) : worn);
+      show(over ? put(held.i, new Set(worn)) : worn);
     }
   });
   window.addEventListener("pointerup", (e) => {
@@ -173,10 +198,10 @@
     } else if (onCanvas(e.clientX, e.clientY)) {
       put(i);
       changed();
-    } else if (over) draw();  // dropped elsewhere: the preview goes
+    } else if (over) show();  // dropped elsewhere: the preview goes
   });
   window.addEventListener("pointercancel", () => {
-    if (held && held.over) draw();
+    if (held && held.over) show();
     held = null;
     ghost.style.display = "none";
   });
@@ -191,6 +216,7 @@
     const x = Math.floor((e.clientX - r.left) * W / r.width), y = Math.floor((e.clientY - r.top) * H / r.height);
     const front = [...worn].sort((a, b) => b - a).find((i) => {
       const g = garments[i], gx = x - g.at[0], gy = y - g.at[1];
+      if (!images[i]) return false;  // still loading: not drawn yet
       return gx >= 0 && gy >= 0 && gx < g.size[0] && gy < g.size[1] && data(i).alpha[gy * g.size[0] + gx] > 0;
     });
     if (front !== undefined) { worn.delete(front); changed(); }
@@ -209,12 +235,11 @@
   });
   window.addEventListener("hashchange", fromAddress);
 
-  Promise.all([decoded(meta.mannequin),
-               ...garments.map((g) => Promise.all([decoded(g.image), decoded(g.depth)]))]).then(([m, ...ims]) => {
+  decoded(meta.mannequin).then((m) => {
     mannequin = m;
-    images = ims.map(([image, depth]) => ({ image, depth }));
     shelf();
-    fromAddress();
+    return fromAddress();
+  }).then(() => {
     body.dataset.firstDrawMs = performance.now().toFixed(1);
     body.dataset.ready = "1";
   }, (err) => { status.textContent = "This room could not be opened: " + err; });

@@ -129,7 +129,8 @@ CLICKS = """(async () => {
     pointer("pointerdown", from, item(name));
     for (let k = 1; k <= 5; k++) pointer("pointermove", [from[0] + (to[0] - from[0]) * k / 5, from[1] + (to[1] - from[1]) * k / 5], window);
     pointer("pointerup", to, doc.elementFromPoint(to[0], to[1]) || window);
-    await wait(50); if (draws() > n) await after(n); state();
+    for (let t = 0; t < 25 && draws() <= n; t++) await wait(20);  // a drop that wears draws (once loaded)
+    state();
   }
   const onCanvas = (x, y) => { const r = canvas.getBoundingClientRect();  // canvas pixel -> client point
                                return [r.left + (x + 0.5) * r.width / canvas.width, r.top + (y + 0.5) * r.height / canvas.height]; };
@@ -142,8 +143,10 @@ CLICKS = """(async () => {
         .slice(0, 3).join(" ");
     pointer("pointerdown", from, item("shirt"));
     pointer("pointermove", [from[0] + 10, from[1]], window); pointer("pointermove", onCanvas(32, 30), window);
+    while (doc.body.dataset.shown !== "jeans,shirt") await wait(20);
     const over = rgb();
     pointer("pointermove", from, window); pointer("pointerup", from, item("shirt"));
+    while (doc.body.dataset.shown !== "jeans,vest") await wait(20);
     log.push(over + "/" + rgb() + "/" + doc.body.dataset.outfit);
   }
   await drag("cap", centre(doc.getElementById("room-shelf")));  // dropped off the mannequin: nothing
