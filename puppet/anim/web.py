@@ -81,12 +81,16 @@ def encode_frame(layers, quant, depth_step: float) -> bytes:
     return q.astype("<i2").tobytes()
 
 
-def png_uri(rgba: np.ndarray) -> str:
+def png_bytes(rgba: np.ndarray) -> bytes:
     from PIL import Image
 
     buf = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(rgba), "RGBA").save(buf, format="PNG", optimize=False, compress_level=9)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+    return buf.getvalue()
+
+
+def png_uri(rgba: np.ndarray) -> str:
+    return "data:image/png;base64," + base64.b64encode(png_bytes(rgba)).decode("ascii")
 
 
 def _b64(a: np.ndarray, dtype: str) -> str:

@@ -16,8 +16,21 @@
   let worn = new Set(), tuck = false, mannequin = null, draws = 0;
   const images = [], loading = new Map();  // garment -> {image, depth} once loaded; its loading
 
-  // the PNGs' bytes as they are (no colour management: the depth images hold codes)
-  const decoded = async (src) => createImageBitmap(await (await fetch(src)).blob(), { colorSpaceConversion: "none" });
+  // the PNGs' bytes as they are (no colour management: the depth images hold codes); a
+  // folder room opened from the disk (file://) cannot fetch: its pictures are shown, but
+  // the browser does not let the page read them back (tuck in, clicks on the mannequin)
+  const decoded = async (src) => {
+    let blob;
+    try {
+      blob = await (await fetch(src)).blob();
+    } catch (e) {
+      const im = new Image();
+      im.src = src;
+      await im.decode();
+      return im;
+    }
+    return createImageBitmap(blob, { colorSpaceConversion: "none" });
+  };
   const pixels = (im) => {  // the image's RGBA bytes (an offscreen canvas of its size)
     const c = doc.createElement("canvas");
     c.width = im.width; c.height = im.height;
@@ -132,7 +145,7 @@
 
   // -- the shelf: thumbnails by category; a click toggles, a drag onto the mannequin wears --
   function shelf() {
-    const root = doc.getElementById("room-shelf");
+    const root = shelfEl;
     for (const cat of meta.categories) {
       const items = garments.map((g, i) => [g, i]).filter(([g]) => g.category === cat);
       if (!items.length) continue;
@@ -160,10 +173,12 @@
     }
   }
 
-  // thumbnails load when they come within a screen's margin (their src set then)
+  // thumbnails load when they come within 100 px of the shelf's view (their src set then):
+  // the shelf scrolls on its own beside the mannequin, with the page below it on a phone
+  const shelfEl = doc.getElementById("room-shelf");
   const near = new IntersectionObserver((entries) => {
     for (const e of entries) if (e.isIntersecting) { e.target.src = e.target.dataset.src; near.unobserve(e.target); }
-  }, { rootMargin: "200px" });
+  }, { root: getComputedStyle(shelfEl).overflowY === "auto" ? shelfEl : null, rootMargin: "100px" });
 
   const SLOP = 6;  // px a press may move and still be a click
   let held = null;  // {i, x, y, dragging}

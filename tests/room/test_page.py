@@ -18,6 +18,7 @@ from PIL import Image
 
 from puppet.cli import main
 from tests.anim.test_web import CHROMIUM, grey_off, needs_browser
+from tests.room import art
 from tests.room.art import GARMENTS, SIZE, room_files
 
 pytestmark = [pytest.mark.gl, pytest.mark.slow, needs_browser]
@@ -183,3 +184,81 @@ def test_clicks_and_drags_put_garments_on_and_off_on_a_phone_sized_page(room):
     # the mannequin as large as the phone allows: its width, or 55 % of its height (the shelf below)
     w, h, sw, sh = map(int, log[12].split("x"))
     assert abs(w * SIZE[1] - h * SIZE[0]) <= SIZE[1] and (w == sw or abs(h - 0.55 * sh) <= 1) and w > 300, log[12]
+
+
+def catalogue(n: int, folder: str):
+    """A room of ``n`` garments made in numpy (no scene rendered): small rectangles of
+    several colours on the test mannequin, accessories, so any number can be worn."""
+    from puppet.room.model import Garment, Room
+
+    mannequin = np.asarray(Image.open(art.mannequin(folder)).convert("RGBA"))
+    h, w = mannequin.shape[:2]
+    garments = []
+    for k in range(n):
+        rgba = np.zeros((h, w, 4), np.uint8)
+        x, y = 4 + (k * 7) % (w - 16), 4 + (k * 11) % (h - 16)
+        rgba[y:y + 10, x:x + 10] = ((k * 37) % 256, (k * 91) % 256, 200, 255)
+        depth = np.where(rgba[..., 3] > 0, 0.0, np.nan)
+        garments.append(Garment(name=f"g{k:04d}", category="accessory", order=0.0, file="", rgba=rgba, depth=depth))
+    return Room(mannequin=mannequin, garments=garments)
+
+
+@pytest.fixture()
+def served(tmp_path):
+    """An HTTP server of ``tmp_path`` on 127.0.0.1 (a folder room must be served, as a shop does)."""
+    import functools
+    import http.server
+    import threading
+
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, *args):
+            pass
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(Quiet, directory=str(tmp_path)))
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield tmp_path, f"http://127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+    server.server_close()
+
+
+LAZY = """(async () => {
+  await ready();
+  const shelf = doc.getElementById("room-shelf");
+  const got = () => performance.getEntriesByType("resource").map((e) => e.name.replace(/^.*\\/pictures\\//, ""));
+  await wait(300);
+  const before = got();
+  shelf.scrollTop = shelf.scrollHeight;  // the shelf scrolls beside the mannequin, the page on a phone
+  window.scrollTo(0, doc.documentElement.scrollHeight);
+  const last = doc.querySelector(".room-item:last-child img");
+  while (!last.complete || !last.getAttribute("src")) await wait(20);
+  doc.body.dataset.before = before.join(" ");
+  doc.body.dataset.after = got().join(" ");
+})();"""
+
+
+def test_the_folder_form_loads_what_it_shows(served):
+    from puppet.room.page import write_room_folder
+
+    root, url = served
+    room = catalogue(300, str(root))
+    write_room_folder(room, str(root / "room"), "room/")
+    page = str(root / "room" / "index.html")
+    with open(page, encoding="utf-8") as f:
+        text = f.read()
+    with open(page, "w", encoding="utf-8") as f:
+        f.write(text.replace("</body>", f"<script>\n{WAIT}{LAZY}\n</script></body>"))
+    dom = subprocess.run([CHROMIUM, "--headless=new", "--no-sandbox", "--hide-scrollbars", "--window-size=800,600",
+                          "--virtual-time-budget=30000", "--dump-dom", f"{url}/room/index.html#outfit=g0000,g0299"],
+                         capture_output=True, text=True, timeout=180).stdout
+    seen = dict(re.findall(r'data-([\w-]+)="([^"]*)"', re.search(r"<body([^>]*)>", dom).group(1)))
+    before, after = seen["before"].split(), seen["after"].split()
+    # first screen: the mannequin, the two worn garments' picture and depth, the thumbnails in view
+    assert "mannequin.png" in before and {"0001.png", "0001-depth.png", "0300.png", "0300-depth.png"} <= set(before)
+    thumbs = [n for n in before if n.endswith("-thumb.png")]
+    assert 5 <= len(thumbs) < 60 and len(before) < 60, before
+    assert not {n for n in before if n.endswith(".png") and "-" not in n} - {"mannequin.png", "0001.png", "0300.png"}
+    # scrolled to the end: the last thumbnails come, and no garment picture that is not worn
+    assert "0300-thumb.png" in after and "0300-thumb.png" not in thumbs and len(after) > len(before)
+    assert [n for n in after if n.endswith(".png") and "-" not in n] == [n for n in before if n.endswith(".png")
+                                                                         and "-" not in n]
+    assert seen["outfit"] == "g0000,g0299"

@@ -132,3 +132,25 @@ def test_garments_are_puppet_render_of_their_fit_pose_in_draw_order(tmp_path):
     assert tuple(on[45, 32, :3]) == GARMENTS["shirt"][0]  # the top over the bottom
     assert tuple(on[70, 32, :3]) == GARMENTS["jeans"][0]
     assert tuple(on[60, 24, :3]) == GARMENTS["jeans"][0] and tuple(wear(room, set())[60, 24, :3]) == SKIN
+
+
+@pytest.mark.gl
+def test_folder_form_holds_the_page_and_the_pictures(tmp_path, capsys):
+    folder = str(tmp_path)
+    body, files = room_files(folder, ("shirt", "jeans", "hat"))
+    out = os.path.join(folder, "room") + "/"
+    assert main(["dressroom", body, *files, "-o", out]) == 0
+    pictures = sorted(os.listdir(os.path.join(out, "pictures")))
+    assert sorted(os.listdir(out)) == ["index.html", "pictures"]
+    assert pictures == ["0001-depth.png", "0001-thumb.png", "0001.png", "0002-depth.png", "0002-thumb.png",
+                        "0002.png", "0003-depth.png", "0003-thumb.png", "0003.png", "mannequin.png"]
+    text = open(os.path.join(out, "index.html"), encoding="utf-8").read()
+    assert "data:image" not in text and '"pictures/0002-depth.png"' in text
+    # the pictures are the single file's: the mannequin as it is, garment 1 (jeans, a bottom) cropped
+    assert np.array_equal(np.asarray(Image.open(os.path.join(out, "pictures", "mannequin.png"))),
+                          np.asarray(Image.open(body).convert("RGBA")))
+    jeans = np.asarray(Image.open(os.path.join(out, "pictures", "0001.png")))
+    assert jeans.shape == (30, 20, 4) and tuple(jeans[5, 5]) == GARMENTS["jeans"][0] + (255,)
+    # a folder that holds other files is never emptied: refused
+    err = refused(["dressroom", body, *files, "-o", out], capsys, os.path.join(out, "nothing"))
+    assert "index.html" in err and "room" in err
