@@ -154,9 +154,10 @@
       for (const [g, i] of items) {
         const item = doc.createElement("div"), img = doc.createElement("img"), label = doc.createElement("span");
         item.className = "room-item"; item.dataset.index = String(i); item.dataset.name = g.name;
-        item.title = g.name; img.dataset.src = g.thumb || g.image; img.alt = ""; img.draggable = false;
-        label.textContent = g.name;
-        near.observe(img);
+        item.title = g.name; img.alt = ""; img.draggable = false; label.textContent = g.name;
+        const src = g.thumb || g.image;
+        if (src.startsWith("data:")) img.src = src;  // in the page already: shown at once
+        else { img.dataset.src = src; near.observe(img); }
         item.tabIndex = 0; item.setAttribute("role", "button"); item.setAttribute("aria-pressed", "false");
         item.append(img, label);
         item.addEventListener("pointerdown", (e) => press(e, i));
