@@ -91,6 +91,30 @@ def tucked_reference(room) -> np.ndarray:
     return wear(dataclasses.replace(room, garments=garments), {"shirt", "jeans"})
 
 
+#: A black cover over the page until it has drawn: a screenshot taken before (virtual time
+#: can run out while pictures decode on another thread) shows it, and is taken again.
+COVER = """const cover = document.createElement("div");
+cover.style.cssText = "position: fixed; inset: 0; z-index: 99; background: #000";
+document.body.append(cover);
+(async () => { await ready(); cover.remove(); })();"""
+
+
+def screenshot(page: str, hash_: str, out: str, size=(800, 600), tries: int = 3) -> np.ndarray:
+    """The window (h, w, 3) of ``page#hash_`` once the page has drawn."""
+    driven = page.replace(".html", "-covered.html")
+    with open(page, encoding="utf-8") as f, open(driven, "w", encoding="utf-8") as g:
+        g.write(f.read().replace("</body>", f"<script>\n{WAIT}{COVER}\n</script></body>"))
+    for _ in range(tries):
+        subprocess.run([CHROMIUM, "--headless=new", "--no-sandbox", "--hide-scrollbars",
+                        f"--window-size={size[0]},{size[1]}", "--virtual-time-budget=30000", f"--screenshot={out}",
+                        f"file://{driven}#{hash_}"], check=True, timeout=180, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL)
+        shot = np.asarray(Image.open(out).convert("RGB"))
+        if shot.max() > 0:
+            return shot
+    raise AssertionError(f"the page had not drawn in {tries} screenshots")
+
+
 def test_outfits_from_the_address_are_puppet_render_composited(room):
     from puppet.room.model import wear
 
@@ -105,12 +129,8 @@ def test_outfits_from_the_address_are_puppet_render_composited(room):
     assert tuple(png(seen["o2"])[45, 32, :3]) == GARMENTS["jeans"][0]
     assert tuple(png(seen["o0"])[45, 32, :3]) == GARMENTS["shirt"][0]
     # what the screen shows: the canvas at the page's top left, 1:1 on a desktop-sized window
-    shot = os.path.join(room.folder, "shot.png")
-    subprocess.run([CHROMIUM, "--headless=new", "--no-sandbox", "--hide-scrollbars", "--window-size=800,600",
-                    "--virtual-time-budget=30000", f"--screenshot={shot}", f"file://{room.path}#outfit=cap,vest"],
-                   check=True, timeout=180, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     w, h = SIZE
-    screen = np.asarray(Image.open(shot).convert("RGB"))[:h, :w]
+    screen = screenshot(room.path, "outfit=cap,vest", os.path.join(room.folder, "shot.png"))[:h, :w]
     assert grey_off(screen, wear(room.model, {"cap", "vest"})[..., :3]) < 0.02
     assert grey_off(screen, wear(room.model, set())[..., :3]) > 0.05  # the garments show
 
@@ -125,12 +145,12 @@ CLICKS = """(async () => {
   const state = () => log.push(doc.body.dataset.outfit + "|" + decodeURIComponent(location.hash));
   async function tap(name) { const n = draws(); pointer("pointerdown", centre(item(name)), item(name));
                              pointer("pointerup", centre(item(name)), item(name)); await after(n); state(); }
-  async function drag(name, to) {
+  async function drag(name, to, wears = true) {
     const n = draws(), from = centre(item(name));
     pointer("pointerdown", from, item(name));
     for (let k = 1; k <= 5; k++) pointer("pointermove", [from[0] + (to[0] - from[0]) * k / 5, from[1] + (to[1] - from[1]) * k / 5], window);
     pointer("pointerup", to, doc.elementFromPoint(to[0], to[1]) || window);
-    for (let t = 0; t < 25 && draws() <= n; t++) await wait(20);  // a drop that wears draws (once loaded)
+    if (wears) await after(n); else await wait(200);  // a drop that wears draws (once the pictures are loaded)
     state();
   }
   const onCanvas = (x, y) => { const r = canvas.getBoundingClientRect();  // canvas pixel -> client point
@@ -150,7 +170,7 @@ CLICKS = """(async () => {
     while (doc.body.dataset.shown !== "jeans,vest") await wait(20);
     log.push(over + "/" + rgb() + "/" + doc.body.dataset.outfit);
   }
-  await drag("cap", centre(doc.getElementById("room-shelf")));  // dropped off the mannequin: nothing
+  await drag("cap", centre(doc.getElementById("room-shelf")), false);  // dropped off the mannequin: nothing
   await drag("cap", onCanvas(10, 10));        // anywhere on the mannequin's picture
   let n = draws(); const [x, y] = onCanvas(32, 30);
   canvas.dispatchEvent(new MouseEvent("click", {bubbles: true, clientX: x, clientY: y})); await after(n); state();
