@@ -69,15 +69,14 @@ def _barycentric(corners: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 def front_depth(per_layer, orders) -> np.ndarray:
-    """The depth the pins carry at each pixel: of several (H, W) layer depths (stacking
-    rank + pin depth, as posed layers give them) the front-most (largest), less the rank
-    of its layer (``orders``), so that two garments compare by their pins alone; NaN
-    where no layer shows. Grown by one pixel (the largest of the 3x3 neighbours) into the
-    pixels around, where the compositor's soft edges still draw some of the garment."""
+    """The depth the pins carry at each pixel: of several (H, W) layers' pin depths, that
+    of the front-most layer there (the largest stacking rank ``orders`` + pin depth, as the
+    compositor orders them), so that two garments compare by their pins alone; NaN where
+    no layer shows. Grown by one pixel (the largest of the 3x3 neighbours) into the pixels
+    around, where the compositor's soft edges still draw some of the garment."""
     stack = np.stack(list(per_layer))
-    full = np.where(np.isnan(stack), -np.inf, stack)
-    k = full.argmax(axis=0)
-    front = np.take_along_axis(full, k[None], axis=0)[0] - np.asarray(orders, np.float64)[k]
+    full = np.where(np.isnan(stack), -np.inf, stack + np.asarray(orders, np.float64)[:, None, None])
+    front = np.take_along_axis(np.where(np.isnan(stack), -np.inf, stack), full.argmax(axis=0)[None], axis=0)[0]
     grown = cv2.dilate(front, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
     return np.where(np.isfinite(front), front, np.where(np.isfinite(grown), grown, np.nan))
 

@@ -78,9 +78,9 @@ def load_garment(path: str, canvas: tuple[int, int], mannequin: str) -> Garment:
         rgba = scene.draw_layers(layers, background=CLEAR)
         images = scene.built.images
         shown = [k for k, L in enumerate(scene.data.layers) if L.visible]
-        depth = front_depth([layer_depth(layers[k].deformed, layers[k].rest, layers[k].triangles, layers[k].depth,
-                                         *images[k].drawn, canvas) for k in shown] or [np.full(rgba.shape[:2], np.nan)],
-                            [layers[k].order for k in shown] or [0])
+        pins = [layer_depth(layers[k].deformed, layers[k].rest, layers[k].triangles,
+                            layers[k].depth - layers[k].order, *images[k].drawn, canvas) for k in shown]
+        depth = front_depth(pins or [np.full(rgba.shape[:2], np.nan)], [layers[k].order for k in shown] or [0])
         return Garment(name=name, category=spec.get("category", DEFAULT_CATEGORY), order=spec.get("order", 0.0),
                        file=scene.file, rgba=rgba, depth=depth)
     finally:

@@ -50,8 +50,8 @@ def test_layer_depth_interpolates_at_pixel_centres_where_the_texture_shows():
     assert np.allclose(moved[1:3, 3:6], d[1:3, 1:4])
     front = front_depth([d, np.where(np.isnan(d), np.nan, 1.0)], [0, 0])
     assert np.allclose(front[1:3, 1:4], [[1.0, 1.5, 2.5]] * 2)
-    # ranks: the second layer (rank 3, pin depth 1) is in front everywhere; its pin depth is kept
-    assert np.allclose(front_depth([d, np.where(np.isnan(d), np.nan, 4.0)], [0, 3])[1:3, 1:4], 1.0)
+    # ranks: the second layer (rank 3, pin depth 1) is in front everywhere, its pin depth kept
+    assert np.array_equal(front_depth([d, np.where(np.isnan(d), np.nan, 1.0)], [0, 3])[1:3, 1:4], np.ones((2, 3)))
     assert np.isnan(front[0, 6]) and front[0, 0] == 1.0  # grown one pixel round what shows, no further
 
 
@@ -154,3 +154,24 @@ def test_folder_form_holds_the_page_and_the_pictures(tmp_path, capsys):
     # a folder that holds other files is never emptied: refused
     err = refused(["dressroom", body, *files, "-o", out], capsys, os.path.join(out, "nothing"))
     assert "index.html" in err and "room" in err
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_the_bundled_room_dresses_and_tucks_in():
+    """assets/scenes/room (docs/dressroom.md): every garment on the mannequin's canvas, in
+    draw order; the t-shirt's fit pose carries its hem's depth below the jeans'."""
+    from puppet.room.model import load_room
+
+    folder = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                          "assets", "scenes", "room")
+    names = ("shoes", "dress", "t-shirt", "jeans")
+    room = load_room(os.path.join(folder, "mannequin.json"), [os.path.join(folder, n + ".json") for n in names])
+    assert room.canvas == (700, 720) and room.mannequin[0, 0].tolist() == [84, 150, 200, 255]
+    assert [g.name for g in room.garments] == ["jeans", "t-shirt", "dress", "shoes"]
+    jeans, shirt = room.garments[:2]
+    assert np.nanmax(np.abs(jeans.depth)) == 0  # no pin depth
+    hem, chest = shirt.depth[445, 350], shirt.depth[300, 350]
+    assert -1 <= hem < -0.5 and abs(chest) < 0.3, (hem, chest)
+    both = (shirt.rgba[..., 3] > 0) & (jeans.rgba[..., 3] > 0)
+    assert both.sum() > 1000 and (shirt.depth[both] < jeans.depth[both]).mean() > 0.95  # a tucked hem goes under
