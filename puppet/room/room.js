@@ -41,10 +41,12 @@
   function load(i) {
     if (!loading.has(i)) {
       loading.set(i, Promise.all([decoded(garments[i].image), decoded(garments[i].depth)])
-        .then(([image, depth]) => { images[i] = { image, depth }; }));
+        .then(([image, depth]) => { images[i] = { image, depth }; },
+              (e) => { loading.delete(i); throw e; }));  // tried again next time
     }
     return loading.get(i);
   }
+  const readable = (i) => { try { data(i); return true; } catch (e) { return false; } };
   const cache = new Map();  // garment -> {alpha, depth}: read from its images when first needed
   function data(i) {
     if (!cache.has(i)) {
@@ -98,8 +100,16 @@
     ctx.drawImage(mannequin, 0, 0);
     const order = [...set].sort((a, b) => a - b), top = wornOf("top", set)[0], bottom = wornOf("bottom", set)[0];
     for (const i of order) {
-      const g = garments[i], tuckIt = i === top && tuck && bottom !== undefined;
-      ctx.drawImage(tuckIt ? tucked(top, bottom) : images[i].image, g.at[0], g.at[1]);
+      const g = garments[i];
+      let picture = images[i].image;
+      if (i === top && tuck && bottom !== undefined) {
+        try {
+          picture = tucked(top, bottom);
+        } catch (e) {  // a folder room opened from the disk: its pictures cannot be read back
+          status.textContent = "Tucking in needs the room served over HTTP (" + e.name + ").";
+        }
+      }
+      ctx.drawImage(picture, g.at[0], g.at[1]);
     }
     body.dataset.shown = [...set].sort((a, b) => a - b).map((i) => garments[i].name).join(",");
     if (set !== worn) return;
@@ -115,7 +125,12 @@
   let asked = 0;
   async function show(set = worn) {  // draw once its garments are loaded (unless asked for another since)
     const token = ++asked;
-    await Promise.all([...set].map(load));
+    try {
+      await Promise.all([...set].map(load));
+    } catch (e) {
+      if (token === asked) status.textContent = "A garment's picture could not be loaded: " + e;
+      return;
+    }
     if (token === asked) draw(set);
   }
 
@@ -232,7 +247,7 @@
     const x = Math.floor((e.clientX - r.left) * W / r.width), y = Math.floor((e.clientY - r.top) * H / r.height);
     const front = [...worn].sort((a, b) => b - a).find((i) => {
       const g = garments[i], gx = x - g.at[0], gy = y - g.at[1];
-      if (!images[i]) return false;  // still loading: not drawn yet
+      if (!images[i] || !readable(i)) return false;  // still loading, or a folder room from the disk
       return gx >= 0 && gy >= 0 && gx < g.size[0] && gy < g.size[1] && data(i).alpha[gy * g.size[0] + gx] > 0;
     });
     if (front !== undefined) { worn.delete(front); changed(); }
