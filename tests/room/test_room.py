@@ -165,8 +165,7 @@ def test_folder_form_holds_the_page_and_the_pictures(tmp_path, capsys):
 
 
 @pytest.mark.gl
-@pytest.mark.slow
-def test_the_bundled_room_dresses_and_tucks_in():
+def test_the_bundled_room_dresses_and_tucks_in():  # about 1 s
     """assets/scenes/room (docs/dressroom.md): every garment on the mannequin's canvas, in
     draw order; the t-shirt's fit pose carries its hem's depth below the jeans'."""
     from puppet.room.model import load_room
