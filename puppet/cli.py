@@ -1,4 +1,4 @@
-"""The ``puppet`` command: render, animate, mesh, check, init, app, video, batch, retarget.
+"""The ``puppet`` command: render, animate, mesh, check, init, app, video, batch, retarget, dressroom.
 
 Exit status: 0 success; 2 bad input (one line ``puppet: error: ...`` on stderr, no
 traceback, no output file); 1 only for a bug.
@@ -20,6 +20,7 @@ from puppet.batch import command as batch
 from puppet.errors import SceneError
 from puppet.motion import command as motion
 from puppet.output import check_file, check_folder, remove_leftovers, save_png
+from puppet.room import command as dressroom
 from puppet.video import command as video
 
 if "numpy" not in sys.modules and "OPENBLAS_NUM_THREADS" not in os.environ:
@@ -195,7 +196,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-_PLUGGED = {"video": video, "batch": batch, "retarget": motion}
+_PLUGGED = {"video": video, "batch": batch, "retarget": motion, "dressroom": dressroom}
 
 
 def _output_file(path: str, exts: tuple[str, ...]) -> str:

@@ -81,12 +81,16 @@ def encode_frame(layers, quant, depth_step: float) -> bytes:
     return q.astype("<i2").tobytes()
 
 
-def _png_uri(rgba: np.ndarray) -> str:
+def png_bytes(rgba: np.ndarray) -> bytes:
     from PIL import Image
 
     buf = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(rgba), "RGBA").save(buf, format="PNG", optimize=False, compress_level=9)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+    return buf.getvalue()
+
+
+def png_uri(rgba: np.ndarray) -> str:
+    return "data:image/png;base64," + base64.b64encode(png_bytes(rgba)).decode("ascii")
 
 
 def _b64(a: np.ndarray, dtype: str) -> str:
@@ -106,7 +110,7 @@ def layer_entry(result, image: np.ndarray, offset, base: int, visible: bool = Tr
     edge, empty = classify_triangles(image, uv, tri)
     drawn, edges = tri[~empty], tri[edge]
     return {"name": result.name, "base": base, "n": len(uv), "opaque": len(drawn), "edge": len(edges),
-            "texture": _png_uri(image), "uv": _b64(uv, "<f4"),
+            "texture": png_uri(image), "uv": _b64(uv, "<f4"),
             "triangles": _b64(np.concatenate([drawn, edges]).reshape(-1), "<u4")}
 
 
@@ -136,7 +140,7 @@ def script_code(text: str) -> str:
     return text
 
 
-def _utf8(name: str) -> str:
+def utf8(name: str) -> str:
     """A file name as text the page can hold: bytes that are not UTF-8 (kept by Python as
     lone surrogates) become U+FFFD."""
     try:
@@ -154,7 +158,7 @@ def fill(template: str, values: dict[str, str]) -> str:
 def _background(bg) -> tuple[list[float], str]:
     """(clear colour, straight RGBA 0..1; CSS background of the canvas)."""
     if isinstance(bg, np.ndarray) and bg.ndim == 3:
-        return [0.0, 0.0, 0.0, 0.0], f"background: url({_png_uri(bg)}) 0 0 / 100% 100% no-repeat;"
+        return [0.0, 0.0, 0.0, 0.0], f"background: url({png_uri(bg)}) 0 0 / 100% 100% no-repeat;"
     return [float(v) / 255.0 for v in bg], ""
 
 
@@ -190,7 +194,7 @@ class HtmlSink(Sink):
         meta = {"puppet": 2, "canvas": list(scene.canvas), "size": list(job.size), "fps": job.fps,
                 "start": job.start, "count": job.count, "vertices": base, "quant": list(self.quant),
                 "depthStep": self.depth_step, "background": clear, "layers": entries}
-        title = html.escape(_utf8(os.path.basename(scene.file or "puppet")))
+        title = html.escape(utf8(os.path.basename(scene.file or "puppet")))
         page = resources.files("puppet.anim").joinpath("player.html").read_text("utf-8")
         head, self.tail = page.split("{{frames}}")
         w, h = job.size

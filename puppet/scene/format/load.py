@@ -15,6 +15,7 @@ from puppet.imaging.io import MAX_SIDE
 from puppet.scene.format import model as m
 from puppet.scene.format.animation import parse_animation
 from puppet.scene.format.extensions import parse_app
+from puppet.scene.format.garment import parse_garment
 from puppet.scene.format.reader import parse_text, read_text
 from puppet.scene.format.schema import (
     Ctx,
@@ -31,7 +32,7 @@ from puppet.scene.format.physics import parse_physics
 from puppet.scene.format.video import parse_video
 
 TOP_KEYS = ("puppet", "canvas", "background", "source", "layers", "links", "pins", "bones",
-            "deformer", "poses", "animation", "app", "video", "physics")
+            "deformer", "poses", "animation", "app", "video", "physics", "garment")
 MAX_CANVAS = 16384
 #: Most points a polygon mask may have.
 MAX_POLYGON_POINTS = 100_000
@@ -149,9 +150,10 @@ def parse_scene(raw, file: str) -> m.SceneData:
     if "app" in raw:  # app-only settings (a compatible extension; render ignores them)
         parse_app(c, raw["app"], "app", file_path)
     chains = parse_physics(c, raw["physics"], "physics", pins) if "physics" in raw else []
+    garment = parse_garment(c, raw["garment"], "garment") if "garment" in raw else None  # puppet dressroom's
     return m.SceneData(file=file, canvas=canvas, background=background, source=source, layers=layers,
                        links=links, pins=pins, bones=bones, deformer=deformer, poses=poses,
-                       animation=animation, raw=raw, video=video, chains=chains)
+                       animation=animation, raw=raw, video=video, chains=chains, garment=garment)
 
 
 def _layer(c, v, p, index, file_path, source) -> m.Layer:

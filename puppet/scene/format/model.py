@@ -182,3 +182,4 @@ class SceneData:
     raw: dict = field(default_factory=dict)  # the JSON as read, for saving
     video: dict | None = None  # a video scene: {"start", "fps", "size", "count"} (puppet.scene.format.video)
     chains: list[Chain] = field(default_factory=list)  # physics.chains: secondary motion
+    garment: dict | None = None  # {"category", "order", "name"?} (puppet.scene.format.garment)

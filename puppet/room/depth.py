@@ -1,0 +1,93 @@
+"""Per-pixel depth of posed layers: at each pixel centre, the depth of the front-most
+layer whose texture is not clear there (the depth the compositor tests per pixel:
+:mod:`puppet.render.compositor`), NaN where no layer shows.
+
+Each layer's triangles are filled with their index (OpenCV, 8 bits of sub-pixel
+precision; where a mesh folds over itself the later triangle holds the pixel), then the
+depth of every covered pixel is interpolated in its triangle from the barycentric
+coordinates of the pixel centre, and the pixel is kept where the layer's texture at the
+matching rest point (nearest texel) has alpha > 0. A garment's depth is its front-most
+layer's pin depth (its stacking rank taken off), grown by one pixel over the soft edge
+(:func:`front_depth`).
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+#: Fixed-point bits of the triangle corners given to OpenCV.
+SHIFT = 8
+#: Depth codes of the page's depth images: ``round((d - LOW) * STEPS)`` in 0..65535, so
+#: depths from -128 to +128 stacking units in steps of 1/256.
+LOW, STEPS = -128.0, 256.0
+
+
+def layer_depth(deformed: np.ndarray, rest: np.ndarray, triangles: np.ndarray, depth: np.ndarray,
+                image: np.ndarray, offset, size: tuple[int, int]) -> np.ndarray:
+    """(H, W) float64 depth of one posed layer over a ``size`` = (W, H) frame; NaN where
+    the layer does not show.
+
+    Parameters
+    ----------
+    deformed, rest : (n, 2) posed and rest vertex positions, canvas pixels.
+    triangles : (m, 3) vertex indices.
+    depth : (n,) per-vertex depth.
+    image : (h, w, 4) the layer's texture, its (0, 0) at ``offset`` in rest canvas pixels.
+    """
+    w, h = size
+    ids = np.full((h, w), -1, np.int32)
+    corners = np.rint((np.asarray(deformed, np.float64) - 0.5) * (1 << SHIFT)).astype(np.int32)
+    for t, tri in enumerate(np.asarray(triangles, np.int64).reshape(-1, 3)):
+        cv2.fillConvexPoly(ids, corners[tri], int(t), lineType=cv2.LINE_8, shift=SHIFT)
+    out = np.full((h, w), np.nan)
+    y, x = np.nonzero(ids >= 0)
+    if not len(y):
+        return out
+    tri = np.asarray(triangles, np.int64).reshape(-1, 3)[ids[y, x]]
+    bary = _barycentric(np.asarray(deformed, np.float64)[tri], np.stack([x + 0.5, y + 0.5], axis=1))
+    at = np.einsum("kj,kjd->kd", bary, np.asarray(rest, np.float64)[tri]) - np.asarray(offset, np.float64)
+    th, tw = image.shape[:2]
+    u = np.clip(np.floor(at[:, 0]), 0, tw - 1).astype(np.int64)
+    v = np.clip(np.floor(at[:, 1]), 0, th - 1).astype(np.int64)
+    shows = image[v, u, 3] > 0
+    d = np.einsum("kj,kj->k", bary, np.asarray(depth, np.float64)[tri])
+    out[y[shows], x[shows]] = d[shows]
+    return out
+
+
+def _barycentric(corners: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(k, 3) barycentric coordinates of points ``p`` (k, 2) in triangles ``corners``
+    (k, 3, 2); a degenerate triangle gives its first corner."""
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    ok = det != 0
+    safe = np.where(ok, det, 1.0)
+    l1 = ((p[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1])) / safe
+    l2 = ((b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1]) - (p[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / safe
+    l1, l2 = np.where(ok, l1, 0.0), np.where(ok, l2, 0.0)
+    return np.stack([1.0 - l1 - l2, l1, l2], axis=1)
+
+
+def front_depth(per_layer, orders) -> np.ndarray:
+    """The depth the pins carry at each pixel: of several (H, W) layers' pin depths, that
+    of the front-most layer there (the largest stacking rank ``orders`` + pin depth, as the
+    compositor orders them), so that two garments compare by their pins alone; NaN where
+    no layer shows. Grown by one pixel (the largest of the 3x3 neighbours) into the pixels
+    around, where the compositor's soft edges still draw some of the garment."""
+    stack = np.stack(list(per_layer))
+    full = np.where(np.isnan(stack), -np.inf, stack + np.asarray(orders, np.float64)[:, None, None])
+    front = np.take_along_axis(np.where(np.isnan(stack), -np.inf, stack), full.argmax(axis=0)[None], axis=0)[0]
+    grown = cv2.dilate(front, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
+    return np.where(np.isfinite(front), front, np.where(np.isfinite(grown), grown, np.nan))
+
+
+def depth_rgba(depth: np.ndarray) -> np.ndarray:
+    """(H, W, 4) uint8 image of a depth map for the page: red and green the high and low
+    bytes of the code (:data:`LOW`, :data:`STEPS`), blue 255 where a depth is given and 0
+    where not, alpha always 255 (so that a browser's premultiplied canvas keeps the bytes)."""
+    covered = ~np.isnan(depth)
+    code = np.clip(np.rint((np.where(covered, depth, LOW) - LOW) * STEPS), 0, 65535).astype(np.uint32)
+    out = np.empty(depth.shape + (4,), np.uint8)
+    out[..., 0], out[..., 1] = code >> 8, code & 255
+    out[..., 2], out[..., 3] = np.where(covered, 255, 0), 255
+    return out

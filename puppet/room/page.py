@@ -1,0 +1,101 @@
+"""The dressing room as a web page (:file:`room.html` + :file:`room.js`), in one of two forms:
+
+- one self-contained HTML file (:func:`room_html`): every picture a PNG data URI;
+- a folder (:func:`write_room_folder`): ``index.html`` and the pictures beside it in
+  ``pictures/`` (``mannequin.png``; per garment, numbered in draw order, ``N.png``,
+  ``N-depth.png`` and a thumbnail ``N-thumb.png`` at most :data:`THUMB` pixels a side),
+  which the page loads as it needs them: for catalogues of thousands.
+
+A garment's picture is cropped to the box where it shows (``at``: its top-left corner on
+the canvas) and its depth image to the same box (:func:`puppet.room.depth.depth_rgba`).
+The page composites with a 2D canvas: the mannequin, then the worn garments in draw
+order, each drawn "over".
+
+Layout: ``#room-meta`` holds the JSON (canvas, categories, the depth code, the mannequin,
+the garments in draw order with name, category, order, at, size, image, depth and, in
+the folder form, thumb).
+"""
+from __future__ import annotations
+
+import html
+import os
+from importlib import resources
+
+import numpy as np
+from PIL import Image
+
+from puppet.anim.web import fill, png_bytes, png_uri, script_code, script_json, utf8
+from puppet.room.depth import LOW, STEPS, depth_rgba
+from puppet.room.model import Room
+from puppet.scene.format.garment import CATEGORIES
+
+#: Largest single-file room the command writes, bytes (above it: the folder form).
+MAX_BYTES = 64 << 20
+#: Largest side of a thumbnail in the folder form, pixels (twice the shelf's 72 px).
+THUMB = 144
+PICTURES = "pictures"
+
+
+def crop_box(alpha: np.ndarray) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of the smallest box holding every pixel with alpha > 0 (a 1x1 box at
+    the origin when there is none)."""
+    ys, xs = np.nonzero(alpha > 0)
+    if not len(ys):
+        return 0, 0, 1, 1
+    return int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)
+
+
+def thumbnail(rgba: np.ndarray) -> np.ndarray:
+    """``rgba`` shrunk to at most :data:`THUMB` pixels a side (Lanczos), as it is when
+    already small enough."""
+    im = Image.fromarray(np.ascontiguousarray(rgba), "RGBA")
+    im.thumbnail((THUMB, THUMB), Image.LANCZOS)
+    return np.asarray(im)
+
+
+def _meta(room: Room, picture, thumbs: bool) -> dict:
+    """The page's JSON; ``picture(name, rgba)`` gives the address of a picture."""
+    garments = []
+    for n, g in enumerate(room.garments, 1):
+        x, y, w, h = crop_box(g.rgba[..., 3])
+        box = (slice(y, y + h), slice(x, x + w))
+        entry = {"name": utf8(g.name), "category": g.category, "order": g.order, "at": [x, y], "size": [w, h],
+                 "image": picture(f"{n:04d}.png", g.rgba[box]),
+                 "depth": picture(f"{n:04d}-depth.png", depth_rgba(g.depth[box]))}
+        if thumbs:
+            entry["thumb"] = picture(f"{n:04d}-thumb.png", thumbnail(g.rgba[box]))
+        garments.append(entry)
+    return {"room": 1, "canvas": list(room.canvas), "categories": list(CATEGORIES), "depthCode": [LOW, STEPS],
+            "mannequin": picture("mannequin.png", room.mannequin), "garments": garments}
+
+
+def _page(room: Room, title: str, meta: dict) -> str:
+    w, h = room.canvas
+    template = resources.files("puppet.room").joinpath("room.html").read_text("utf-8")
+    script = resources.files("puppet.room").joinpath("room.js").read_text("utf-8")
+    return fill(template, {"title": html.escape(utf8(os.path.basename(title.rstrip("/" + os.sep)))),
+                           "width": str(w), "height": str(h), "meta": script_json(meta),
+                           "script": script_code(script)})
+
+
+def room_html(room: Room, title: str) -> str:
+    """The single-file page's text."""
+    return _page(room, title, _meta(room, lambda name, rgba: png_uri(rgba), thumbs=False))
+
+
+def write_room_folder(room: Room, folder: str, title: str) -> int:
+    """Write ``index.html`` and ``pictures/`` into the (new, empty) ``folder``; returns
+    the number of pictures."""
+    os.makedirs(os.path.join(folder, PICTURES))
+    count = 0
+
+    def picture(name: str, rgba: np.ndarray) -> str:
+        nonlocal count
+        with open(os.path.join(folder, PICTURES, name), "wb") as f:
+            f.write(png_bytes(rgba))
+        count += 1
+        return f"{PICTURES}/{name}"
+    text = _page(room, title, _meta(room, picture, thumbs=True))
+    with open(os.path.join(folder, "index.html"), "w", encoding="utf-8") as f:
+        f.write(text)
+    return count
