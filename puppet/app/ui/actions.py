@@ -12,7 +12,7 @@ from typing import Callable
 from imgui_bundle import imgui
 
 from puppet.app.tools import deform as deformtools
-from puppet.app.ui import export_dialog, retarget_dialog
+from puppet.app.ui import export_dialog, retarget_dialog, room_dialog
 
 K = imgui.Key
 
@@ -109,6 +109,9 @@ ACTIONS: tuple[Action, ...] = (
     A("retarget", "", "Retarget motion...", "play a motion capture clip (.bvh) on the pins: the map of pins "
       "to joints is found and shown to correct; the keys replace the animation (one undo step)", (),
       lambda app, win: retarget_dialog.open_dialog(app), _loaded, menu="File"),
+    A("dressroom", "", "Export dressing room...", "this scene as the mannequin and garment scenes on its canvas, "
+      "written as a dressing room web page (puppet dressroom)", (), lambda app, win: room_dialog.open_dialog(app),
+      _loaded, menu="File"),
     A("reload_art", "", "Reload art", "take the changed pixels of the art the scene was imported from "
       "(pins, poses and keys stay; one undo step)", (), lambda app, win: app.files.reload_art(),
       lambda app: app.snap.loaded and getattr(getattr(app, "files", None), "art", None) is not None,

@@ -7,7 +7,7 @@ import os
 from imgui_bundle import imgui
 
 from puppet.app.model import recent
-from puppet.app.ui import actions, export_dialog, retarget_dialog, script
+from puppet.app.ui import actions, export_dialog, retarget_dialog, room_dialog, script
 from puppet.app.ui.widgets import button, toggle
 
 ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
@@ -145,7 +145,8 @@ def dialogs(app, win) -> None:
     if kind is None:
         return
     titles = {"open": "Open scene", "save_as": "Save scene as", "unsaved": "Unsaved changes",
-              "recover": "Recover unsaved work", "export": "Export animation", "retarget": retarget_dialog.TITLE}
+              "recover": "Recover unsaved work", "export": "Export animation", "retarget": retarget_dialog.TITLE,
+              "dressroom": room_dialog.TITLE}
     title = titles[kind]
     if not imgui.is_popup_open(title):
         imgui.open_popup(title)
@@ -153,8 +154,8 @@ def dialogs(app, win) -> None:
     opened, _ = imgui.begin_popup_modal(title, None, imgui.WindowFlags_.always_auto_resize)
     if not opened:
         return
-    if kind in ("export", "retarget"):
-        (export_dialog if kind == "export" else retarget_dialog).draw(app)
+    if kind in ("export", "retarget", "dressroom"):
+        {"export": export_dialog, "retarget": retarget_dialog, "dressroom": room_dialog}[kind].draw(app)
         imgui.end_popup()
         return
     if kind != "recover" and imgui.is_key_pressed(imgui.Key.escape):

@@ -29,7 +29,8 @@ def draw(app) -> None:
     files = getattr(app, "files", None)
     native = files is not None and files.native
     imgui.set_next_item_width(WIDTH - (160 if native else 70))
-    entered, f.path = imgui.input_text("##retarget-path", f.path, imgui.InputTextFlags_.enter_returns_true)
+    entered, f.path = imgui.input_text_with_hint("##retarget-path", "a .bvh clip's path", f.path,
+                                                 imgui.InputTextFlags_.enter_returns_true)
     note("retarget:path")
     imgui.same_line()
     if button("Read##retarget", "read the clip and find which joint each pin follows", enabled=bool(f.path.strip())) \
