@@ -118,6 +118,7 @@ class DiskStore:
         self.loads: dict[str, int] = {}
         self.saves: dict[str, int] = {}
         self.rejects: dict[str, int] = {}
+        self.why: list[str] = []  # why each rejected entry was (for diagnostics)
         self._lock = threading.Lock()
 
     def holds(self, kind: str) -> bool:
@@ -139,8 +140,9 @@ class DiskStore:
             return None
         try:
             value = _unpack(raw, digest)
-        except Exception:  # a corrupt or hostile entry: rebuilt and written again
+        except Exception as e:  # a corrupt or hostile entry: rebuilt and written again
             self._count(self.rejects, kind)
+            self.why.append(f"{os.path.basename(path)} ({len(raw)} bytes): {type(e).__name__}: {e}"[:300])
             return None
         self._count(self.loads, kind)
         return value

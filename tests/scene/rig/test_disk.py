@@ -57,7 +57,7 @@ def results(path: str):
     store = doc.rig.memo.disk
     if store is not None:
         OPENS.append(f"builds {dict(doc.rig.memo.builds)} loads {store.loads} saves {store.saves} "
-                     f"rejects {store.rejects}; entries {_listing(path)}")
+                     f"rejects {store.rejects} {store.why}; entries {_listing(path)}")
     return out, dict(doc.rig.memo.builds), dict(store.loads) if store else {}
 
 
