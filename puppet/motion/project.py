@@ -116,6 +116,7 @@ def _facing(pins: dict[str, np.ndarray], parts: dict[str, str | None]) -> tuple[
 #: Shares of the pins' height (``h``) and of the hip-to-head line (``t``) that
 #: :func:`parts_by_place` reads places by.
 FOOT_BAND = 0.6  # a foot is below this much of h from the top
+FOOT_GROUND = 0.1  # ... and any pin within this much of h of the lowest is a foot too (four hooves)
 HIP_BAND = 0.25  # the hip is within this much of h (along x) of the feet's middle
 CHEST_AT, CHEST_BAND = 0.45, 0.15  # the chest: t nearest this, within this much of h of the line
 HEAD_FROM, HEAD_NEAR = 0.75, 0.3  # another head pin: t over this, within this much of h of the head
@@ -124,7 +125,8 @@ TAIL_OUT = 0.4  # a tail: this much of h behind the hip (away from the head), t 
 
 def parts_by_place(pins: dict[str, np.ndarray]) -> dict[str, str | None]:
     """A part for every pin from its place among the others (y down), whatever its name:
-    the feet are the (at most two) lowest pins below :data:`FOOT_BAND` of the height; the
+    the feet are the two lowest pins below :data:`FOOT_BAND` of the height and any within
+    :data:`FOOT_GROUND` of the lowest (four hooves); the
     head the highest other; the hip the lowest other within :data:`HIP_BAND` heights
     (along x) of the feet's middle; on the line from the hip to the head (``t`` 0 to 1),
     the chest the pin nearest ``t`` = :data:`CHEST_AT` within :data:`CHEST_BAND` heights of
@@ -138,8 +140,9 @@ def parts_by_place(pins: dict[str, np.ndarray]) -> dict[str, str | None]:
     h = float(np.ptp(P[:, 1])) if len(P) else 0.0
     if len(P) < 4 or h <= 0:
         return out
-    low = np.argsort(-P[:, 1], kind="stable")[:2]
-    feet = [int(i) for i in low if P[i, 1] - P[:, 1].min() >= FOOT_BAND * h]
+    y = (P[:, 1] - P[:, 1].min()) / h
+    low = np.argsort(-y, kind="stable")
+    feet = [int(i) for k, i in enumerate(low) if y[i] >= 1 - FOOT_GROUND or (k < 2 and y[i] >= FOOT_BAND)]
     rest = [i for i in range(len(P)) if i not in feet]
     head = min(rest, key=lambda i: P[i, 1])
     rest.remove(head)

@@ -39,10 +39,12 @@ def _clips():
 
 def test_parts_by_place_on_the_drawn_characters():
     """The parts found from the pins' places alone are what their names say (the runner, the
-    T-rex); the front-facing character's hands, feet, head, hip and chest are found too, its
+    T-rex; the horse's four hooves are feet, its back the hip); the front-facing character's hands, feet, head, hip and chest are found too, its
     shoulders left unknown; fewer than four pins, or a flat row, get nothing."""
     for scene, want in PARTS.items():
         assert parts_by_place(_pins(scene)) == want
+    assert parts_by_place(_pins("horse")) == {"front_hoof_a": "foot", "front_hoof_b": "foot", "hind_hoof_a": "foot",
+                                              "hind_hoof_b": "foot", "head": "head", "tail": "tail", "back": "hip"}
     got = parts_by_place(_pins("character"))
     assert got == {"hand_l": "hand", "hand_r": "hand", "foot_l": "foot", "foot_r": "foot", "hip": "hip",
                    "chest": "chest", "head": "head", "shoulder_l": None, "shoulder_r": None}
@@ -123,3 +125,17 @@ def test_named_and_front_facing_maps_are_as_before():
                 rows.append([f"{case}/{clip}/{proj}", r.projection, r.map])
     rows.sort(key=lambda row: row[0])
     assert hashlib.sha256(json.dumps(rows, sort_keys=True).encode()).hexdigest()[:16] == "303716e76c24f00e"
+
+
+def test_the_renamed_horse_drives_its_hooves_with_feet_and_toes():
+    """Four hooves found at the bottom: each follows a foot or toe joint of its own; the head
+    the head, the tail and the back the root (or the spine), on every clip."""
+    pins, clips = _pins("horse"), _clips()
+    renamed = {f"p{i}": v for i, v in enumerate(pins.values())}
+    back = dict(zip(renamed, pins))
+    for clip, m in clips.items():
+        got = {back[p]: j for p, j in retarget(m, renamed).map.items()}
+        hooves = [got[p] for p in pins if "hoof" in p]
+        assert {part_and_side(j)[0] for j in hooves} <= {"foot", "toe"} and len(set(hooves)) == 4, (clip, got)
+        assert got["head"] == "Head" and got["tail"] == "Hips", (clip, got)
+        assert part_and_side(got["back"])[0] in ("hip", "chest"), (clip, got)
