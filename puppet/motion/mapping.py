@@ -90,20 +90,23 @@ def _part_cost(pin: tuple, joint: tuple) -> float:
 
 
 def auto_map(pins: dict[str, np.ndarray], names: list[str], poses: list[np.ndarray], *,
-             ends: list[bool] | None = None, root: int = 0, screen_left: float = 0.0) -> dict[str, str]:
+             ends: list[bool] | None = None, root: int = 0, screen_left: float = 0.0,
+             labels: dict[str, str] | None = None) -> dict[str, str]:
     """``{pin: joint}`` for pins ``{name: (x, y)}`` and joints ``names``, laid over the
     skeleton in each of ``poses`` (j, 2: projected places, y down; the pose whose
     assignment costs least is used). End Sites (``ends``) are not offered. A pin of a
     part no joint has (a ``tail``) follows joint ``root``. Where the projection's x runs
     along the performer's left (``screen_left`` > 0.7, the cosine) or right (< -0.7),
-    a pin off the character's middle follows the joint of the side drawn there."""
+    a pin off the character's middle follows the joint of the side drawn there.
+    ``labels`` ``{pin: layer name}``: a pin whose part is found by place takes the side its
+    layer's name says (``p7`` on ``leftleg``)."""
     offered = [i for i in range(len(names)) if not (ends and ends[i])]
     jn = [names[i] for i in offered]
     pn = list(pins)
     P = np.array([pins[n] for n in pn], np.float64).reshape(-1, 2)
     jparts = [part_and_side(n) for n in jn]
     known = np.array([p not in (None, "finger", "toe") for p, _ in jparts])
-    pparts, placed = _pin_parts(pins)
+    pparts, placed = _pin_parts(pins, labels or {})
     prior = np.array([[_part_cost(pparts[n], jp) for jp in jparts] for n in pn])
     best = None
     for pose in poses:
@@ -124,26 +127,28 @@ def auto_map(pins: dict[str, np.ndarray], names: list[str], poses: list[np.ndarr
     if abs(screen_left) > 0.7:
         _sides_by_place(out, pins, jn, 1.0 if screen_left > 0 else -1.0)
     _both_sides(out, jn, pparts)
-    _pairs_by_x(out, pins, {n: pparts[n][0] for n in placed}, {names[i]: float(poses[0][i][0]) for i in offered})
+    unsided = {n: pparts[n][0] for n in placed if pparts[n][1] is None}
+    _pairs_by_x(out, pins, unsided, {names[i]: float(poses[0][i][0]) for i in offered})
     return out
 
 
-def _pin_parts(pins: dict[str, np.ndarray]) -> tuple[dict[str, tuple], set[str]]:
+def _pin_parts(pins: dict[str, np.ndarray], labels: dict[str, str]) -> tuple[dict[str, tuple], set[str]]:
     """``({pin: (part, side)}, pins whose part was found by place)``: a character in
     profile whose pins' names say nothing (``p3``) has their parts found by place
-    (:func:`puppet.motion.project.parts_by_place`); any other pin's part is its name's."""
+    (:func:`puppet.motion.project.parts_by_place`), and their sides from their ``labels``
+    (layer names: ``leftleg``); any other pin's part and side are its name's."""
     parts = {n: part_and_side(n) for n in pins}
     if all(p is not None for p, _ in parts.values()) or not character_facing(pins)[1]:
         return parts, set()
     found = parts_by_place(pins)
     placed = {n for n, (p, _) in parts.items() if p is None and found[n] is not None}
-    parts.update({n: (found[n], parts[n][1]) for n in placed})
+    parts.update({n: (found[n], parts[n][1] or part_and_side(labels.get(n, ""))[1]) for n in placed})
     return parts, placed
 
 
 def _pairs_by_x(out: dict[str, str], pins, placed: dict[str, str], x: dict[str, float]) -> None:
-    """Two pins of one part found by place (``placed``: ``{pin: part}``; two hands, two
-    feet) on joints of both sides: the pin more to the screen's left takes the joint more to
+    """Two pins of one part found by place with no side (``placed``: ``{pin: part}``; two
+    hands, two feet) on joints of both sides: the pin more to the screen's left takes the joint more to
     the left in the first pose (``x``: the joints' screen x), so that the foot drawn in front
     follows the foot the clip puts in front."""
     for part in ("hand", "foot"):

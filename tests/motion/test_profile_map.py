@@ -12,6 +12,7 @@ import random
 import numpy as np
 import pytest
 
+from puppet.cli import main
 from puppet.motion.bvh import read_bvh
 from puppet.motion.names import part_and_side
 from puppet.motion.project import character_facing, parts_by_place
@@ -39,8 +40,9 @@ def _clips():
 
 def test_parts_by_place_on_the_drawn_characters():
     """The parts found from the pins' places alone are what their names say (the runner, the
-    T-rex; the horse's four hooves are feet, its back the hip); the front-facing character's hands, feet, head, hip and chest are found too, its
-    shoulders left unknown; fewer than four pins, or a flat row, get nothing."""
+    T-rex; the horse's four hooves are feet, its back the hip); the front-facing character's
+    hands, feet, head, hip and chest are found too, its shoulders left unknown; fewer than
+    four pins, or a flat row, get nothing."""
     for scene, want in PARTS.items():
         assert parts_by_place(_pins(scene)) == want
     assert parts_by_place(_pins("horse")) == {"front_hoof_a": "foot", "front_hoof_b": "foot", "hind_hoof_a": "foot",
@@ -139,3 +141,33 @@ def test_the_renamed_horse_drives_its_hooves_with_feet_and_toes():
         assert {part_and_side(j)[0] for j in hooves} <= {"foot", "toe"} and len(set(hooves)) == 4, (clip, got)
         assert got["head"] == "Head" and got["tail"] == "Hips", (clip, got)
         assert part_and_side(got["back"])[0] in ("hip", "chest"), (clip, got)
+
+
+def test_layer_names_give_renamed_pins_their_sides_through_the_command(tmp_path, capsys):
+    """The T-rex renamed p0..p8, its layers kept: ``puppet retarget`` reads the pins' layer
+    names, so the foot on ``leftleg`` follows a left foot joint and the foot on ``rightleg``
+    a right one, as the named T-rex's do, on every clip; the API given the same labels gives
+    the map the command wrote (without them the sides are the clip's, as tested above)."""
+    doc = json.load(open(os.path.join(SCENES, "trex-layers.json")))
+    names = {p["name"]: f"p{i}" for i, p in enumerate(doc["pins"])}
+    for p in doc["pins"]:
+        p["name"] = names[p["name"]]
+    for layer in doc["layers"]:
+        layer["image"] = os.path.normpath(os.path.join(SCENES, layer["image"]))
+    doc.pop("poses"), doc.pop("animation")
+    scene, out = tmp_path / "trex-renamed.json", tmp_path / "out.json"
+    scene.write_text(json.dumps(doc))
+    clip = os.path.join(ASSETS, "motion", "walk.bvh")
+    assert main(["retarget", str(scene), clip, "-o", str(out), "--end", "1"]) == 0
+    capsys.readouterr()
+    got = json.loads((tmp_path / "out.map.json").read_text())
+    assert part_and_side(got[names["foot_left"]]) == ("foot", "left")
+    assert part_and_side(got[names["foot_right"]]) == ("foot", "right")
+    assert {part_and_side(got[names[h]]) for h in ("hand_front", "hand_back")} == {("hand", "left"), ("hand", "right")}
+    pins = {p["name"]: np.asarray(p["at"], np.float64) for p in doc["pins"]}
+    labels = {p["name"]: p["layer"] for p in doc["pins"]}
+    assert retarget(read_bvh(clip), pins, labels=labels, end=1.0).map == got
+    for m in _clips().values():
+        r = retarget(m, pins, labels=labels)
+        assert part_and_side(r.map[names["foot_left"]]) == ("foot", "left"), r.map
+        assert part_and_side(r.map[names["foot_right"]]) == ("foot", "right"), r.map
