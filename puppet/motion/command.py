@@ -58,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
         raise SceneError("the scene has no pins to move", file=scene.file)
     given = None if args.map == "auto" else read_map(args.map, list(pins), motion.names)
     r = retarget(motion, pins, mapping=given, projection=args.projection, in_place=args.in_place,
-                 start=args.start, end=args.end, scale=args.scale)
+                 start=args.start, end=args.end, scale=args.scale,
+                 labels={p.name: p.layer for p in scene.data.pins if p.kind != "starch"})
     doc = scene.to_dict()
     doc["animation"] = animation(r)
     out = Document(doc, os.path.abspath(args.output))  # validated as a loaded file would be

@@ -15,6 +15,12 @@ screen's right, where the frontal projection puts the performer's left hand; a p
 ``hand_l`` drawn on the screen's left therefore follows ``RightHand``. Two pins of one
 part on one side of the skeleton are split over both sides; the named side decides
 where places do not (a profile, where both legs are drawn on top of each other).
+
+A character in profile whose pins' names say nothing (``p0..p8``) has those pins' parts
+found by their places (:func:`puppet.motion.project.parts_by_place`: feet lowest, head
+highest, hip above the feet, chest on the line to the head, hands away from it, a tail
+behind the hip), and they are mapped as if so named; of two hands or two feet so found,
+the pin more to the screen's left follows the joint more to the left in the first pose.
 """
 from __future__ import annotations
 
@@ -25,6 +31,7 @@ from scipy.optimize import linear_sum_assignment
 
 from puppet.errors import SceneError
 from puppet.motion.names import part_and_side
+from puppet.motion.project import character_facing, parts_by_place
 
 __all__ = ["auto_map", "read_map"]
 
@@ -83,20 +90,24 @@ def _part_cost(pin: tuple, joint: tuple) -> float:
 
 
 def auto_map(pins: dict[str, np.ndarray], names: list[str], poses: list[np.ndarray], *,
-             ends: list[bool] | None = None, root: int = 0, screen_left: float = 0.0) -> dict[str, str]:
+             ends: list[bool] | None = None, root: int = 0, screen_left: float = 0.0,
+             labels: dict[str, str] | None = None) -> dict[str, str]:
     """``{pin: joint}`` for pins ``{name: (x, y)}`` and joints ``names``, laid over the
     skeleton in each of ``poses`` (j, 2: projected places, y down; the pose whose
     assignment costs least is used). End Sites (``ends``) are not offered. A pin of a
     part no joint has (a ``tail``) follows joint ``root``. Where the projection's x runs
     along the performer's left (``screen_left`` > 0.7, the cosine) or right (< -0.7),
-    a pin off the character's middle follows the joint of the side drawn there."""
+    a pin off the character's middle follows the joint of the side drawn there.
+    ``labels`` ``{pin: layer name}``: a pin whose part is found by place takes the side its
+    layer's name says (``p7`` on ``leftleg``)."""
     offered = [i for i in range(len(names)) if not (ends and ends[i])]
     jn = [names[i] for i in offered]
     pn = list(pins)
     P = np.array([pins[n] for n in pn], np.float64).reshape(-1, 2)
     jparts = [part_and_side(n) for n in jn]
     known = np.array([p not in (None, "finger", "toe") for p, _ in jparts])
-    prior = np.array([[_part_cost(part_and_side(n), jp) for jp in jparts] for n in pn])
+    pparts, placed = _pin_parts(pins, labels or {})
+    prior = np.array([[_part_cost(pparts[n], jp) for jp in jparts] for n in pn])
     best = None
     for pose in poses:
         p, j = _laid_over(P, np.asarray(pose, np.float64)[offered], known)
@@ -110,13 +121,44 @@ def auto_map(pins: dict[str, np.ndarray], names: list[str], poses: list[np.ndarr
     out = best[1]
     have = {p for p, _ in jparts}
     for n in pn:
-        pp = part_and_side(n)[0]
+        pp = pparts[n][0]
         if pp is not None and pp not in have and not any(pp in pair and pair & have for pair in _NEAR):
             out[n] = names[root]
     if abs(screen_left) > 0.7:
         _sides_by_place(out, pins, jn, 1.0 if screen_left > 0 else -1.0)
-    _both_sides(out, jn)
+    _both_sides(out, jn, pparts)
+    unsided = {n: pparts[n][0] for n in placed if pparts[n][1] is None}
+    _pairs_by_x(out, pins, unsided, {names[i]: float(poses[0][i][0]) for i in offered})
     return out
+
+
+def _pin_parts(pins: dict[str, np.ndarray], labels: dict[str, str]) -> tuple[dict[str, tuple], set[str]]:
+    """``({pin: (part, side)}, pins whose part was found by place)``: a character in
+    profile whose pins' names say nothing (``p3``) has their parts found by place
+    (:func:`puppet.motion.project.parts_by_place`), and their sides from their ``labels``
+    (layer names: ``leftleg``); any other pin's part and side are its name's."""
+    parts = {n: part_and_side(n) for n in pins}
+    if all(p is not None for p, _ in parts.values()) or not character_facing(pins)[1]:
+        return parts, set()
+    found = parts_by_place(pins)
+    placed = {n for n, (p, _) in parts.items() if p is None and found[n] is not None}
+    parts.update({n: (found[n], parts[n][1] or part_and_side(labels.get(n, ""))[1]) for n in placed})
+    return parts, placed
+
+
+def _pairs_by_x(out: dict[str, str], pins, placed: dict[str, str], x: dict[str, float]) -> None:
+    """Two pins of one part found by place with no side (``placed``: ``{pin: part}``; two
+    hands, two feet) on joints of both sides: the pin more to the screen's left takes the joint more to
+    the left in the first pose (``x``: the joints' screen x), so that the foot drawn in front
+    follows the foot the clip puts in front."""
+    for part in ("hand", "foot"):
+        two = [p for p, pp in placed.items() if pp == part]
+        if len(two) != 2:
+            continue
+        a, b = sorted(two, key=lambda p: float(pins[p][0]))
+        ja, jb = out.get(a), out.get(b)
+        if ja in x and jb in x and {part_and_side(ja)[1], part_and_side(jb)[1]} == {"left", "right"} and x[ja] > x[jb]:
+            out[a], out[b] = jb, ja
 
 
 def _take(out: dict[str, str], pin: str, joint: str) -> None:
@@ -127,15 +169,15 @@ def _take(out: dict[str, str], pin: str, joint: str) -> None:
     out[pin] = joint
 
 
-def _both_sides(out: dict[str, str], names: list[str]) -> None:
-    """Two pins of one part (two hands of a character in profile) on one side of the
-    skeleton: the second takes the other side's joint."""
+def _both_sides(out: dict[str, str], names: list[str], parts: dict[str, tuple]) -> None:
+    """Two pins of one part (``parts``: ``{pin: (part, side)}``; two hands of a character
+    in profile) on one side of the skeleton: the second takes the other side's joint."""
     seen: dict[tuple, str] = {}
     for pin in list(out):
         part, side = part_and_side(out[pin])
         if side is None or part is None:
             continue
-        if (part, side) in seen and part_and_side(seen[(part, side)])[0] == part_and_side(pin)[0]:
+        if (part, side) in seen and parts[seen[(part, side)]][0] == parts[pin][0]:
             other = _mirror(out[pin], names)
             if other is not None:
                 _take(out, pin, other)

@@ -165,9 +165,10 @@ def _down(motion: Motion, mapping: dict[str, str], H: np.ndarray, P: np.ndarray,
 
 def retarget(motion: Motion, pins: dict[str, np.ndarray], *, mapping: dict[str, str] | None = None,
              projection: str = "auto", in_place: bool = False, start: float | None = None,
-             end: float | None = None, scale: str = "body") -> Retargeted:
+             end: float | None = None, scale: str = "body", labels: dict[str, str] | None = None) -> Retargeted:
     """The pins' targets that play ``motion`` on a character whose pins rest at ``pins``
-    ``{name: (x, y)}`` (see the module's steps; ``scale`` "limbs": step 4b)."""
+    ``{name: (x, y)}`` (see the module's steps; ``scale`` "limbs": step 4b; ``labels``
+    ``{pin: layer name}``, read by the automatic map)."""
     if projection not in PROJECTIONS + ("auto",):
         raise SceneError(f"--projection {projection!r}: one of auto, {', '.join(PROJECTIONS)}")
     if scale not in SCALES:
@@ -186,7 +187,7 @@ def retarget(motion: Motion, pins: dict[str, np.ndarray], *, mapping: dict[str, 
     Q = P @ B.T
     if mapping is None:
         mapping = auto_map(pins, motion.names, [Q[0], motion.rest() @ B.T], ends=[j.end for j in motion.joints],
-                           root=root, screen_left=float(B[0] @ axes.left))
+                           root=root, screen_left=float(B[0] @ axes.left), labels=labels)
     s, leg = _scale(motion, mapping, pins, P[0], Q[0])
     index = {n: i for i, n in enumerate(motion.names)}
     if scale == "limbs":
