@@ -48,6 +48,11 @@ def pins_of(app) -> dict:
     return {p.name: p.at for p in app.snap.data.pins if p.kind != "starch"}
 
 
+def labels_of(app) -> dict:
+    """Each pin's layer name (the automatic map reads a side from it: ``p7`` on ``leftleg``)."""
+    return {p.name: p.layer for p in app.snap.data.pins if p.kind != "starch"}
+
+
 def read(app, f: RetargetForm) -> bool:
     """Read the clip at ``f.path`` and find the map automatically; False (and
     ``f.error``) where the clip or the scene cannot be used."""
@@ -58,7 +63,7 @@ def read(app, f: RetargetForm) -> bool:
             raise SceneError("the scene has no pins to move: add pins first (Pins step)")
         f.motion = read_bvh(os.path.expanduser(f.path.strip()))
         f.read_from = f.path.strip()
-        r = retarget(f.motion, pins, **f.options())
+        r = retarget(f.motion, pins, labels=labels_of(app), **f.options())
     except (SceneError, OSError, ValueError) as e:
         f.motion, f.map, f.error = None, {}, str(e)
         return False
