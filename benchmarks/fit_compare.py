@@ -565,8 +565,8 @@ that holds the names of the group's exterior points but not their rest positions
 changed (`set_layer(name, exterior=...)`, or the file edited and opened again), get the other's
 solve back: the rest pose then reports the old exterior points, and posing them at their new rest
 positions folded 337 triangles of the dress. The script therefore writes each scene into a folder
-of its own. Not fixed here (outside this comparison); keying the solve by the points' rest
-positions as well would mend it.
+of its own. Mended since: the solve's key holds the points' rest positions too
+(`tests/scene/rig/test_exterior_key.py`).
 """
 
 
