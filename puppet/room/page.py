@@ -2,9 +2,11 @@
 
 - one self-contained HTML file (:func:`room_html`): every picture a PNG data URI;
 - a folder (:func:`write_room_folder`): ``index.html`` and the pictures beside it in
-  ``pictures/`` (``mannequin.png``; per garment, numbered in draw order, ``N.png``,
-  ``N-depth.png`` and a thumbnail ``N-thumb.png`` at most :data:`THUMB` pixels a side),
-  which the page loads as it needs them: for catalogues of thousands.
+  ``pictures/`` (``mannequin.png``; per garment, numbered in draw order, ``N.png`` and
+  ``N-depth.png``; the thumbnails, at most :data:`THUMB` pixels a side, on sheets of
+  :data:`SHEET` x :data:`SHEET` cells, ``thumbs-K.png``), which the page loads as it needs
+  them: for catalogues of thousands. A screen of 165 thumbnails (a 1920 x 1080 window)
+  then costs 3 sheets, not 165 pictures.
 
 A garment's picture is cropped to the box where it shows (``at``: its top-left corner on
 the canvas) and its depth image to the same box (:func:`puppet.room.depth.depth_rgba`).
@@ -13,7 +15,7 @@ order, each drawn "over".
 
 Layout: ``#room-meta`` holds the JSON (canvas, categories, the depth code, the mannequin,
 the garments in draw order with name, category, order, at, size, image, depth and, in
-the folder form, thumb).
+the folder form, thumb: ``{"sheet", "at", "size", "sheetSize"}``, its cell on a sheet).
 """
 from __future__ import annotations
 
@@ -33,6 +35,8 @@ from puppet.scene.format.garment import CATEGORIES
 MAX_BYTES = 64 << 20
 #: Largest side of a thumbnail in the folder form, pixels (twice the shelf's 72 px).
 THUMB = 144
+#: Thumbnails a side of a thumbnail sheet (a sheet holds SHEET x SHEET of them).
+SHEET = 8
 PICTURES = "pictures"
 
 
@@ -46,24 +50,57 @@ def crop_box(alpha: np.ndarray) -> tuple[int, int, int, int]:
 
 
 def thumbnail(rgba: np.ndarray) -> np.ndarray:
-    """``rgba`` shrunk to at most :data:`THUMB` pixels a side (Lanczos), as it is when
-    already small enough."""
+    """``rgba`` scaled (Lanczos) so that its longer side is :data:`THUMB` pixels: every
+    cell of a sheet is shown at one scale, never a small garment's sheet blown up in the
+    page (a 10 px crop's sheet would be drawn 8000 px wide)."""
     im = Image.fromarray(np.ascontiguousarray(rgba), "RGBA")
-    im.thumbnail((THUMB, THUMB), Image.LANCZOS)
-    return np.asarray(im)
+    w, h = im.size
+    k = THUMB / max(w, h)
+    return np.asarray(im.resize((max(1, round(w * k)), max(1, round(h * k))), Image.LANCZOS))
+
+
+def _boxes(room: Room) -> list[tuple[slice, slice]]:
+    """Each garment's crop box (rows, columns)."""
+    out = []
+    for g in room.garments:
+        x, y, w, h = crop_box(g.rgba[..., 3])
+        out.append((slice(y, y + h), slice(x, x + w)))
+    return out
+
+
+def thumb_sheets(room: Room, picture) -> list[dict]:
+    """Every garment's thumbnail placed on sheets of :data:`SHEET` x :data:`SHEET` cells of
+    :data:`THUMB` px, written with ``picture(name, rgba)``; per garment its ``thumb`` entry."""
+    cell, per = THUMB, SHEET * SHEET
+    thumbs = [thumbnail(g.rgba[box]) for g, box in zip(room.garments, _boxes(room))]
+    out = []
+    for first in range(0, len(thumbs), per):
+        part = thumbs[first:first + per]
+        rows = -(-len(part) // SHEET)
+        sheet = np.zeros((rows * cell, min(len(part), SHEET) * cell, 4), np.uint8)
+        places = []
+        for k, t in enumerate(part):
+            x, y = (k % SHEET) * cell, (k // SHEET) * cell
+            sheet[y:y + t.shape[0], x:x + t.shape[1]] = t
+            places.append(([x, y], [int(t.shape[1]), int(t.shape[0])]))
+        name = picture(f"thumbs-{first // per + 1:03d}.png", sheet)
+        out += [{"sheet": name, "at": at, "size": size, "sheetSize": [sheet.shape[1], sheet.shape[0]]}
+                for at, size in places]
+    return out
 
 
 def _meta(room: Room, picture, thumbs: bool) -> dict:
     """The page's JSON; ``picture(name, rgba)`` gives the address of a picture."""
     garments = []
-    for n, g in enumerate(room.garments, 1):
-        x, y, w, h = crop_box(g.rgba[..., 3])
-        box = (slice(y, y + h), slice(x, x + w))
+    sheets = thumb_sheets(room, picture) if thumbs else None
+    for n, (g, box) in enumerate(zip(room.garments, _boxes(room)), 1):
+        x, y = box[1].start, box[0].start
+        w, h = box[1].stop - x, box[0].stop - y
         entry = {"name": utf8(g.name), "category": g.category, "order": g.order, "at": [x, y], "size": [w, h],
                  "image": picture(f"{n:04d}.png", g.rgba[box]),
                  "depth": picture(f"{n:04d}-depth.png", depth_rgba(g.depth[box]))}
-        if thumbs:
-            entry["thumb"] = picture(f"{n:04d}-thumb.png", thumbnail(g.rgba[box]))
+        if sheets is not None:
+            entry["thumb"] = sheets[n - 1]
         garments.append(entry)
     return {"room": 1, "canvas": list(room.canvas), "categories": list(CATEGORIES), "depthCode": [LOW, STEPS],
             "mannequin": picture("mannequin.png", room.mannequin), "garments": garments}

@@ -167,14 +167,11 @@
       const sec = doc.createElement("section"), h = doc.createElement("h2"), row = doc.createElement("div");
       sec.className = "room-category"; sec.dataset.category = cat; h.textContent = cat; row.className = "room-items";
       for (const [g, i] of items) {
-        const item = doc.createElement("div"), img = doc.createElement("img"), label = doc.createElement("span");
+        const item = doc.createElement("div"), label = doc.createElement("span");
         item.className = "room-item"; item.dataset.index = String(i); item.dataset.name = g.name;
-        item.title = g.name; img.alt = ""; img.draggable = false; label.textContent = g.name;
-        const src = g.thumb || g.image;
-        if (src.startsWith("data:")) img.src = src;  // in the page already: shown at once
-        else { img.dataset.src = src; near.observe(img); }
+        item.title = g.name; label.textContent = g.name;
         item.tabIndex = 0; item.setAttribute("role", "button"); item.setAttribute("aria-pressed", "false");
-        item.append(img, label);
+        item.append(picture(g), label);
         item.addEventListener("pointerdown", (e) => press(e, i));
         item.addEventListener("keydown", (e) => {  // the keyboard: Enter or Space puts on / takes off
           if (e.key !== "Enter" && e.key !== " ") return;
@@ -189,11 +186,42 @@
     }
   }
 
+  // a garment's thumbnail: its picture (one file), or its cell on a sheet of thumbnails
+  // (the folder form: one sheet of 64 serves a screenful), the sheet shown through the cell
+  function picture(g) {
+    const t = g.thumb;
+    if (t && typeof t === "object") {
+      const box = doc.createElement("span"), cut = doc.createElement("span"), img = doc.createElement("img");
+      box.className = "room-thumb-box"; cut.className = "room-thumb"; img.className = "room-sheet";
+      img.alt = ""; img.draggable = false;
+      const m = Math.max(t.size[0], t.size[1], 1), px = (v) => String(v / m);
+      cut.style.setProperty("--w", px(t.size[0])); cut.style.setProperty("--h", px(t.size[1]));
+      cut.style.setProperty("--x", px(t.at[0])); cut.style.setProperty("--y", px(t.at[1]));
+      cut.style.setProperty("--sw", px(t.sheetSize[0])); cut.style.setProperty("--sh", px(t.sheetSize[1]));
+      img.dataset.src = t.sheet;
+      cut.dataset.sheet = "1";  // the cell is watched (the sheet behind it is mostly clipped away)
+      near.observe(cut);
+      cut.append(img);
+      box.append(cut);
+      return box;
+    }
+    const img = doc.createElement("img"), src = g.thumb || g.image;
+    img.alt = ""; img.draggable = false;
+    if (src.startsWith("data:")) img.src = src;  // in the page already: shown at once
+    else { img.dataset.src = src; near.observe(img); }
+    return img;
+  }
+
   // thumbnails load when they come within 100 px of the shelf's view (their src set then):
   // the shelf scrolls on its own beside the mannequin, with the page below it on a phone
   const shelfEl = doc.getElementById("room-shelf");
   const near = new IntersectionObserver((entries) => {
-    for (const e of entries) if (e.isIntersecting) { e.target.src = e.target.dataset.src; near.unobserve(e.target); }
+    for (const e of entries) {
+      if (!e.isIntersecting) continue;
+      const img = e.target.dataset.sheet ? e.target.firstChild : e.target;
+      img.src = img.dataset.src;
+      near.unobserve(e.target);
+    }
   }, { root: getComputedStyle(shelfEl).overflowY === "auto" ? shelfEl : null, rootMargin: "100px" });
 
   const SLOP = 6;  // px a press may move and still be a click

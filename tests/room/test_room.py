@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -15,6 +16,7 @@ from PIL import Image
 from puppet.cli import main
 from puppet.errors import SceneError
 from puppet.room.depth import LOW, STEPS, depth_rgba, front_depth, layer_depth
+from puppet.room.page import thumbnail
 from puppet.scene.format.load import load_scene_data
 from tests.room.art import GARMENTS, SKIN, garment, room_files
 
@@ -150,10 +152,21 @@ def test_folder_form_holds_the_page_and_the_pictures(tmp_path, capsys):
     assert main(["dressroom", body, *files, "-o", out]) == 0
     pictures = sorted(os.listdir(os.path.join(out, "pictures")))
     assert sorted(os.listdir(out)) == ["index.html", "pictures"]
-    assert pictures == ["0001-depth.png", "0001-thumb.png", "0001.png", "0002-depth.png", "0002-thumb.png",
-                        "0002.png", "0003-depth.png", "0003-thumb.png", "0003.png", "mannequin.png"]
+    assert pictures == ["0001-depth.png", "0001.png", "0002-depth.png", "0002.png", "0003-depth.png", "0003.png",
+                        "mannequin.png", "thumbs-001.png"]
     text = open(os.path.join(out, "index.html"), encoding="utf-8").read()
     assert "data:image" not in text and '"pictures/0002-depth.png"' in text
+    # the thumbnails on one sheet, each in its cell: the garment's crop scaled to 144 px its longer side
+    sheet = np.asarray(Image.open(os.path.join(out, "pictures", "thumbs-001.png")))
+    assert sheet.shape == (144, 3 * 144, 4)
+    meta = json.loads(re.search(r'<script id="room-meta" type="application/json">(.*?)</script>', text, re.S).group(1))
+    for k, g in enumerate(meta["garments"]):
+        t = g["thumb"]
+        crop = np.asarray(Image.open(os.path.join(out, g["image"])))
+        w, h = t["size"]
+        assert t["sheet"] == "pictures/thumbs-001.png" and t["at"] == [144 * k, 0] and max(w, h) == 144
+        assert abs(w / h - crop.shape[1] / crop.shape[0]) < 0.05
+        assert np.array_equal(sheet[:h, 144 * k:144 * k + w], thumbnail(crop))
     # the pictures are the single file's: the mannequin as it is, garment 1 (jeans, a bottom) cropped
     assert np.array_equal(np.asarray(Image.open(os.path.join(out, "pictures", "mannequin.png"))),
                           np.asarray(Image.open(body).convert("RGBA")))
