@@ -99,11 +99,15 @@ def check_own_files(out_dir: str, inputs: dict[str, str]) -> None:
 
 
 def output_present(job: dict) -> bool:
-    """The job's output exists as what the job writes: a regular file (not a link), or a folder."""
+    """The job's output exists as what the job writes: a regular file (not a link), or a
+    folder; and so do the files it writes besides (a ``--dressroom`` garment)."""
     out = job["output"]
     try:
         st = os.lstat(out.rstrip(os.sep))
+        extra = [os.lstat(p) for p in extra_outputs(job)]
     except OSError:
+        return False
+    if not all(stat.S_ISREG(e.st_mode) for e in extra):
         return False
     return stat.S_ISDIR(st.st_mode) if out.endswith(os.sep) else stat.S_ISREG(st.st_mode)
 

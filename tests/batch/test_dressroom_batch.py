@@ -116,6 +116,10 @@ def test_the_batch_writes_the_room_of_the_matched_garments(cluster2, tmp_path):
     assert summary["counts"]["skipped"] == 2 and summary["counts"]["done"] == 0
     assert (out / "room" / "index.html").read_bytes() == old
     assert temporaries(out) == []
+    (out / "garments" / "small.json").unlink()  # a garment gone: its job is not up to date
+    summary = batch(cluster2, argv + ["--resume"])
+    assert summary["counts"]["skipped"] == 1 and summary["counts"]["done"] == 1
+    assert (out / "room" / "index.html").read_bytes() == old
     # a room holding what the batch did not write is never replaced: refused before any job runs
     (out / "room" / "notes.txt").write_text("mine")
     before = (out / "report.json").read_bytes()
@@ -125,12 +129,8 @@ def test_the_batch_writes_the_room_of_the_matched_garments(cluster2, tmp_path):
     assert (out / "room" / "notes.txt").read_text() == "mine" and (out / "report.json").read_bytes() == before
 
 
-def _cli(*argv):
-    return subprocess.run([sys.executable, "-m", "puppet", "batch", *map(str, argv)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=120)
-
-
-def test_dressroom_refusals_from_the_shell(tmp_path):
+def test_dressroom_refusals(tmp_path):
+    """Refused before any job runs; one CLI run for the exit status and that nothing is written."""
     imgs = tmp_path / "imgs"
     imgs.mkdir()
     G.similar_copy(SHIRT, imgs / "a.png", scale=1.0, angle=0.0, shift=(0, 0), size=(320, 300))
@@ -140,12 +140,24 @@ def test_dressroom_refusals_from_the_shell(tmp_path):
     cases = [
         ([imgs, "-o", out, "--dressroom", small], "--dressroom is for template mode (with --template)"),
         (base + ["--dressroom", tmp_path / "none.png"], "none.png: --dressroom: no such file"),
-        (base + ["--dressroom", small], "--dressroom: the mannequin is 600x720, the template's canvas 700x720"),
-        (base + ["--dressroom", TEMPLATE.replace("t-shirt.json", "t-shirt.png")], "the mannequin is"),
+        (base + ["--dressroom", SHIRT], "--dressroom: the mannequin is 307x"),
     ]
     for argv, want in cases:
-        r = _cli(*argv)
-        assert r.returncode == 2, r.stderr
-        lines = r.stderr.strip().splitlines()
-        assert len(lines) == 1 and want in lines[0] and "Traceback" not in r.stderr, r.stderr
-        assert not out.exists()
+        args = build_parser().parse_args(["batch", *map(str, argv)])
+        with pytest.raises(SceneError) as e:
+            C._jobs(args, str(out))
+        assert want in str(e.value) and len(str(e.value).splitlines()) == 1
+    clash = tmp_path / "clash"  # a garment the batch would write is one of its pictures
+    (clash / "garments").mkdir(parents=True)
+    G.similar_copy(SHIRT, clash / "garments" / "a.png", scale=1.0, angle=0.0, shift=(0, 0), size=(320, 300))
+    args = build_parser().parse_args(["batch", "--template", TEMPLATE, "--images", str(clash / "garments"), "--pose",
+                                      "fit", "-o", str(clash), "--dressroom", mannequin(tmp_path / "m.png")])
+    with pytest.raises(SceneError, match="job 0: output 'garments/a.png' would replace"):
+        run_batch(C._jobs(args, str(clash)), str(clash), client=object(), **C._reads(args))
+    assert sorted(os.listdir(clash)) == ["garments"] and os.listdir(clash / "garments") == ["a.png"]
+    r = subprocess.run([sys.executable, "-m", "puppet", "batch", *map(str, base + ["--dressroom", small])], cwd=ROOT,
+                       capture_output=True, text=True, timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and "the mannequin is 600x720, the template's canvas 700x720" \
+        in lines[0], r.stderr
+    assert not out.exists()
