@@ -161,3 +161,22 @@ def test_dressroom_refusals(tmp_path):
     assert r.returncode == 2 and len(lines) == 1 and "the mannequin is 600x720, the template's canvas 700x720" \
         in lines[0], r.stderr
     assert not out.exists()
+
+
+@pytest.mark.gl
+def test_a_garment_the_room_refuses_is_left_out_and_said(tmp_path):
+    from puppet.batch.dressroom import make_room
+    from tests.room import art
+
+    man, (shirt, jeans) = art.room_files(tmp_path, names=("shirt", "jeans"))
+    twin = tmp_path / "twin.json"
+    twin.write_text(json.dumps(dict(json.load(open(shirt)), garment={"name": "shirt"})))  # a second "shirt"
+    said = []
+    body = np.asarray(Image.open(man).convert("RGBA"))
+    out = make_room(str(tmp_path), body, man, [shirt, str(twin), jeans, str(tmp_path / "gone.json")], inputs=[],
+                    say=said.append)
+    assert out["garments"] == ["jeans", "shirt"]  # in draw order: bottom, top
+    assert [r["garment"] for r in out["refused"]] == [str(twin), str(tmp_path / "gone.json")]
+    assert "garment name 'shirt' is also the name of" in out["refused"][0]["error"]
+    assert len(said) == 2 and all(s.startswith("puppet batch: dressroom: left out: ") for s in said)
+    assert [g["name"] for g in room_meta(tmp_path / "room")["garments"]] == ["jeans", "shirt"]
