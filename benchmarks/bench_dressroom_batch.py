@@ -66,15 +66,19 @@ def one(client, argv: list[str]) -> tuple[float, float, dict]:
 
 
 def main() -> None:
-    from puppet.batch import work
-    from puppet.batch.cluster import connect
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pictures", type=int, default=16)
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
-    tmp = tempfile.mkdtemp(prefix="bench-room-")
+    with tempfile.TemporaryDirectory(prefix="bench-room-") as tmp:
+        run(args, tmp)
+
+
+def run(args, tmp: str) -> None:
+    from puppet.batch import work
+    from puppet.batch.cluster import connect
+
     imgs = pictures(args.pictures, os.path.join(tmp, "imgs"))
     base = ["--template", os.path.join(ROOM, "t-shirt.json"), "--images", imgs, "--pose", "fit"]
     mannequin = os.path.join(ROOM, "mannequin.json")
