@@ -100,7 +100,8 @@ def run(args, tmp: str) -> None:
     q = np.array([[b[0], b[1]] for _, b in rows])
     print(f"\n| | wall s | CPU s |\n|---|---|---|\n| without | {p[:, 0].mean():.2f} | {p[:, 1].mean():.2f} |\n"
           f"| with --dressroom | {q[:, 0].mean():.2f} | {q[:, 1].mean():.2f} |\n"
-          f"| added | {100 * (q[:, 0].sum() / p[:, 0].sum() - 1):.1f} % | {100 * (q[:, 1].sum() / p[:, 1].sum() - 1):.1f} % |")
+          f"| added | {100 * (q[:, 0].sum() / p[:, 0].sum() - 1):.1f} % "
+          f"| {100 * (q[:, 1].sum() / p[:, 1].sum() - 1):.1f} % |")
     parts(os.path.join(tmp, f"room{args.rounds - 1}"), mannequin)
 
 
