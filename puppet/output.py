@@ -140,10 +140,12 @@ def check_file(path: str, *, inputs: Inputs = (), probe: bool = False, follow: b
     return target
 
 
-def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, contents: bool = True) -> str:
+def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, contents: bool = True,
+                 own: Callable[[str, str], bool] | None = None) -> str:
     """Check that ``path`` can be (re)placed by a frame folder; returns its real path.
 
-    A folder that exists may hold only frames of an earlier run (``frame_*.png``): they
+    A folder that exists may hold only frames of an earlier run (``frame_*.png``; or the
+    entries ``own(folder, name)`` says an earlier run of the caller wrote): they
     are replaced as a whole. Any other file in it is refused rather than deleted
     (``contents=False`` skips looking inside, for a first check before the inputs are known).
     """
@@ -160,11 +162,12 @@ def check_folder(path: str, *, inputs: Inputs = (), probe: bool = False, content
     _check_inputs(path, target, inputs, folder=True)
     if contents and os.path.isdir(target):
         try:
-            others = sorted(n for n in os.listdir(target) if not _is_frame(target, n))
+            others = sorted(n for n in os.listdir(target) if not (own or _is_frame)(target, n))
         except OSError as e:
             raise OutputError(path, _reason(e)) from None
         if others:
-            raise OutputError(path, f"the folder holds other files than frames (e.g. '{others[0]}'); "
+            theirs = "frames" if own is None else "what puppet wrote there"
+            raise OutputError(path, f"the folder holds other files than {theirs} (e.g. '{others[0]}'); "
                               "give a new or an empty folder")
         if not os.access(target, os.W_OK):
             raise OutputError(path, "the folder is read-only")
@@ -381,14 +384,15 @@ def _swap_in(path: str, tmp: str, target: str) -> None:
     _remove(tmp)  # the old frames (signals allowed again: a stop leaves it to remove_leftovers)
 
 
-def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = ()) -> int:
+def write_folder(path: str, fill: Callable[[str], int], *, inputs: Inputs = (),
+                 own: Callable[[str, str], bool] | None = None) -> int:
     """Fill a new folder with ``fill(tmp_folder)`` and swap it in at ``path`` as a whole.
 
     Returns what ``fill`` returns (e.g. the number of frames). ``path`` is checked first
-    (:func:`check_folder`): frames of an earlier run are replaced, never mixed with the
+    (:func:`check_folder`, ``own`` as there): frames of an earlier run are replaced, never mixed with the
     new ones, and a folder holding anything else is refused.
     """
-    target = check_folder(path, inputs=inputs)
+    target = check_folder(path, inputs=inputs, own=own)
     tmp = _temp(path, os.path.dirname(target), _make_folder)
     with _removed_on_failure(path, tmp):
         n = fill(tmp)

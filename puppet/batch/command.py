@@ -75,6 +75,9 @@ def add_parser(sub, *, size, time) -> argparse.ArgumentParser:
     t.add_argument("--pose", metavar="NAME", help="the template's pose to render each image in")
     t.add_argument("--tolerance", type=_tolerance, metavar="T",
                    help="how far an outline may differ from the template's (default: the algorithm's)")
+    t.add_argument("--dressroom", metavar="MANNEQUIN",
+                   help="also write OUT_DIR/room/: the dressing room of every matched garment on MANNEQUIN (a "
+                        "picture or a scene on the template's canvas; see docs/dressroom.md)")
     return b
 
 
@@ -82,7 +85,8 @@ def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
     from puppet.batch import jobs as J  # lazy: the batch's modules (the CLI's parser imports this one)
 
     defaults = {"size": list(args.size) if args.size else None, "budget": args.budget, "check_size": _check_size}
-    template_flags = [f for f in ("template", "images", "pose", "tolerance") if getattr(args, f) is not None]
+    template_flags = [f for f in ("template", "images", "pose", "tolerance", "dressroom")
+                      if getattr(args, f) is not None]
     if args.template is not None:
         if args.jobs is not None:
             raise SceneError("give JOBS or --template, not both")
@@ -90,9 +94,10 @@ def _jobs(args: argparse.Namespace, out_dir: str) -> list[dict]:
         if missing:
             raise SceneError(f"--template needs {' and '.join(missing)}")
         template = os.path.abspath(args.template)
-        _check_pose(template, args.pose)
+        doc = _check_pose(template, args.pose)
+        room = _room(args, doc, out_dir) if args.dressroom is not None else None
         return J.template_jobs(template, os.path.abspath(args.images), args.pose, out_dir, defaults,
-                               tolerance=args.tolerance)
+                               tolerance=args.tolerance, room=room)
     if template_flags:
         raise SceneError(f"--{template_flags[0]} is for template mode (with --template)")
     if args.jobs is None:
@@ -115,6 +120,32 @@ def _check_pose(template: str, pose: str) -> None:
     doc = Document.load(template)
     if pose not in doc.pose_names():
         raise SceneError(f"--pose {pose!r}: no such pose (poses: {', '.join(doc.pose_names())})", file=template)
+    return doc
+
+
+def _room(args: argparse.Namespace, doc, out_dir: str) -> dict:
+    """``--dressroom``: the mannequin read (a scene drawn at rest) and checked against the
+    template's canvas, the room's folder checked, before any job runs; the jobs' ``room``.
+    Keeps the mannequin's picture in ``args.mannequin_rgba`` for the end of the batch."""
+    from puppet.batch import dressroom  # lazy: the room's modules (numpy, the scene stack)
+    from puppet.batch import jobs as J  # lazy: the batch's modules (the CLI's parser imports this one)
+    from puppet.room.model import load_mannequin  # lazy: as above
+    from puppet.scene.format.garment import DEFAULT_CATEGORY  # lazy: as above
+
+    if not os.path.exists(args.dressroom):
+        raise SceneError("--dressroom: no such file", file=args.dressroom)
+    rgba = load_mannequin(args.dressroom)
+    h, w = rgba.shape[:2]
+    canvas = tuple(doc.canvas)
+    if canvas != (w, h):
+        raise SceneError(f"--dressroom: the mannequin is {w}x{h}, the template's canvas {canvas[0]}x{canvas[1]} "
+                         f"({doc.file}): a room's garments are drawn on the mannequin's canvas", file=args.dressroom)
+    if os.path.isdir(out_dir):
+        J.resolve_output(out_dir, f"{dressroom.ROOM}/", args.output, "--dressroom")  # no link on the way
+        dressroom.check_room_folder(os.path.join(out_dir, dressroom.ROOM), [(args.dressroom, "the mannequin")])
+    args.mannequin_rgba = rgba
+    garment = doc.data.garment or {}
+    return {"canvas": [w, h], "category": garment.get("category", DEFAULT_CATEGORY)}
 
 
 def _out_dir(path: str) -> str:
@@ -136,10 +167,37 @@ def _reads(args: argparse.Namespace) -> dict:
     """What :func:`puppet.batch.runner.run_batch` must protect besides the jobs' own files,
     and the file its command errors name."""
     if args.template is not None:
-        return {"reads": [(os.path.abspath(args.template), "--template")], "source": args.images}
+        reads = [(os.path.abspath(args.template), "--template")]
+        if args.dressroom is not None:
+            reads.append((os.path.abspath(args.dressroom), "--dressroom"))
+        return {"reads": reads, "source": args.images}
     if os.path.isdir(args.jobs):
         return {"reads": [], "source": args.jobs}
     return {"reads": [(os.path.abspath(args.jobs), "the job list")], "source": args.jobs}
+
+
+def _finale(args: argparse.Namespace, out_dir: str, say):
+    """``--dressroom``: what writes the room once every job ran (None without it)."""
+    if args.dressroom is None:
+        return None
+
+    def room(batch) -> dict:
+        from puppet.batch import dressroom  # lazy: the room's modules (numpy, the scene stack)
+
+        scenes = [j["room"]["scene"] for j in batch.jobs
+                  if batch.records.get(j["id"], {}).get("status") in ("done", "skipped")
+                  and os.path.isfile(j["room"]["scene"])]
+        inputs = [(p, "an input of the batch") for p in sorted(batch.keep)]
+        try:
+            out = dressroom.make_room(out_dir, args.mannequin_rgba, args.dressroom, scenes, inputs=inputs, say=say)
+        except SceneError as e:  # the room cannot be written: said and reported, the jobs' outputs stand
+            line = str(e).strip().splitlines()[0]
+            say(f"puppet batch: dressroom: the room was not written: {line}")
+            return {"folder": None, "error": line}
+        say(f"puppet batch: dressroom: {len(out['garments'])} garments in {os.path.join(args.output, 'room', '')}"
+            + (f" ({len(out['refused'])} left out)" if out["refused"] else ""))
+        return out
+    return room
 
 
 def run(args: argparse.Namespace) -> int:
@@ -162,7 +220,8 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         summary = run_batch(jobs, out_dir, workers=args.workers, scheduler=args.scheduler, retries=args.retries,
-                            resume=args.resume, progress=sys.stderr.isatty(), say=say, **_reads(args))
+                            resume=args.resume, progress=sys.stderr.isatty(), say=say,
+                            finale=_finale(args, out_dir, say), **_reads(args))
     except SceneError:  # e.g. the scheduler cannot be reached: nothing ran, leave nothing behind
         if created:
             with contextlib.suppress(OSError):

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import stat
 
-from puppet.batch.jobs import RESERVED
+from puppet.batch.jobs import RESERVED, extra_outputs
 from puppet.errors import SceneError
 
 Inputs = list[tuple[str, str]]
@@ -70,9 +70,10 @@ def check_outputs(jobs: list[dict], inputs: dict[str, str], file: str | None) ->
             prefix = out
             hit = next((p for p in under if p.startswith(prefix) or p == out.rstrip(os.sep)), None)
         else:
-            hit = out if out in inputs else None
+            hit = next((p for p in [out] + extra_outputs(j) if p in inputs), None)
         if hit is not None:
-            raise SceneError(f"job {j['id']}: output {j['rel']!r} would replace {hit!r}, which the batch reads "
+            name = j["rel"] if hit == out else os.path.relpath(hit, os.path.dirname(out))  # a garment (template jobs)
+            raise SceneError(f"job {j['id']}: output {name!r} would replace {hit!r}, which the batch reads "
                              f"({inputs[hit]})", file=file)
 
 
@@ -98,11 +99,15 @@ def check_own_files(out_dir: str, inputs: dict[str, str]) -> None:
 
 
 def output_present(job: dict) -> bool:
-    """The job's output exists as what the job writes: a regular file (not a link), or a folder."""
+    """The job's output exists as what the job writes: a regular file (not a link), or a
+    folder; and so do the files it writes besides (a ``--dressroom`` garment)."""
     out = job["output"]
     try:
         st = os.lstat(out.rstrip(os.sep))
+        extra = [os.lstat(p) for p in extra_outputs(job)]
     except OSError:
+        return False
+    if not all(stat.S_ISREG(e.st_mode) for e in extra):
         return False
     return stat.S_ISDIR(st.st_mode) if out.endswith(os.sep) else stat.S_ISREG(st.st_mode)
 

@@ -278,9 +278,13 @@ def folder_jobs(folder: str, out_dir: str, defaults: dict) -> list[dict]:
 
 
 def template_jobs(template: str, images: str, pose: str, out_dir: str, defaults: dict, *,
-                  tolerance: float | None) -> list[dict]:
+                  tolerance: float | None, room: dict | None = None) -> list[dict]:
     """One job per image (sorted, not recursive) in ``images``: transfer ``template``'s pins
-    to it and render ``pose``; outputs ``STEM.png`` (``STEM_EXT.png`` when two images share a stem)."""
+    to it and render ``pose``; outputs ``STEM.png`` (``STEM_EXT.png`` when two images share a stem).
+
+    ``room`` (``--dressroom``: the template's ``canvas`` and garment ``category``): each
+    job also writes its garment, ``garments/STEM.json`` and ``garments/STEM.png``
+    (:mod:`puppet.batch.dressroom`)."""
     if not os.path.isdir(images):
         raise SceneError("--images: not a folder", file=images)
     names = sorted(n for n in os.listdir(images) if os.path.splitext(n)[1].lower() in IMAGE_EXTS
@@ -295,8 +299,27 @@ def template_jobs(template: str, images: str, pose: str, out_dir: str, defaults:
                "tolerance": tolerance, "size": defaults.get("size"), "wireframe": False,
                "budget": defaults.get("budget")}
         job["output"], job["rel"] = resolve_output(out_dir, rel, images, "output")
+        if room is not None:
+            job["room"] = dict(room, **_garment_paths(out_dir, job["rel"], images))
         jobs.append(job)
     return number(jobs, images)
+
+
+#: Folder of OUT_DIR holding the garments of ``--dressroom``.
+GARMENTS = "garments"
+
+
+def _garment_paths(out_dir: str, rel: str, file: str) -> dict:
+    stem = os.path.splitext(rel)[0]
+    scene, rel_scene = resolve_output(out_dir, f"{GARMENTS}/{stem}.json", file, "output")
+    picture, _ = resolve_output(out_dir, f"{GARMENTS}/{stem}.png", file, "output")
+    return {"scene": scene, "picture": picture, "rel": rel_scene}
+
+
+def extra_outputs(job: dict) -> list[str]:
+    """The files a job writes besides its output (a ``--dressroom`` garment), absolute."""
+    room = job.get("room")
+    return [room["picture"], room["scene"]] if room else []
 
 
 def describe(job: dict) -> dict:
@@ -310,10 +333,15 @@ def describe(job: dict) -> dict:
         d[job["kind"]] = job[job["kind"]]
     if job.get("size"):
         d["size"] = job["size"]
+    if job.get("room"):
+        d["garment"] = job["room"]["rel"]
     return d
 
 
 def spec(job: dict) -> dict:
     """What, besides the input files' content, decides a job's output (hashed for --resume)."""
     keys = ("kind", "pose", "time", "animate", "size", "wireframe", "tolerance", "rel")
-    return {k: job.get(k) for k in keys}
+    out = {k: job.get(k) for k in keys}
+    if job.get("room"):  # only then: the hashes of other jobs stay as they were
+        out["room"] = [job["room"]["canvas"], job["room"]["category"]]
+    return out

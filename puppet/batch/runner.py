@@ -15,7 +15,7 @@ from puppet.batch.cluster import connect
 from puppet.batch.dispatch import Dispatch
 from puppet.batch.feed import Feeder
 from puppet.batch.guard import all_inputs, check_outputs, check_own_files, output_present, scene_inputs
-from puppet.batch.jobs import describe, spec
+from puppet.batch.jobs import describe, extra_outputs, spec
 from puppet.batch.state import Manifest, inputs_digest, now, write_report
 from puppet.errors import SceneError
 
@@ -52,9 +52,9 @@ def sweep_temporaries(jobs: list[dict], keep: frozenset[str] = frozenset()) -> i
     worker left beside the outputs (never one of ``keep``, real paths); returns how many."""
     folders: dict[str, set[str]] = {}
     for j in jobs:
-        out = j["output"].rstrip(os.sep)
-        base = (os.path.basename(out) or "out")[:100]
-        folders.setdefault(os.path.dirname(out), set()).add(f".{base}.")
+        for out in [j["output"].rstrip(os.sep)] + extra_outputs(j):
+            base = (os.path.basename(out) or "out")[:100]
+            folders.setdefault(os.path.dirname(out), set()).add(f".{base}.")
     n = 0
     for folder, prefixes in folders.items():
         try:
@@ -90,6 +90,7 @@ class Batch:
         self.keep: frozenset[str] = frozenset()  # real paths of the run's inputs (never swept)
         self.checked = False  # guard() passed: report.json is no input of the run
         self.cache: dict = {}  # scene path -> its input files (None: unreadable), for client_digest
+        self.room: dict | None = None  # what the report says of --dressroom's room
 
     # -- before -------------------------------------------------------------------
     def plan(self) -> list[dict]:
@@ -171,6 +172,8 @@ class Batch:
         report = {"puppet_batch_report": 1, "started": self.started, "finished": now(),
                   "seconds": round(seconds, 3), "cluster": self.cluster, "interrupted": self.interrupted,
                   "counts": counts, "jobs": jobs}
+        if self.room is not None:
+            report["room"] = self.room
         path = write_report(self.out_dir, report)
         return {"counts": counts, "seconds": seconds, "report": path, "jobs_per_s": ran / seconds if seconds else 0.0}
 
@@ -199,7 +202,8 @@ def guard(batch: "Batch", reads: list[tuple[str, str]], source: str | None) -> N
 def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, scheduler: str | None = None,
               retries: int = 2, resume: bool = False, progress: bool = False, client=None,
               say: Callable[[str], None] = lambda s: None, on_result: Callable | None = None,
-              reads: list[tuple[str, str]] = (), source: str | None = None) -> dict:
+              reads: list[tuple[str, str]] = (), source: str | None = None,
+              finale: Callable | None = None) -> dict:
     """Run ``jobs`` (see :mod:`puppet.batch.jobs`) on Dask and write ``OUT_DIR/report.json``.
 
     Parameters
@@ -209,6 +213,8 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
     say : prints a line for the user (the dashboard address).
     reads : (path, what) of files the run reads besides the jobs' scenes and pictures (the
         job list): no output may replace one. source : the file named in command errors.
+    finale : ``finale(batch)`` once every job ran (not when stopped), before the report is
+        written: what it returns is the report's ``room`` (``--dressroom``).
 
     Returns
     -------
@@ -242,6 +248,8 @@ def run_batch(jobs: list[dict], out_dir: str, *, workers: int | None = None, sch
                 if c is not None:
                     _started(batch, c, client, scheduler, dashboard, say)
                     batch.run(c, todo, retries=retries, on_result=on_result)
+                if finale is not None:
+                    batch.room = finale(batch)
             except BaseException:
                 batch.interrupted = True
                 raise

@@ -66,7 +66,7 @@ from puppet.scene.rig import build
 from puppet.scene.rig.cages import cage_handles, rest_cage
 from puppet.scene.rig.exterior import auto_points
 
-__all__ = ["NoMatch", "Template", "Transfer", "transfer", "transfer_points", "NUDGE", "BOUNDARY", "TOLERANCE"]
+__all__ = ["NoMatch", "Template", "Transfer", "cached", "transfer", "transfer_points", "NUDGE", "BOUNDARY", "TOLERANCE"]
 
 #: An interior pin that lands off the new mask by at most this many pixels is moved in.
 NUDGE = 3.0
@@ -92,6 +92,8 @@ class Transfer:
     landmarks: int  # matched curvature landmarks
     nudged: list[str]  # interior pins moved onto the mask
     grown: list[str] = field(default_factory=list)  # cage handles pushed out to hold the picture's mesh
+    picture: np.ndarray | None = field(default=None, repr=False)  # the picture's (h, w, 4) pixels, as read
+    mask: np.ndarray | None = field(default=None, repr=False)  # its garment's (h, w) mask, as the scene builds it
 
 
 def _outline(mask: np.ndarray, offset) -> np.ndarray:
@@ -258,7 +260,7 @@ class Template:
         handles, grown = self._cage(doc, scene_file, corr, S, new) if self.cage is not None else ({}, [])
         self._poses(doc, corr, S, moved, new.mask, handles)
         return Transfer(scene=doc, score=float(score), distance=match.distance, similarity=S,
-                        landmarks=len(corr.anchors), nudged=nudged, grown=grown)
+                        landmarks=len(corr.anchors), nudged=nudged, grown=grown, picture=rgba, mask=new.mask)
 
     def _pins(self, corr, S, mask: np.ndarray, image: str, score: float):
         X = np.array([p.at for p in self.pins], float).reshape(-1, 2)
@@ -417,10 +419,15 @@ def transfer(template: str, image: str, *, tolerance: float | None = TOLERANCE, 
     NoMatch : the outlines differ by more than ``tolerance``, or a pin cannot be placed.
     SceneError : a bad template or an unreadable picture.
     """
+    tpl = cached(template, layer)
+    return tpl.transfer(image, tolerance=TOLERANCE if tolerance is None else tolerance).scene
+
+
+def cached(template: str, layer: str | None = None) -> Template:
+    """The :class:`Template` of ``template`` (read once per process while its file is unchanged)."""
     path = os.path.abspath(template)
     try:
         stamp = _stamp(path)
     except OSError:
         stamp = ()
-    tpl = _cached(path, layer, stamp) if stamp else Template(path, layer)
-    return tpl.transfer(image, tolerance=TOLERANCE if tolerance is None else tolerance).scene
+    return _cached(path, layer, stamp) if stamp else Template(path, layer)

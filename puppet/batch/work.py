@@ -129,17 +129,19 @@ def _scene(path: str):
 
 
 def _template_scene(job: dict):
-    """(hashed inputs, every input, scene) of a template job: the template's pins transferred to the image."""
+    """(hashed inputs, every input, scene, transfer) of a template job: the template's pins
+    transferred to the image (:class:`puppet.batch.template.Transfer`)."""
     from puppet.api import Scene  # lazy: numpy (see puppet/batch/__init__.py)
     from puppet.batch import template  # lazy: numpy (see puppet/batch/__init__.py)
     from puppet.scene.format.inputs import input_files  # lazy: numpy (see puppet/batch/__init__.py)
 
     _, tinputs, _ = _scene(job["scene"])  # the template, parsed (and checked unchanged) once per worker
-    doc = template.transfer(job["scene"], job["image"], tolerance=job["tolerance"])
-    scene = Scene(doc, job["image"])
+    tpl = template.cached(job["scene"])
+    tr = tpl.transfer(job["image"], tolerance=template.TOLERANCE if job["tolerance"] is None else job["tolerance"])
+    scene = Scene(tr.scene, job["image"])
     # hashed for --resume: what the client can know without transferring (template files + image)
     hashed = list(tinputs) + [(job["image"], "image")]
-    return hashed, hashed + input_files(scene.data, scene_file=False), scene
+    return hashed, hashed + input_files(scene.data, scene_file=False), scene, tr
 
 
 class _Budgeted:
@@ -187,6 +189,17 @@ def _render(job: dict, scene, inputs) -> None:
     save_png(job["output"], rgba, inputs=inputs)
 
 
+def _room_garment(job: dict, tr, inputs) -> None:
+    """``--dressroom``: the matched picture's garment on the template's canvas (see
+    :mod:`puppet.batch.dressroom`); a failure is the job's."""
+    from puppet.batch import dressroom  # lazy: numpy (see puppet/batch/__init__.py)
+
+    try:
+        dressroom.write_garment(job, tr, inputs=inputs)
+    except SceneError as e:
+        raise SceneError(f"dressroom garment: {one_line(e)}") from None
+
+
 def one_line(e: BaseException) -> str:
     text = str(e).strip().splitlines()
     return text[0] if text else type(e).__name__
@@ -201,15 +214,18 @@ def run_job(job: dict) -> dict:
     t0 = time.perf_counter()
     rec = {"id": job["id"], "status": "done", "error": None, "inputs": None, "seconds": 0.0, "worker": _WHO}
     try:
+        matched = None
         with budget(job.get("budget"), "loading the scene"):
             if job["kind"] == "template":
-                hashed, inputs, scene = _template_scene(job)
+                hashed, inputs, scene, matched = _template_scene(job)
             else:
                 _, inputs, scene = _scene(job["scene"])
                 hashed = inputs
         rec["inputs"] = inputs_digest(spec(job), hashed)
         scene.compositor = compositor()  # this thread's GL context (never the client's)
         _render(job, scene, inputs)
+        if job.get("room") and matched is not None:
+            _room_garment(job, matched, inputs)
     except (Exception, BudgetExceeded) as e:  # noqa: BLE001 - every failure is the job's; the batch goes on
         rec.update(status="failed", error=one_line(e))
         if type(e).__name__ == "NoMatch":

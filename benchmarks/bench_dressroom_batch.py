@@ -1,0 +1,129 @@
+"""``puppet batch --template ... --dressroom MANNEQUIN``: what the room adds to a template batch.
+
+Run: ``python benchmarks/bench_dressroom_batch.py [--pictures 16] [--rounds 2] [--workers 2]``
+from the repository root. The pictures: similarity copies of the bundled room t-shirt
+(``assets/scenes/room/t-shirt.png``, the template ``assets/scenes/room/t-shirt.json``,
+pose ``fit``) scaled 0.9 to 1.6 and turned up to 20 degrees (370 to 660 px); the mannequin:
+``assets/scenes/room/mannequin.json`` (a scene, drawn at rest).
+
+Each round runs the same batch twice on one embedded LocalCluster that is already up,
+its workers warm (as ``bench_batch.py``): without ``--dressroom`` and with it, each as the
+command runs it (its checks, the jobs, ``run_batch``; with ``--dressroom`` the mannequin
+drawn before and the room written after). Printed: wall and CPU time (this process +
+the workers) of both, the ratio, and where the room's time went. The load average is
+printed: the machine is shared.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the puppet command sets it
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+import numpy as np  # noqa: E402
+
+from tests.batch import garments as G  # noqa: E402
+
+ROOM = os.path.join(ROOT, "assets", "scenes", "room")
+
+
+def pictures(n: int, folder: str) -> str:
+    rng = np.random.default_rng(11)
+    os.makedirs(folder, exist_ok=True)
+    for i in range(n):
+        scale = rng.uniform(0.9, 1.6)
+        size = int(307 * scale * 1.35)  # the 307 px shirt turned, with a margin
+        a = scale * np.exp(1j * np.radians(rng.uniform(-20, 20)))
+        b = complex(size / 2, size / 2) - a * complex(153.5, 153.5)  # the shirt's centre at the picture's
+        G.similar_copy(os.path.join(ROOM, "t-shirt.png"), os.path.join(folder, f"shirt{i:03d}.png"), scale=scale,
+                       angle=float(np.degrees(np.angle(a))), shift=(b.real, b.imag), size=(size, size))
+    return folder
+
+
+def one(client, argv: list[str]) -> tuple[float, float, dict]:
+    """Wall and CPU seconds of ``puppet batch ARGV`` as the command runs it, on ``client``."""
+    from puppet.batch import command as C
+    from puppet.batch.runner import run_batch
+    from puppet.cli import build_parser
+
+    w0 = client.run(time.process_time)
+    t0, c0 = time.perf_counter(), time.process_time()
+    args = build_parser().parse_args(["batch", *argv])
+    out = os.path.realpath(args.output)
+    jobs = C._jobs(args, out)
+    os.makedirs(out, exist_ok=True)
+    s = run_batch(jobs, out, client=client, finale=C._finale(args, out, lambda line: None), **C._reads(args))
+    t, c = time.perf_counter() - t0, time.process_time() - c0
+    w1 = client.run(time.process_time)
+    assert s["counts"]["done"] == len(jobs), s["counts"]
+    return t, c + sum(w1[k] - w0[k] for k in w1 if k in w0), s
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pictures", type=int, default=16)
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="bench-room-") as tmp:
+        run(args, tmp)
+
+
+def run(args, tmp: str) -> None:
+    from puppet.batch import work
+    from puppet.batch.cluster import connect
+
+    imgs = pictures(args.pictures, os.path.join(tmp, "imgs"))
+    base = ["--template", os.path.join(ROOM, "t-shirt.json"), "--images", imgs, "--pose", "fit"]
+    mannequin = os.path.join(ROOM, "mannequin.json")
+    print(f"{args.pictures} pictures, {args.workers} workers; load before: {os.getloadavg()[0]:.2f}")
+    rows = []
+    with connect(workers=args.workers) as (client, _):
+        client.wait_for_workers(args.workers)
+        with client.as_current():
+            for addr in client.scheduler_info()["workers"]:
+                client.submit(work.Runner, workers=[addr], actor=True, pure=False).result().warm().result()
+        for r in range(args.rounds):
+            plain = one(client, base + ["-o", os.path.join(tmp, f"plain{r}")])
+            room = one(client, base + ["-o", os.path.join(tmp, f"room{r}"), "--dressroom", mannequin])
+            rows.append((plain[:2], room[:2]))
+            print(f"round {r}: without {plain[0]:6.2f} s wall {plain[1]:6.2f} s CPU | with --dressroom "
+                  f"{room[0]:6.2f} s wall {room[1]:6.2f} s CPU | +{100 * (room[0] / plain[0] - 1):5.1f} % wall, "
+                  f"+{100 * (room[1] / plain[1] - 1):5.1f} % CPU; load {os.getloadavg()[0]:.2f}")
+    p = np.array([[a[0], a[1]] for a, _ in rows])
+    q = np.array([[b[0], b[1]] for _, b in rows])
+    print(f"\n| | wall s | CPU s |\n|---|---|---|\n| without | {p[:, 0].mean():.2f} | {p[:, 1].mean():.2f} |\n"
+          f"| with --dressroom | {q[:, 0].mean():.2f} | {q[:, 1].mean():.2f} |\n"
+          f"| added | {100 * (q[:, 0].sum() / p[:, 0].sum() - 1):.1f} % "
+          f"| {100 * (q[:, 1].sum() / p[:, 1].sum() - 1):.1f} % |")
+    parts(os.path.join(tmp, f"room{args.rounds - 1}"), mannequin)
+
+
+def parts(out: str, mannequin: str) -> None:
+    """Where the room's time goes, in this process (CPU seconds)."""
+    from puppet.batch import dressroom
+    from puppet.room.model import load_mannequin
+
+    c0 = time.process_time()
+    body = load_mannequin(mannequin)
+    c1 = time.process_time()
+    scenes = sorted(os.path.join(out, "garments", n) for n in os.listdir(os.path.join(out, "garments"))
+                    if n.endswith(".json"))
+    h, w = body.shape[:2]
+    worn, _ = dressroom.garments(scenes, (w, h), mannequin, lambda line: None)
+    c2 = time.process_time()
+    dressroom.make_room(out, body, mannequin, scenes, inputs=[])
+    c3 = time.process_time()
+    print(f"\nroom parts (CPU s, this process): mannequin {c1 - c0:.2f}; {len(scenes)} garments drawn "
+          f"{c2 - c1:.2f} ({(c2 - c1) / max(len(scenes), 1):.3f} each); garments drawn + page written "
+          f"{c3 - c2:.2f}; load {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,182 @@
+"""``puppet batch --template ... --dressroom MANNEQUIN``: each matched picture becomes a
+garment on the template's canvas and the batch writes ``OUT_DIR/room/``."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from puppet.batch import command as C
+from puppet.batch.template import cached
+from puppet.batch.runner import run_batch
+from puppet.cli import build_parser
+from puppet.errors import SceneError
+from puppet.room.model import load_garment
+from tests.batch import garments as G
+from tests.batch.conftest import temporaries
+from tests.conftest import ROOT
+
+ROOMS = os.path.join(ROOT, "assets", "scenes", "room")
+TEMPLATE = os.path.join(ROOMS, "t-shirt.json")  # a room garment: canvas 700x720, pose fit, category top
+SHIRT = os.path.join(ROOMS, "t-shirt.png")
+CANVAS = (700, 720)
+
+
+def mannequin(path, size=CANVAS) -> str:
+    m = np.zeros((size[1], size[0], 4), np.uint8)
+    m[..., :3], m[..., 3] = (84, 150, 200), 255
+    m[150:700, 300:400, :3] = (230, 190, 160)
+    Image.fromarray(m).save(path)
+    return str(path)
+
+
+def room_meta(folder) -> dict:
+    text = open(os.path.join(folder, "index.html"), encoding="utf-8").read()
+    return json.loads(re.search(r'<script id="room-meta" type="application/json">(.*?)</script>', text, re.S)[1])
+
+
+def on_canvas(folder, entry) -> np.ndarray:
+    """A garment of the room's page, as the page places it on the mannequin's canvas."""
+    out = np.zeros((CANVAS[1], CANVAS[0], 4), np.uint8)
+    (x, y), (w, h) = entry["at"], entry["size"]
+    out[y:y + h, x:x + w] = np.asarray(Image.open(os.path.join(folder, entry["image"])).convert("RGBA"))
+    return out
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = a[..., 3] > 0, b[..., 3] > 0
+    return float((a & b).sum() / (a | b).sum())
+
+
+def batch(client, argv: list[str]) -> dict:
+    """``puppet batch ARGV`` as the command runs it, on the shared test cluster."""
+    args = build_parser().parse_args(["batch", *argv])
+    out_dir = os.path.realpath(args.output)
+    jobs = C._jobs(args, out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    return run_batch(jobs, out_dir, client=client, resume=args.resume, finale=C._finale(args, out_dir, print),
+                     **C._reads(args))
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_the_batch_writes_the_room_of_the_matched_garments(cluster2, tmp_path):
+    imgs = tmp_path / "imgs"
+    imgs.mkdir()
+    sims = {"big": G.similar_copy(SHIRT, imgs / "big.png", scale=1.3, angle=20.0, shift=(120, 10), size=(600, 560)),
+            "small": G.similar_copy(SHIRT, imgs / "small.png", scale=0.8, angle=-12.0, shift=(30, 60),
+                                    size=(340, 330))}
+    G.circle(imgs / "round.png")
+    man = mannequin(tmp_path / "mannequin.png")
+    out = tmp_path / "out"
+    argv = ["--template", TEMPLATE, "--images", str(imgs), "--pose", "fit", "-o", str(out), "--dressroom", man]
+    summary = batch(cluster2, argv)
+    assert summary["counts"] == {"done": 2, "failed": 0, "no-match": 1, "skipped": 0, "not-run": 0}
+    report = json.loads((out / "report.json").read_text())
+    assert report["room"] == {"folder": "room/", "garments": ["big", "small"], "refused": []}
+    assert {j["output"]: j.get("garment") for j in report["jobs"]} == {
+        "big.png": "garments/big.json", "small.png": "garments/small.json", "round.png": "garments/round.json"}
+    assert sorted(os.listdir(out / "garments")) == ["big.json", "big.png", "small.json", "small.png"]
+    meta = room_meta(out / "room")
+    assert [g["name"] for g in meta["garments"]] == ["big", "small"] and meta["canvas"] == list(CANVAS)
+    template = load_garment(TEMPLATE, CANVAS, man)  # the template's own fit, on the mannequin
+    for entry in meta["garments"]:
+        scene = json.loads((out / "garments" / f"{entry['name']}.json").read_text())
+        assert scene["canvas"] == list(CANVAS) and scene["garment"] == {"name": entry["name"], "category": "top"}
+        assert scene["layers"][0]["mask"] == "alpha" and set(scene["poses"]) == {"fit"}
+        picture = imgs / f"{entry['name']}.png"
+        r = cached(TEMPLATE).transfer(str(picture))  # what the job transferred: pins and targets mapped back
+        assert abs(r.similarity.a - sims[entry["name"]][0]) < 0.01
+        assert [p["name"] for p in scene["pins"]] == [p["name"] for p in r.scene["pins"]]
+        assert np.allclose(r.similarity.apply([p["at"] for p in scene["pins"]]),
+                           [p["at"] for p in r.scene["pins"]], atol=0.01)
+        fit = {k: t["to"] if isinstance(t, dict) else t for k, t in scene["poses"]["fit"].items()}
+        want = {k: t["to"] if isinstance(t, dict) else t for k, t in r.scene["poses"]["fit"].items()}
+        assert np.allclose(r.similarity.apply([fit[k] for k in want]), list(want.values()), atol=0.01)
+        drawn = on_canvas(out / "room", entry)
+        g = load_garment(str(out / "garments" / f"{entry['name']}.json"), CANVAS, man)
+        assert np.array_equal(drawn[..., 3] > 0, g.rgba[..., 3] > 0)  # the page shows the garment scene's render
+        assert iou(drawn, template.rgba) > 0.9, entry["name"]
+    # the batch's own outputs are what template mode renders without --dressroom
+    plain = tmp_path / "plain"
+    batch(cluster2, argv[:6] + ["-o", str(plain)])
+    for name in ("big.png", "small.png"):
+        assert (plain / name).read_bytes() == (out / name).read_bytes()
+    assert not (plain / "room").exists() and not (plain / "garments").exists()
+    assert "room" not in json.loads((plain / "report.json").read_text())
+    # --resume: every job up to date, the room written again from the garments on disk
+    old = (out / "room" / "index.html").read_bytes()
+    summary = batch(cluster2, argv + ["--resume"])
+    assert summary["counts"]["skipped"] == 2 and summary["counts"]["done"] == 0
+    assert (out / "room" / "index.html").read_bytes() == old
+    assert temporaries(out) == []
+    (out / "garments" / "small.json").unlink()  # a garment gone: its job is not up to date
+    summary = batch(cluster2, argv + ["--resume"])
+    assert summary["counts"]["skipped"] == 1 and summary["counts"]["done"] == 1
+    assert (out / "room" / "index.html").read_bytes() == old
+    # a room holding what the batch did not write is never replaced: refused before any job runs
+    (out / "room" / "notes.txt").write_text("mine")
+    before = (out / "report.json").read_bytes()
+    with pytest.raises(SceneError, match=r"room: cannot write: the folder holds other files than what puppet "
+                                         r"wrote there \(e.g. 'notes.txt'\)"):
+        batch(cluster2, argv)
+    assert (out / "room" / "notes.txt").read_text() == "mine" and (out / "report.json").read_bytes() == before
+
+
+def test_dressroom_refusals(tmp_path):
+    """Refused before any job runs; one CLI run for the exit status and that nothing is written."""
+    imgs = tmp_path / "imgs"
+    imgs.mkdir()
+    G.similar_copy(SHIRT, imgs / "a.png", scale=1.0, angle=0.0, shift=(0, 0), size=(320, 300))
+    out = tmp_path / "out"
+    small = mannequin(tmp_path / "small.png", size=(600, 720))
+    base = ["--template", TEMPLATE, "--images", imgs, "--pose", "fit", "-o", out]
+    cases = [
+        ([imgs, "-o", out, "--dressroom", small], "--dressroom is for template mode (with --template)"),
+        (base + ["--dressroom", tmp_path / "none.png"], "none.png: --dressroom: no such file"),
+        (base + ["--dressroom", SHIRT], "--dressroom: the mannequin is 307x"),
+    ]
+    for argv, want in cases:
+        args = build_parser().parse_args(["batch", *map(str, argv)])
+        with pytest.raises(SceneError) as e:
+            C._jobs(args, str(out))
+        assert want in str(e.value) and len(str(e.value).splitlines()) == 1
+    clash = tmp_path / "clash"  # a garment the batch would write is one of its pictures
+    (clash / "garments").mkdir(parents=True)
+    G.similar_copy(SHIRT, clash / "garments" / "a.png", scale=1.0, angle=0.0, shift=(0, 0), size=(320, 300))
+    args = build_parser().parse_args(["batch", "--template", TEMPLATE, "--images", str(clash / "garments"), "--pose",
+                                      "fit", "-o", str(clash), "--dressroom", mannequin(tmp_path / "m.png")])
+    with pytest.raises(SceneError, match="job 0: output 'garments/a.png' would replace"):
+        run_batch(C._jobs(args, str(clash)), str(clash), client=object(), **C._reads(args))
+    assert sorted(os.listdir(clash)) == ["garments"] and os.listdir(clash / "garments") == ["a.png"]
+    r = subprocess.run([sys.executable, "-m", "puppet", "batch", *map(str, base + ["--dressroom", small])], cwd=ROOT,
+                       capture_output=True, text=True, timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and "the mannequin is 600x720, the template's canvas 700x720" \
+        in lines[0], r.stderr
+    assert not out.exists()
+
+
+@pytest.mark.gl
+def test_a_garment_the_room_refuses_is_left_out_and_said(tmp_path):
+    from puppet.batch.dressroom import make_room
+    from tests.room import art
+
+    man, (shirt, jeans) = art.room_files(tmp_path, names=("shirt", "jeans"))
+    twin = tmp_path / "twin.json"
+    twin.write_text(json.dumps(dict(json.load(open(shirt)), garment={"name": "shirt"})))  # a second "shirt"
+    said = []
+    body = np.asarray(Image.open(man).convert("RGBA"))
+    out = make_room(str(tmp_path), body, man, [shirt, str(twin), jeans, str(tmp_path / "gone.json")], inputs=[],
+                    say=said.append)
+    assert out["garments"] == ["jeans", "shirt"]  # in draw order: bottom, top
+    assert [r["garment"] for r in out["refused"]] == [str(twin), str(tmp_path / "gone.json")]
+    assert "garment name 'shirt' is also the name of" in out["refused"][0]["error"]
+    assert len(said) == 2 and all(s.startswith("puppet batch: dressroom: left out: ") for s in said)
+    assert [g["name"] for g in room_meta(tmp_path / "room")["garments"]] == ["jeans", "shirt"]
