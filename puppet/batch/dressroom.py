@@ -25,7 +25,6 @@ from __future__ import annotations
 import copy
 import json
 import os
-import re
 
 import cv2
 import numpy as np
@@ -35,7 +34,7 @@ from puppet.errors import SceneError
 from puppet.geom.outline_match import Similarity
 from puppet.output import check_folder, save_png, write_folder, write_text
 from puppet.room.model import FIT_POSE, Room, draw_order, load_garment
-from puppet.room.page import PICTURES, write_room_folder
+from puppet.room.page import PICTURE_NAME, PICTURES, write_room_folder
 
 #: Folder of OUT_DIR holding the room (index.html, pictures/).
 ROOM = "room"
@@ -168,11 +167,8 @@ def _room_entry(folder: str, name: str) -> bool:
         return os.path.isfile(path) and not os.path.islink(path)
     if name != PICTURES or os.path.islink(path) or not os.path.isdir(path):
         return False
-    return all(_PICTURE.fullmatch(n) and os.path.isfile(os.path.join(path, n))
+    return all(PICTURE_NAME.fullmatch(n) and os.path.isfile(os.path.join(path, n))
                and not os.path.islink(os.path.join(path, n)) for n in os.listdir(path))
-
-
-_PICTURE = re.compile(r"mannequin\.png|\d{4,}(-depth|-thumb)?\.png")
 
 
 def check_room_folder(folder: str, inputs) -> None:

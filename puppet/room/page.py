@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import html
 import os
+import re
 from importlib import resources
 
 import numpy as np
@@ -38,6 +39,8 @@ THUMB = 144
 #: Thumbnails a side of a thumbnail sheet (a sheet holds SHEET x SHEET of them).
 SHEET = 8
 PICTURES = "pictures"
+#: The names :func:`write_room_folder` gives the files of ``pictures/``.
+PICTURE_NAME = re.compile(r"mannequin\.png|\d{4,}(-depth)?\.png|thumbs-\d{3,}\.png")
 
 
 def crop_box(alpha: np.ndarray) -> tuple[int, int, int, int]:

@@ -9,13 +9,12 @@ from imgui_bundle import imgui
 
 from puppet.anim import formats
 from puppet.app.model.exporter import Export
-from puppet.app.ui.widgets import button, note
+from puppet.app.ui.widgets import button, close_button, message, note
 
 TITLE = "Export animation"
 FORMATS = formats.describe()
 WIDTH = 440
 BACKGROUNDS = ("scene", "transparent")
-ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
 
 
 class ExportForm:
@@ -107,12 +106,7 @@ def draw(app) -> None:
         if busy:
             imgui.text_disabled(run.eta() or "solving the first frames...")
         elif run.message:
-            imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + WIDTH)
-            if run.state == "failed":
-                imgui.text_colored(ERROR, run.message)
-            else:
-                imgui.text(run.message)
-            imgui.pop_text_wrap_pos()
+            message(run.message, run.state == "failed", WIDTH)
     if not busy and run.message and f.reported is not run:  # the status line says how it ended
         f.reported = run
         app.say(run.message, "error" if run.state == "failed" else "info")
@@ -122,10 +116,6 @@ def draw(app) -> None:
             run.start(app, f.path.strip(), **f.options())
             app.say(f"exporting to {run.output}...")
         imgui.same_line()
-        if button("Close", "close this dialog (Esc)") or imgui.is_key_pressed(imgui.Key.escape):
-            if run.message:
-                app.say(run.message, "error" if run.state == "failed" else "info")
-            app.dialog = None
-            imgui.close_current_popup()
+        close_button(app, "Close", run.message, run.state == "failed")
     elif button("Cancel", "stop the export (nothing is written)"):
         run.cancel()

@@ -8,12 +8,11 @@ from __future__ import annotations
 from imgui_bundle import imgui
 
 from puppet.app.model import retarget as rt
-from puppet.app.ui.widgets import button, note
+from puppet.app.ui.widgets import button, close_button, message, note
 from puppet.motion.retarget import SCALES
 
 TITLE = "Retarget motion"
 WIDTH = 440
-ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
 
 
 def open_dialog(app) -> None:
@@ -54,9 +53,7 @@ def draw(app) -> None:
     if (changed_p or changed_s or changed_i) and f.motion is not None:
         rt.read(app, f)  # the map depends on the projection
     if f.error:
-        imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + WIDTH)
-        imgui.text_colored(ERROR, f.error)
-        imgui.pop_text_wrap_pos()
+        message(f.error, True, WIDTH)
         note("retarget:error")
     if f.motion is not None:
         m = f.motion
@@ -81,6 +78,4 @@ def draw(app) -> None:
             imgui.close_current_popup()
             return
     imgui.same_line()
-    if button("Close##retarget", "close this dialog (Esc)") or imgui.is_key_pressed(imgui.Key.escape):
-        app.dialog = None
-        imgui.close_current_popup()
+    close_button(app, "Close##retarget")

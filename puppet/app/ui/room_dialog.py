@@ -9,11 +9,10 @@ import os
 from imgui_bundle import imgui
 
 from puppet.app.model import room_export
-from puppet.app.ui.widgets import button, note
+from puppet.app.ui.widgets import button, close_button, message, note
 
 TITLE = "Export dressing room"
 WIDTH = 440
-ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
 
 
 def open_dialog(app) -> None:
@@ -62,20 +61,11 @@ def draw(app) -> None:
     note("room:output")
     imgui.end_disabled()
     if f.message:
-        imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + WIDTH)
-        if f.state == "failed":
-            imgui.text_colored(ERROR, f.message)
-        else:
-            imgui.text(f.message)
-        imgui.pop_text_wrap_pos()
+        message(f.message, f.state == "failed", WIDTH)
     if f.running:
         imgui.text_disabled("writing the room (each garment drawn at its fit)...")
     elif button("Export##room", "write the dressing room's page", enabled=bool(f.garments and f.output.strip())):
         f.start(app)
         app.say(f"writing the dressing room to {f.output.strip()}...")
     imgui.same_line()
-    if button("Close##room", "close this dialog (Esc)") or imgui.is_key_pressed(imgui.Key.escape):
-        if f.message:
-            app.say(f.message, "error" if f.state == "failed" else "info")
-        app.dialog = None
-        imgui.close_current_popup()
+    close_button(app, "Close##room", f.message, f.state == "failed")

@@ -28,6 +28,32 @@ def button(label: str, tip: str, enabled: bool = True, small: bool = False) -> b
     return clicked and enabled
 
 
+#: a dialog's error text colour
+ERROR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
+
+
+def message(text: str, failed: bool, width: float) -> None:
+    """A dialog's wrapped message line(s), in :data:`ERROR` red when ``failed``."""
+    imgui.push_text_wrap_pos(imgui.get_cursor_pos_x() + width)
+    if failed:
+        imgui.text_colored(ERROR, text)
+    else:
+        imgui.text(text)
+    imgui.pop_text_wrap_pos()
+
+
+def close_button(app, label: str = "Close", said: str = "", failed: bool = False) -> bool:
+    """A dialog's Close button (or Esc): the dialog closes and the status line repeats
+    ``said`` (how its run ended, red when ``failed``); True when it closed."""
+    if not (button(label, "close this dialog (Esc)") or imgui.is_key_pressed(imgui.Key.escape)):
+        return False
+    if said:
+        app.say(said, "error" if failed else "info")
+    app.dialog = None
+    imgui.close_current_popup()
+    return True
+
+
 def toggle(label: str, value: bool, tip: str) -> bool:
     """A checkbox with a tooltip; returns the new value."""
     _, value = imgui.checkbox(label, value)

@@ -7,7 +7,8 @@ that pose would be) are interpolated as rigidly as possible
 (:mod:`puppet.deform.interp`) with the later key's ease; pins that stay put between the
 two keys are held, the others move with the shape; triangles the least-squares fit
 leaves folded are relaxed as in a solved pose (``deformer.relax_foldovers``). At key times both modes give the key's
-solved mesh exactly (but for groups with a physics chain, solved from each frame's pins). The pin depth follows its track in both modes. A caged layer's
+solved mesh exactly (but for groups with a physics chain, solved from each frame's pins).
+The pin depth follows its track in both modes. A caged layer's
 ``rigid`` in-between is its two key cages blended vertex by vertex (its mesh is the cage
 map of that cage, so it moves on straight lines between the keys' meshes).
 """
