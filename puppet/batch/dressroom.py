@@ -29,7 +29,7 @@ import os
 import cv2
 import numpy as np
 
-from puppet.batch.template import NUDGE, Transfer, _on_mask
+from puppet.batch.template import NUDGE, Transfer, on_mask
 from puppet.errors import SceneError
 from puppet.geom.outline_match import Similarity
 from puppet.output import check_folder, save_png, write_folder, write_text
@@ -134,7 +134,7 @@ def _pins(pins: list[dict], S: Similarity, mask: np.ndarray, at) -> list[dict]:
     for p in pins:
         x = _back(S, p["at"])
         if p.get("kind", "interior") != "exterior":
-            y, far = _on_mask(mask, x - off)
+            y, far = on_mask(mask, x - off)
             if far > NUDGE:
                 raise SceneError(f"pin {p['name']!r} lands off the resampled garment")
             x = y + off

@@ -269,7 +269,7 @@ class Template:
         raw_pins = {p["name"]: p for p in self.raw.get("pins", [])}
         for p, y in zip(self.pins, Y):
             if p.kind != "exterior":
-                y, far = _on_mask(mask, y)
+                y, far = on_mask(mask, y)
                 if far > 0:
                     if far > NUDGE:
                         how = f"{far:.1f} px" if np.isfinite(far) else f"more than {NUDGE + 2:g} px"
@@ -370,7 +370,7 @@ def _target(y: np.ndarray, S: Similarity, d: np.ndarray) -> list[float]:
     return [round(float(q[0]), 3), round(float(q[1]), 3)]
 
 
-def _on_mask(mask: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
+def on_mask(mask: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
     """``y`` if its pixel is a mask pixel (distance 0), else the centre of the nearest
     mask pixel and how far that is."""
     h, w = mask.shape

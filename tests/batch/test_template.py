@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from puppet.api import Scene
-from puppet.batch.template import NUDGE, NoMatch, Template, _on_mask, transfer
+from puppet.batch.template import NUDGE, NoMatch, Template, on_mask, transfer
 from puppet.errors import ImageError, SceneError
 from puppet.scene.format.load import load_scene_data
 from tests.batch import garments as G
@@ -227,11 +227,11 @@ def test_unreadable_picture_is_an_image_error_not_a_mismatch(tmp_path, tshirt):
 def test_on_mask_nudges_by_hand():
     m = np.zeros((10, 10), bool)
     m[4:6, 4:6] = True
-    y, d = _on_mask(m, np.array([4.2, 5.9]))  # pixel (5, 4) is a mask pixel
+    y, d = on_mask(m, np.array([4.2, 5.9]))  # pixel (5, 4) is a mask pixel
     assert d == 0.0 and np.array_equal(y, [4.2, 5.9])
-    y, d = _on_mask(m, np.array([7.5, 5.5]))  # two pixels right of the block
+    y, d = on_mask(m, np.array([7.5, 5.5]))  # two pixels right of the block
     assert np.allclose(y, [5.5, 5.5]) and d == pytest.approx(2.0)
-    _, d = _on_mask(m, np.array([9.9, 0.1]))
+    _, d = on_mask(m, np.array([9.9, 0.1]))
     assert d > NUDGE
 
 
