@@ -16,6 +16,7 @@ printed: the machine is shared.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import tempfile
@@ -33,11 +34,11 @@ from tests.batch import garments as G  # noqa: E402
 ROOM = os.path.join(ROOT, "assets", "scenes", "room")
 
 
-def pictures(n: int, folder: str) -> str:
+def pictures(n: int, folder: str, scales=(0.9, 1.6)) -> str:
     rng = np.random.default_rng(11)
     os.makedirs(folder, exist_ok=True)
     for i in range(n):
-        scale = rng.uniform(0.9, 1.6)
+        scale = rng.uniform(*scales)
         size = int(307 * scale * 1.35)  # the 307 px shirt turned, with a margin
         a = scale * np.exp(1j * np.radians(rng.uniform(-20, 20)))
         b = complex(size / 2, size / 2) - a * complex(153.5, 153.5)  # the shirt's centre at the picture's
@@ -47,7 +48,9 @@ def pictures(n: int, folder: str) -> str:
 
 
 def one(client, argv: list[str]) -> tuple[float, float, dict]:
-    """Wall and CPU seconds of ``puppet batch ARGV`` as the command runs it, on ``client``."""
+    """Wall and CPU seconds of ``puppet batch ARGV`` as the command runs it, on ``client``;
+    and its parts: ``checks`` (the jobs made, with --dressroom the mannequin drawn), ``room``
+    (the room written at the end), ``job`` (the jobs' mean seconds on their workers)."""
     from puppet.batch import command as C
     from puppet.batch.runner import run_batch
     from puppet.cli import build_parser
@@ -57,12 +60,23 @@ def one(client, argv: list[str]) -> tuple[float, float, dict]:
     args = build_parser().parse_args(["batch", *argv])
     out = os.path.realpath(args.output)
     jobs = C._jobs(args, out)
+    parts = {"checks": time.perf_counter() - t0, "room": 0.0}
     os.makedirs(out, exist_ok=True)
-    s = run_batch(jobs, out, client=client, finale=C._finale(args, out, lambda line: None), **C._reads(args))
+    finale = C._finale(args, out, lambda line: None)
+
+    def timed(batch):
+        t = time.perf_counter()
+        try:
+            return finale(batch)
+        finally:
+            parts["room"] = time.perf_counter() - t
+    s = run_batch(jobs, out, client=client, finale=timed if finale else None, **C._reads(args))
     t, c = time.perf_counter() - t0, time.process_time() - c0
     w1 = client.run(time.process_time)
     assert s["counts"]["done"] == len(jobs), s["counts"]
-    return t, c + sum(w1[k] - w0[k] for k in w1 if k in w0), s
+    with open(os.path.join(out, "report.json")) as f:
+        parts["job"] = float(np.mean([j["seconds"] for j in json.load(f)["jobs"]]))
+    return t, c + sum(w1[k] - w0[k] for k in w1 if k in w0), parts
 
 
 def main() -> None:
@@ -70,6 +84,8 @@ def main() -> None:
     ap.add_argument("--pictures", type=int, default=16)
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--scale", default="0.9,1.6", help="the pictures' scales of the 307 px shirt, LO,HI "
+                    "(3,5: catalogue photos of 1100 to 2100 px)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="bench-room-") as tmp:
         run(args, tmp)
@@ -79,10 +95,11 @@ def run(args, tmp: str) -> None:
     from puppet.batch import work
     from puppet.batch.cluster import connect
 
-    imgs = pictures(args.pictures, os.path.join(tmp, "imgs"))
+    imgs = pictures(args.pictures, os.path.join(tmp, "imgs"), tuple(float(v) for v in args.scale.split(",")))
     base = ["--template", os.path.join(ROOM, "t-shirt.json"), "--images", imgs, "--pose", "fit"]
     mannequin = os.path.join(ROOM, "mannequin.json")
-    print(f"{args.pictures} pictures, {args.workers} workers; load before: {os.getloadavg()[0]:.2f}")
+    print(f"{args.pictures} pictures (scale {args.scale}), {args.workers} workers; load before: "
+          f"{os.getloadavg()[0]:.2f}")
     rows = []
     with connect(workers=args.workers) as (client, _):
         client.wait_for_workers(args.workers)
@@ -96,6 +113,9 @@ def run(args, tmp: str) -> None:
             print(f"round {r}: without {plain[0]:6.2f} s wall {plain[1]:6.2f} s CPU | with --dressroom "
                   f"{room[0]:6.2f} s wall {room[1]:6.2f} s CPU | +{100 * (room[0] / plain[0] - 1):5.1f} % wall, "
                   f"+{100 * (room[1] / plain[1] - 1):5.1f} % CPU; load {os.getloadavg()[0]:.2f}")
+            print(f"         a job on its worker {1e3 * plain[2]['job']:.0f} ms without, {1e3 * room[2]['job']:.0f} ms "
+                  f"with (+{100 * (room[2]['job'] / plain[2]['job'] - 1):.1f} %); with: checks and mannequin "
+                  f"{room[2]['checks']:.2f} s, room written {room[2]['room']:.2f} s")
     p = np.array([[a[0], a[1]] for a, _ in rows])
     q = np.array([[b[0], b[1]] for _, b in rows])
     print(f"\n| | wall s | CPU s |\n|---|---|---|\n| without | {p[:, 0].mean():.2f} | {p[:, 1].mean():.2f} |\n"

@@ -82,16 +82,32 @@ class Scene(Document):
     @ck.checked(layers=posed_layers, size=ck.optional(ck.size), wireframe=ck.flag,
                 background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE), preview=ck.flag)
     def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None,
-                    reduce: int = 1, preview: bool = False) -> np.ndarray:
+                    reduce: int = 1, preview: bool = False, canvas: tuple[int, int] | None = None) -> np.ndarray:
         """Composite already posed layers (:meth:`layers` results) into an RGBA array, over
         ``background`` (an RGBA colour or an (H, W, 4) uint8 image; default: the scene's).
+        ``canvas`` (W, H): the frame the layers' ``deformed`` positions are given in, if not
+        the scene's canvas (layers moved onto another picture's canvas, or into a box of
+        it; drawn at ``size`` or that size).
         ``reduce`` > 1 draws from layer images shrunk that many times (drag previews of
         big pictures: far fewer texels to sample; the frame is not exact). ``preview`` blends
         the soft edges unsorted (a drag preview: one cheap pass, not exact; see
         :meth:`~puppet.render.compositor.Compositor.render`)."""
+        draw = self._draw_list(layers, reduce)
+        background = self.background() if background is None else background
+        frame = tuple(canvas) if canvas is not None else self.canvas
+        self._check_drawable(size or frame, background)
+        if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
+            names = [L.name for L in self.data.layers]
+            self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
+        return self.compositor.render(draw, frame, size=size,
+                                      background=background,
+                                      wireframe=wireframe, preview=preview)
+
+    def _draw_list(self, layers, reduce: int = 1) -> list:
+        """The compositor's DrawLayers of the visible ``layers`` (a hidden layer is posed, not drawn)."""
         from puppet.render.layers import DrawLayer  # lazy: drawing only (mesh and check draw nothing)
 
-        shown = [k for k, L in enumerate(self.data.layers) if L.visible]  # a hidden layer is posed, not drawn
+        shown = [k for k, L in enumerate(self.data.layers) if L.visible]
         images, keys = self.built.images, self.built.image_keys
         draw = [DrawLayer(key=layers[k].name, image=images[k].drawn[0], offset=images[k].drawn[1],
                           rest=layers[k].rest, deformed=layers[k].deformed, triangles=layers[k].triangles,
@@ -99,15 +115,18 @@ class Scene(Document):
                           classes=self._triangle_classes(layers[k], images[k].drawn, keys[k]) if reduce == 1 else None)
                 for k in shown]
         if reduce > 1:
-            draw = [self._reduced(L, self.built.image_keys[k], reduce) for L, k in zip(draw, shown)]
-        background = self.background() if background is None else background
-        self._check_drawable(size or self.canvas, background)
-        if self._own_compositor:  # layers renamed or removed since: their textures go (a shared one is the caller's)
-            names = [L.name for L in self.data.layers]
-            self._compositor.retain(names + [n + PREVIEW_KEY for n in names])
-        return self.compositor.render(draw, self.canvas, size=size,
-                                      background=background,
-                                      wireframe=wireframe, preview=preview)
+            draw = [self._reduced(L, keys[k], reduce) for L, k in zip(draw, shown)]
+        return draw
+
+    def pin_depth(self, layers, *, canvas: tuple[int, int] | None = None) -> np.ndarray:
+        """(H, W) float32 over the ``canvas`` (default: the scene's) of already posed
+        ``layers``: at each pixel centre, the depth the pins give the front-most visible
+        layer whose texture shows there (its interpolated vertex depth less its stacking
+        rank, :attr:`LayerResult.order`); NaN where none does
+        (:meth:`puppet.render.compositor.Compositor.pin_depth`)."""
+        draw = self._draw_list(layers)
+        ranks = [layers[k].order for k, L in enumerate(self.data.layers) if L.visible]
+        return self.compositor.pin_depth(draw, tuple(canvas) if canvas is not None else self.canvas, ranks)
 
     def _first_frame_size(self, size) -> tuple[int, int] | None:
         """The frame size of a render that can make the compositor and its targets while

@@ -23,17 +23,22 @@ refuses is left out and reported; the room itself is never a failed job.
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import os
+import zipfile
 
 import cv2
 import numpy as np
 
+from puppet.batch.jobs import DRAWN
 from puppet.batch.template import NUDGE, Transfer, on_mask
 from puppet.errors import SceneError
 from puppet.geom.outline_match import Similarity
-from puppet.output import check_folder, save_png, write_folder, write_text
-from puppet.room.model import FIT_POSE, Room, draw_order, load_garment
+from puppet.output import atomic_write, check_folder, encode_png, write_bytes, write_folder, write_text
+from puppet.room import page
+from puppet.room.depth import depth_rgba
+from puppet.room.model import FIT_POSE, Garment, Room, draw_garment, draw_order, load_garment
 from puppet.room.page import PICTURE_NAME, PICTURES, write_room_folder
 
 #: Folder of OUT_DIR holding the room (index.html, pictures/).
@@ -70,17 +75,21 @@ def resample(rgba: np.ndarray, mask: np.ndarray, S: Similarity, canvas) -> tuple
     x1, y1 = min(int(np.ceil(box[:, 0].max())) + 1, W), min(int(np.ceil(box[:, 1].max())) + 1, H)
     if x1 <= x0 or y1 <= y0:
         raise SceneError(f"the garment lands outside the template's {W}x{H} canvas")
-    a = rgba.astype(np.float32)
-    a[..., 3] = np.where(mask, a[..., 3], 0.0)
-    a[..., :3] *= a[..., 3:] / 255.0
+    # only the mask's box (and a pixel round it, which bilinear samples reach) is read
+    bx0, by0 = max(int(xs.min()) - 1, 0), max(int(ys.min()) - 1, 0)
+    bx1, by1 = min(int(xs.max()) + 2, rgba.shape[1]), min(int(ys.max()) + 2, rgba.shape[0])
+    a = rgba[by0:by1, bx0:bx1].astype(np.float32)
+    a[..., 3] *= mask[by0:by1, bx0:bx1]
+    a[..., :3] *= a[..., 3:] * np.float32(1 / 255)
     c = 0.5 + 0.5j  # cv2 samples at integer indices: pixel centres
-    t = S.a * (complex(x0, y0) + c) + S.b - c  # crop index p -> picture index S.a p + t
+    t = S.a * (complex(x0, y0) + c) + S.b - c - complex(bx0, by0)  # crop index p -> box index S.a p + t
     M = np.array([[S.a.real, -S.a.imag, t.real], [S.a.imag, S.a.real, t.imag]])
     out = cv2.warpAffine(a, M, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                          borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
     alpha = out[..., 3:]
-    rgb = np.divide(out[..., :3] * 255.0, alpha, out=np.zeros_like(out[..., :3]), where=alpha > 0)
-    crop = np.rint(np.concatenate([rgb, alpha], axis=2)).clip(0, 255).astype(np.uint8)
+    out[..., :3] *= np.divide(np.float32(255), alpha, out=np.zeros_like(alpha), where=alpha > 0)
+    np.rint(out, out=out)
+    crop = np.clip(out, 0, 255, out=out).astype(np.uint8)
     return crop, (x0, y0)
 
 
@@ -142,21 +151,92 @@ def _pins(pins: list[dict], S: Similarity, mask: np.ndarray, at) -> list[dict]:
     return out
 
 
-def write_garment(job: dict, tr: Transfer, *, inputs) -> None:
-    """Write the room garment of a matched template job (``job["room"]``: its ``scene``
-    and ``picture`` paths, the template's ``canvas`` and ``category``): the picture, then
-    the scene (a scene is there only with its picture; the job is done once both are)."""
+def write_garment(job: dict, tr: Transfer, scene, layers, *, inputs) -> None:
+    """Write the room garment of a matched template job (``job["room"]``: its ``scene``,
+    ``picture`` and ``drawn`` paths, the template's ``canvas`` and ``category``): the
+    picture, the scene, then the room's pictures drawn from the job's own posed
+    ``layers`` of ``scene`` (:func:`write_drawn`). A scene is there only with its picture;
+    the job is done once all three are."""
     room = job["room"]
     crop, at = resample(tr.picture, tr.mask, tr.similarity, room["canvas"])
+    name = os.path.splitext(job["rel"])[0]
     doc = garment_doc(tr, job["pose"], os.path.basename(room["picture"]), crop, at, canvas=room["canvas"],
-                      name=os.path.splitext(job["rel"])[0], category=room["category"])
+                      name=name, category=room["category"])
     folder = os.path.dirname(room["scene"])
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as e:
         raise SceneError(f"cannot create the folder: {e.strerror or e}", file=folder) from None
-    save_png(room["picture"], crop, inputs=inputs)
-    write_text(room["scene"], json.dumps(doc, indent=1) + "\n", inputs=inputs)
+    picture = encode_png(crop)
+    text = json.dumps(doc, indent=1) + "\n"
+    write_bytes(room["picture"], picture, inputs=inputs)
+    write_text(room["scene"], text, inputs=inputs)
+    write_drawn(room["drawn"], scene, layers, tr.similarity, room["canvas"], inputs=inputs,
+                meta={"name": name, "category": room["category"], "order": 0.0,
+                      "scene": _digest(text.encode("utf-8")), "picture": _digest(picture)})
+
+
+#: The members of a garment's ``STEM.room.zip`` (:func:`write_drawn`).
+MEMBERS = ("meta.json", "picture.png", "depth.png", "thumb.png")
+
+
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def write_drawn(path: str, scene, layers, S: Similarity, canvas, *, meta: dict, inputs) -> None:
+    """``STEM.room.zip``: the garment's room pictures (its picture and depth image as the
+    room's page shows them, and its thumbnail) drawn from the job's posed ``layers``
+    moved onto the template's canvas by ``S^-1``, with ``meta.json`` (the garment's
+    name, category, order, its box's corner ``at`` and ``size``, and the SHA-256 of the
+    garment scene and picture it belongs to: the room uses the pictures only while those
+    files are unchanged). Stored (not compressed: the PNGs are)."""
+    rgba, depth, at = draw_garment(scene, layers, tuple(canvas), transform=lambda P: _back(S, P))
+    meta = dict(meta, at=[int(at[0]), int(at[1])], size=[int(rgba.shape[1]), int(rgba.shape[0])])
+    parts = (json.dumps(meta).encode("utf-8"), page.encode(rgba), page.encode(depth_rgba(depth)),
+             page.encode(page.thumbnail(rgba)))
+
+    def write(tmp: str) -> None:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as z:
+            for name, data in zip(MEMBERS, parts):
+                z.writestr(name, data)
+    atomic_write(path, write, inputs=inputs)
+
+
+def read_drawn(scene_path: str) -> Garment | None:
+    """The garment a job drew for the room (``STEM.room.zip`` beside ``scene_path``), if
+    it is there, whole, and belongs to the garment scene and picture as they are now;
+    else None (the room draws the scene itself)."""
+    base = scene_path[:-len(".json")] if scene_path.endswith(".json") else scene_path
+    try:
+        with zipfile.ZipFile(base + DRAWN) as z:
+            meta, picture, depth, thumb = (z.read(n) for n in MEMBERS)
+        meta = json.loads(meta)
+        with open(scene_path, "rb") as f:
+            scene_text = f.read()
+        if meta["scene"] != _digest(scene_text):
+            return None
+        image = json.loads(scene_text)["layers"][0]["image"]
+        with open(os.path.join(os.path.dirname(scene_path), image), "rb") as f:
+            if meta["picture"] != _digest(f.read()):
+                return None
+        rgba, small = decode_png(picture), decode_png(thumb)
+        w, h = meta["size"]
+        if rgba.shape[:2] != (h, w):
+            return None
+        return Garment(name=meta["name"], category=meta["category"], order=float(meta["order"]), file=scene_path,
+                       rgba=rgba, depth=None, at=(int(meta["at"][0]), int(meta["at"][1])), png=(picture, depth),
+                       thumb=small)
+    except (OSError, KeyError, ValueError, TypeError, IndexError, zipfile.BadZipFile):
+        return None
+
+
+def decode_png(data: bytes) -> np.ndarray:
+    """PNG bytes as (h, w, 4) straight RGBA uint8; ValueError if they are not a picture."""
+    a = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if a is None or a.ndim != 3 or a.shape[2] != 4 or a.dtype != np.uint8:
+        raise ValueError("not an RGBA PNG")
+    return cv2.cvtColor(a, cv2.COLOR_BGRA2RGBA)
 
 
 def _room_entry(folder: str, name: str) -> bool:
@@ -183,7 +263,7 @@ def garments(room: list[str], canvas, mannequin: str, say) -> tuple[list, list[d
     loaded, refused, names = [], [], {}
     for path in room:
         try:
-            g = load_garment(path, canvas, mannequin)
+            g = read_drawn(path) or load_garment(path, canvas, mannequin)
             if g.name in names:
                 raise SceneError(f"garment name {g.name!r} is also the name of {names[g.name]}", file=path)
         except SceneError as e:

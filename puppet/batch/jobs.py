@@ -283,8 +283,8 @@ def template_jobs(template: str, images: str, pose: str, out_dir: str, defaults:
     to it and render ``pose``; outputs ``STEM.png`` (``STEM_EXT.png`` when two images share a stem).
 
     ``room`` (``--dressroom``: the template's ``canvas`` and garment ``category``): each
-    job also writes its garment, ``garments/STEM.json`` and ``garments/STEM.png``
-    (:mod:`puppet.batch.dressroom`)."""
+    job also writes its garment, ``garments/STEM.json`` and ``garments/STEM.png``, and
+    its room pictures, ``garments/STEM.room.zip`` (:mod:`puppet.batch.dressroom`)."""
     if not os.path.isdir(images):
         raise SceneError("--images: not a folder", file=images)
     names = sorted(n for n in os.listdir(images) if os.path.splitext(n)[1].lower() in IMAGE_EXTS
@@ -313,13 +313,18 @@ def _garment_paths(out_dir: str, rel: str, file: str) -> dict:
     stem = os.path.splitext(rel)[0]
     scene, rel_scene = resolve_output(out_dir, f"{GARMENTS}/{stem}.json", file, "output")
     picture, _ = resolve_output(out_dir, f"{GARMENTS}/{stem}.png", file, "output")
-    return {"scene": scene, "picture": picture, "rel": rel_scene}
+    drawn, _ = resolve_output(out_dir, f"{GARMENTS}/{stem}{DRAWN}", file, "output")
+    return {"scene": scene, "picture": picture, "drawn": drawn, "rel": rel_scene}
+
+
+#: Ending of the file holding a ``--dressroom`` garment's room pictures, drawn by its job.
+DRAWN = ".room.zip"
 
 
 def extra_outputs(job: dict) -> list[str]:
     """The files a job writes besides its output (a ``--dressroom`` garment), absolute."""
     room = job.get("room")
-    return [room["picture"], room["scene"]] if room else []
+    return [room["picture"], room["scene"], room["drawn"]] if room else []
 
 
 def describe(job: dict) -> dict:

@@ -167,7 +167,9 @@ def _make_parent(output: str) -> None:
         raise SceneError(f"cannot create the folder: {e.strerror or e}", file=parent) from None
 
 
-def _render(job: dict, scene, inputs) -> None:
+def _render(job: dict, scene, inputs):
+    """Draw and write the job's output; the posed layers of a pose, time or template job
+    (None for an animation)."""
     size = tuple(job["size"]) if job.get("size") else None
     for step in ("before", "after"):  # a folder on the way swapped for a symbolic link since the client checked
         why = unchanged_path(job["output"])
@@ -182,20 +184,22 @@ def _render(job: dict, scene, inputs) -> None:
         animate_to(_Budgeted(scene, job.get("budget")), job["output"], fps=a.get("fps"), start=a.get("from"),
                    end=a.get("to"), size=size, wireframe=job.get("wireframe", False),
                    workers=1)  # a batch worker keeps one solver: the batch runs one worker per core
-        return
+        return None
     with budget(job.get("budget"), "the solve"):
         layers = scene.layers(job.get("pose") if job["kind"] != "time" else None, job.get("time"))
     rgba = scene.draw_layers(layers, size=size, wireframe=job.get("wireframe", False))
     save_png(job["output"], rgba, inputs=inputs)
+    return layers
 
 
-def _room_garment(job: dict, tr, inputs) -> None:
-    """``--dressroom``: the matched picture's garment on the template's canvas (see
-    :mod:`puppet.batch.dressroom`); a failure is the job's."""
+def _room_garment(job: dict, tr, scene, layers, inputs) -> None:
+    """``--dressroom``: the matched picture's garment on the template's canvas, and its
+    room pictures drawn from the job's own ``layers`` (see :mod:`puppet.batch.dressroom`);
+    a failure is the job's."""
     from puppet.batch import dressroom  # lazy: numpy (see puppet/batch/__init__.py)
 
     try:
-        dressroom.write_garment(job, tr, inputs=inputs)
+        dressroom.write_garment(job, tr, scene, layers, inputs=inputs)
     except SceneError as e:
         raise SceneError(f"dressroom garment: {one_line(e)}") from None
 
@@ -223,9 +227,9 @@ def run_job(job: dict) -> dict:
                 hashed = inputs
         rec["inputs"] = inputs_digest(spec(job), hashed)
         scene.compositor = compositor()  # this thread's GL context (never the client's)
-        _render(job, scene, inputs)
+        layers = _render(job, scene, inputs)
         if job.get("room") and matched is not None:
-            _room_garment(job, matched, inputs)
+            _room_garment(job, matched, scene, layers, inputs)
     except (Exception, BudgetExceeded) as e:  # noqa: BLE001 - every failure is the job's; the batch goes on
         rec.update(status="failed", error=one_line(e))
         if type(e).__name__ == "NoMatch":

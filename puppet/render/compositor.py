@@ -57,8 +57,10 @@ import numpy as np
 from .context import GL_REQUIRE, create_context, is_current, unlocked_gl
 from .gpu import OWN, FrameTargets, LayerMesh
 from .layers import (ALPHA_MIN, ALPHA_OPAQUE, DrawLayer, check_background,  # noqa: F401
-                     check_layer, check_vertices, mesh_edges, premultiply, unpremultiply_soft)
+                     check_layer, check_vertices, depth_window, mesh_edges, premultiply,
+                     unpremultiply_soft)
 from .passes import K, MAX_FRAGMENTS, WIRE_COLOR, Draw, Passes  # noqa: F401
+from .programs import load_program, set_uniform
 
 #: Render targets kept (per output size, format and caller texture).
 KEEP_TARGETS = 3
@@ -119,6 +121,7 @@ class Compositor:
         self._meshes: dict[str, LayerMesh] = {}
         self._targets: dict[tuple, FrameTargets] = {}
         self._unlocked = unlocked_gl(self.ctx) if self._own_ctx else None  # big targets made without the GIL
+        self._depth_fbo: moderngl.Framebuffer | None = None  # pin_depth's target (its last size)
 
     # -- public -------------------------------------------------------------------
     def upload(self, layer: DrawLayer) -> None:
@@ -190,6 +193,50 @@ class Compositor:
                     break
             self._finish(previous)
             return out
+
+    def pin_depth(self, layers: Sequence[DrawLayer | str], canvas: tuple[int, int],
+                  ranks: Sequence[float]) -> np.ndarray:
+        """Per-pixel depth of the front-most layer: at each pixel centre of the ``canvas``
+        (drawn at its own size), the interpolated depth of the front-most triangle whose
+        texel under it (nearest) has alpha > 0, less that layer's ``ranks`` entry; NaN
+        where no layer shows. Front-most as in :meth:`render` (larger depth; at a tie the
+        later triangle, then the later layer). The CPU reference is
+        :func:`puppet.room.depth.layer_depth` with :func:`~puppet.room.depth.front_depth`
+        (before its growth).
+
+        Returns
+        -------
+        ndarray, shape (H, W), float32; row 0 = top.
+        """
+        w, h = _sizes(canvas, None)
+        with self._current():
+            previous = self.ctx.fbo
+            draws = self._prepare(layers)
+            program = load_program(self.ctx, "pindepth")
+            live = [(i, mesh, tex) for i, mesh, tex in draws if mesh.counts["opaque"]]
+            lo = min((m.lo for _, m, _ in live), default=0.0)
+            hi = max((m.hi for _, m, _ in live), default=0.0)
+            top, inv = depth_window(lo, hi)
+            set_uniform(program, "u_ndc", (2.0 / w, 2.0 / h, -1.0, -1.0))
+            set_uniform(program, "u_depth", (top, inv))
+            set_uniform(program, "u_texture", 0)
+            if self._depth_fbo is None or self._depth_fbo.size != (w, h):  # the last size's kept
+                self._drop_depth_fbo()
+                self._depth_fbo = self.ctx.framebuffer([self.ctx.texture((w, h), 2, dtype="f4")],
+                                                       self.ctx.depth_renderbuffer((w, h)))
+                self._depth_fbo.extra = OWN
+            fbo = self._depth_fbo
+            fbo.use()
+            self.ctx.enable_only(moderngl.DEPTH_TEST)
+            self.ctx.depth_func = "<="
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            for i, mesh, tex in live:
+                set_uniform(program, "u_rank", float(ranks[i]))
+                tex.use(0)
+                mesh.drawn_array(self.ctx, "pindepth", program).render(moderngl.TRIANGLES)
+            out = np.frombuffer(fbo.read(components=2, dtype="f4"), np.float32).reshape(h, w, 2)
+            self._finish(previous)
+        return np.where(out[..., 1] > 0, out[..., 0], np.float32(np.nan))
 
     def _preview(self, draws, canvas, size, background, wireframe, straight, previous) -> np.ndarray:
         """:meth:`render` of a drag preview: one frame with the ``blend`` edge pass, RGBA8,
@@ -307,6 +354,7 @@ class Compositor:
         self.invalidate()
         with self._current():
             self._drop_targets()
+            self._drop_depth_fbo()
             self._passes.release()
             self._passes = None
         if self._own_ctx:
@@ -402,6 +450,15 @@ class Compositor:
             old = next(iter(self._targets))
             self._release_targets([self._targets.pop(old)])
         return targets
+
+    def _drop_depth_fbo(self) -> None:
+        fbo, self._depth_fbo = self._depth_fbo, None
+        if fbo is None:
+            return
+        if self.ctx.fbo is fbo:  # never leave a deleted framebuffer bound
+            self.ctx.detect_framebuffer(0).use()
+        for obj in (*fbo.color_attachments, fbo.depth_attachment, fbo):
+            obj.release()
 
     def _drop_targets(self) -> None:
         self._release_targets(list(self._targets.values()))

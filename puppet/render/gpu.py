@@ -40,6 +40,8 @@ class LayerMesh:
         self.edge_triangles = self.triangles[edge]
         drawn = self.triangles[~empty]
         self.counts = {"opaque": len(drawn), "edge": len(self.edge_triangles)}
+        self._drawn = drawn
+        self._extra: dict[str, moderngl.VertexArray] = {}  # other programs' arrays of the drawn triangles
         self.posz = np.zeros((len(self.rest), 3), np.float32)
         self.vbo = ctx.buffer(reserve=max(self.posz.nbytes, 12))
         self.uv = ctx.buffer(uv.tobytes() or bytes(8))
@@ -59,6 +61,14 @@ class LayerMesh:
         if program.get("in_uv", None) is not None:
             content.append((self.uv, "2f", "in_uv"))
         return ctx.vertex_array(program, content, index_buffer=ibo, index_element_size=4)
+
+    def drawn_array(self, ctx: moderngl.Context, name: str, program: moderngl.Program):
+        """The vertex array of every non-empty triangle for another ``program`` (made on
+        first use, kept with the mesh); None when the layer has none."""
+        vao = self._extra.get(name)
+        if vao is None and len(self._drawn):
+            vao = self._extra[name] = self._vertex_array(ctx, program, self._drawn)
+        return vao
 
     def fits(self, layer: DrawLayer) -> bool:
         """True when ``layer`` has this mesh's image object, offset, rest and triangles
@@ -100,12 +110,12 @@ class LayerMesh:
         return self._wire
 
     def release(self) -> None:
-        for vao in (*self.vaos.values(), self._wire):
+        for vao in (*self.vaos.values(), *self._extra.values(), self._wire):
             if vao is not None:
                 vao.release()
         for buf in self._buffers:
             buf.release()
-        self.vaos, self._wire, self._buffers = {}, None, []
+        self.vaos, self._extra, self._wire, self._buffers = {}, {}, None, []
 
 
 class FrameTargets:

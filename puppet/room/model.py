@@ -1,12 +1,15 @@
 """The dressing room's content: the mannequin and the garments rendered on its canvas.
 
 A garment is a scene rendered at its pose ``fit`` (else at rest) over a clear background,
-with its per-pixel depth (:mod:`puppet.room.depth`). Garments are drawn in
+with its per-pixel pin depth (drawn on the GPU, :meth:`puppet.api.Scene.pin_depth`;
+the CPU reference is :mod:`puppet.room.depth`), both cropped to where it shows (a
+room of a thousand garments keeps its crops, not a thousand canvases). Garments are drawn in
 :func:`draw_order`: by category (:data:`~puppet.scene.format.garment.CATEGORIES`, back
 to front), then ``order``, then the order they were given in.
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 
@@ -15,9 +18,12 @@ import numpy as np
 import puppet
 from puppet.errors import SceneError
 from puppet.imaging.io import load_rgba
-from puppet.room.depth import front_depth, layer_depth
+from puppet.room.depth import grow
 from puppet.scene.format.garment import CATEGORIES, DEFAULT_CATEGORY
 
+#: Frame sizes of garments drawn in a box (:func:`draw_garment` with a transform) are
+#: multiples of this, px.
+FRAME = 64
 #: The pose a garment is shown in when its scene has one.
 FIT_POSE = "fit"
 CLEAR = (0, 0, 0, 0)
@@ -25,15 +31,43 @@ CLEAR = (0, 0, 0, 0)
 
 @dataclass(frozen=True)
 class Garment:
-    """One garment: ``rgba`` (H, W, 4) straight uint8 on the mannequin's canvas, clear
-    around it; ``depth`` (H, W) float64, NaN where it does not show."""
+    """One garment, cropped to the box where it shows: ``rgba`` (h, w, 4) straight uint8,
+    its top-left corner at ``at`` on the mannequin's canvas; ``depth`` (h, w) float64 over
+    the same box, NaN where the garment does not show. A garment drawn elsewhere (by a
+    batch's worker, :mod:`puppet.batch.dressroom`) may bring its page pictures already
+    encoded: ``png`` = (picture, depth image) PNG bytes, and its ``thumb``; its ``depth``
+    is then None."""
 
     name: str
     category: str
     order: float
     file: str
     rgba: np.ndarray
-    depth: np.ndarray
+    depth: np.ndarray | None
+    at: tuple[int, int] = (0, 0)
+    png: tuple[bytes, bytes] | None = None
+    thumb: np.ndarray | None = None
+
+    @property
+    def size(self) -> tuple[int, int]:
+        h, w = self.rgba.shape[:2]
+        return w, h
+
+    def on_canvas(self, canvas: tuple[int, int]) -> np.ndarray:
+        """The garment's picture placed on a clear ``canvas`` = (W, H), (H, W, 4)."""
+        W, H = canvas
+        out = np.zeros((H, W, 4), np.uint8)
+        (x, y), (w, h) = self.at, self.size
+        out[y:y + h, x:x + w] = self.rgba
+        return out
+
+    def depth_on_canvas(self, canvas: tuple[int, int]) -> np.ndarray:
+        """The garment's depth placed on a ``canvas`` = (W, H) of NaN, (H, W)."""
+        W, H = canvas
+        out = np.full((H, W), np.nan)
+        (x, y), (w, h) = self.at, self.size
+        out[y:y + h, x:x + w] = self.depth
+        return out
 
 
 @dataclass(frozen=True)
@@ -64,6 +98,51 @@ def load_mannequin(path: str) -> np.ndarray:
         scene.close()
 
 
+def crop_box(alpha: np.ndarray) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of the smallest box holding every pixel with alpha > 0 (a 1x1 box at
+    the origin when there is none)."""
+    ys, xs = np.nonzero(alpha > 0)
+    if not len(ys):
+        return 0, 0, 1, 1
+    return int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)
+
+
+def draw_garment(scene, layers, canvas: tuple[int, int], *, transform=None):
+    """The garment of ``scene``'s posed ``layers`` over a clear background, cropped to
+    where it shows: ``(rgba, depth, at)`` (see :class:`Garment`).
+
+    ``transform`` None: the layers are on the ``canvas`` = (W, H), drawn over all of it
+    (the pixels of ``puppet render``). Else a function taking (n, 2) points of the scene's
+    canvas onto ``canvas`` (a batch's picture onto the template's): the layers are moved
+    by it and drawn over the box of their vertices only."""
+    W, H = canvas
+    if transform is None:
+        (x0, y0), frame, posed = (0, 0), (W, H), layers
+    else:
+        moved = [transform(L.deformed) for L in layers]
+        every = np.concatenate([m for m in moved if len(m)] or [np.zeros((1, 2))])
+        x0, y0 = (min(max(int(np.floor(v)) - 1, 0), n - 1) for v, n in zip(every.min(axis=0), canvas))
+        x1, y1 = (min(max(int(np.ceil(v)) + 1, 1), n) for v, n in zip(every.max(axis=0), canvas))
+        # the frame's size rounded up to FRAME px (past the canvas if need be, cut off below):
+        # a batch's garments then share a few sizes, and the compositor keeps their targets
+        frame = tuple(-(-max(v, 1) // FRAME) * FRAME for v in (x1 - x0, y1 - y0))
+        posed = [dataclasses.replace(L, deformed=m - (x0, y0)) for L, m in zip(layers, moved)]
+    rgba = scene.draw_layers(posed, background=CLEAR, canvas=frame)
+    rgba[:, W - x0:, 3] = 0  # what falls off the canvas is not the room's (W - x0 >= 1)
+    rgba[H - y0:, :, 3] = 0
+    x, y, w, h = crop_box(rgba[..., 3])
+    depth = grow(scene.pin_depth(posed, canvas=frame)[y:y + h, x:x + w])
+    return np.ascontiguousarray(rgba[y:y + h, x:x + w]), depth, (x0 + x, y0 + y)
+
+
+def garment_spec(scene, path: str) -> tuple[str, str, float]:
+    """(name, category, order) of a garment scene read from ``path``: its ``garment``
+    section, else the file's stem, ``top`` and 0."""
+    spec = scene.data.garment or {}
+    return (spec.get("name", os.path.splitext(os.path.basename(path))[0]), spec.get("category", DEFAULT_CATEGORY),
+            spec.get("order", 0.0))
+
+
 def load_garment(path: str, canvas: tuple[int, int], mannequin: str) -> Garment:
     """Render the garment scene at ``path``; refuse one whose canvas is not ``canvas``."""
     scene = puppet.load_scene(path)
@@ -71,18 +150,10 @@ def load_garment(path: str, canvas: tuple[int, int], mannequin: str) -> Garment:
         if tuple(scene.canvas) != tuple(canvas):
             raise SceneError(f"canvas {scene.canvas[0]}x{scene.canvas[1]} differs from the mannequin's "
                              f"{canvas[0]}x{canvas[1]} ({mannequin})", file=scene.file)
-        spec = scene.data.garment or {}
-        name = spec.get("name", os.path.splitext(os.path.basename(path))[0])
+        name, category, order = garment_spec(scene, path)
         pose = FIT_POSE if FIT_POSE in scene.data.poses else "rest"
-        layers = scene.layers(pose)
-        rgba = scene.draw_layers(layers, background=CLEAR)
-        images = scene.built.images
-        shown = [k for k, L in enumerate(scene.data.layers) if L.visible]
-        pins = [layer_depth(layers[k].deformed, layers[k].rest, layers[k].triangles,
-                            layers[k].depth - layers[k].order, *images[k].drawn, canvas) for k in shown]
-        depth = front_depth(pins or [np.full(rgba.shape[:2], np.nan)], [layers[k].order for k in shown] or [0])
-        return Garment(name=name, category=spec.get("category", DEFAULT_CATEGORY), order=spec.get("order", 0.0),
-                       file=scene.file, rgba=rgba, depth=depth)
+        rgba, depth, at = draw_garment(scene, scene.layers(pose), tuple(canvas))
+        return Garment(name=name, category=category, order=order, file=scene.file, rgba=rgba, depth=depth, at=at)
     finally:
         scene.close()
 
@@ -115,7 +186,7 @@ def wear(room: Room, names) -> np.ndarray:
     out[..., :3] *= out[..., 3:]
     for g in room.garments:
         if g.name in names:
-            src = g.rgba.astype(np.float64) / 255.0
+            src = g.on_canvas(room.canvas).astype(np.float64) / 255.0
             a = src[..., 3:]
             out = np.concatenate([src[..., :3] * a, a], axis=2) + out * (1.0 - a)
     rgb = np.divide(out[..., :3], out[..., 3:], out=np.zeros_like(out[..., :3]), where=out[..., 3:] > 0)

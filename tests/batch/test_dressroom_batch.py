@@ -7,6 +7,7 @@ import os
 import re
 import subprocess
 import sys
+import zipfile
 
 import numpy as np
 import pytest
@@ -49,6 +50,22 @@ def on_canvas(folder, entry) -> np.ndarray:
     return out
 
 
+def room_depth(folder, entry) -> np.ndarray:
+    """A garment's depth image of the room's page, decoded and placed on the canvas (NaN where none)."""
+    from puppet.room.depth import LOW, STEPS
+
+    out = np.full((CANVAS[1], CANVAS[0]), np.nan)
+    (x, y), (w, h) = entry["at"], entry["size"]
+    d = np.asarray(Image.open(os.path.join(folder, entry["depth"])).convert("RGBA")).astype(np.float64)
+    out[y:y + h, x:x + w] = np.where(d[..., 2] > 0, (d[..., 0] * 256 + d[..., 1]) / STEPS + LOW, np.nan)
+    return out
+
+
+def grey_off(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of the canvas's pixels whose colour or alpha differ by more than 40 levels."""
+    return float((np.abs(a.astype(int) - b.astype(int)).max(axis=2) > 40).mean())
+
+
 def iou(a: np.ndarray, b: np.ndarray) -> float:
     a, b = a[..., 3] > 0, b[..., 3] > 0
     return float((a & b).sum() / (a | b).sum())
@@ -82,7 +99,8 @@ def test_the_batch_writes_the_room_of_the_matched_garments(cluster2, tmp_path):
     assert report["room"] == {"folder": "room/", "garments": ["big", "small"], "refused": []}
     assert {j["output"]: j.get("garment") for j in report["jobs"]} == {
         "big.png": "garments/big.json", "small.png": "garments/small.json", "round.png": "garments/round.json"}
-    assert sorted(os.listdir(out / "garments")) == ["big.json", "big.png", "small.json", "small.png"]
+    assert sorted(os.listdir(out / "garments")) == ["big.json", "big.png", "big.room.zip", "small.json", "small.png",
+                                                    "small.room.zip"]
     meta = room_meta(out / "room")
     assert [g["name"] for g in meta["garments"]] == ["big", "small"] and meta["canvas"] == list(CANVAS)
     template = load_garment(TEMPLATE, CANVAS, man)  # the template's own fit, on the mannequin
@@ -100,9 +118,21 @@ def test_the_batch_writes_the_room_of_the_matched_garments(cluster2, tmp_path):
         want = {k: t["to"] if isinstance(t, dict) else t for k, t in r.scene["poses"]["fit"].items()}
         assert np.allclose(r.similarity.apply([fit[k] for k in want]), list(want.values()), atol=0.01)
         drawn = on_canvas(out / "room", entry)
+        # the room's pictures are those its job drew (from its own solve, moved by S^-1) ...
+        with zipfile.ZipFile(out / "garments" / f"{entry['name']}.room.zip") as z:
+            assert z.read("picture.png") == (out / "room" / entry["image"]).read_bytes()
+            assert z.read("depth.png") == (out / "room" / entry["depth"]).read_bytes()
+            assert json.loads(z.read("meta.json"))["at"] == entry["at"]
+        # ... and show what `puppet dressroom` draws of the garment scene: within a pixel at the
+        # outline (the scene's mesh is made again on the resampled picture), the same depths
         g = load_garment(str(out / "garments" / f"{entry['name']}.json"), CANVAS, man)
-        assert np.array_equal(drawn[..., 3] > 0, g.rgba[..., 3] > 0)  # the page shows the garment scene's render
-        assert iou(drawn, template.rgba) > 0.9, entry["name"]
+        ref = g.on_canvas(CANVAS)
+        assert iou(drawn, ref) > 0.98 and grey_off(drawn, ref) < 0.005, entry["name"]
+        ours = room_depth(out / "room", entry)
+        theirs = g.depth_on_canvas(CANVAS)
+        both = ~np.isnan(ours) & ~np.isnan(theirs)
+        assert both.sum() > 0.95 * (~np.isnan(theirs)).sum() and np.abs(ours[both] - theirs[both]).max() < 0.05
+        assert iou(drawn, template.on_canvas(CANVAS)) > 0.9, entry["name"]
     # the batch's own outputs are what template mode renders without --dressroom
     plain = tmp_path / "plain"
     batch(cluster2, argv[:6] + ["-o", str(plain)])
@@ -120,6 +150,18 @@ def test_the_batch_writes_the_room_of_the_matched_garments(cluster2, tmp_path):
     summary = batch(cluster2, argv + ["--resume"])
     assert summary["counts"]["skipped"] == 1 and summary["counts"]["done"] == 1
     assert (out / "room" / "index.html").read_bytes() == old
+    # a garment scene edited since its job drew it: the room draws the scene as it is now
+    edited = json.loads((out / "garments" / "small.json").read_text())
+    edited["garment"]["name"] = "small shirt"
+    (out / "garments" / "small.json").write_text(json.dumps(edited))
+    (out / "garments" / "big.room.zip").write_bytes(b"not a zip")  # and a spoiled one: the same
+    summary = batch(cluster2, argv + ["--resume"])
+    assert summary["counts"]["skipped"] == 2  # the jobs' inputs are unchanged
+    meta = room_meta(out / "room")
+    assert sorted(g["name"] for g in meta["garments"]) == ["big", "small shirt"]
+    for entry, stem in zip(meta["garments"], ("big", "small")):
+        assert np.array_equal(on_canvas(out / "room", entry),
+                              load_garment(str(out / "garments" / f"{stem}.json"), CANVAS, man).on_canvas(CANVAS))
     # a room holding what the batch did not write is never replaced: refused before any job runs
     (out / "room" / "notes.txt").write_text("mine")
     before = (out / "report.json").read_bytes()

@@ -80,14 +80,15 @@ def tucked_reference(room) -> np.ndarray:
     from puppet.room.model import wear
 
     jeans, shirt = (next(g for g in room.garments if g.name == n) for n in ("jeans", "shirt"))
-    h, w = jeans.depth.shape
-    shows = jeans.rgba[..., 3] > 0
+    jeans_depth, shirt_depth = jeans.depth_on_canvas(room.canvas), shirt.depth_on_canvas(room.canvas)
+    h, w = jeans_depth.shape
+    shows = jeans.on_canvas(room.canvas)[..., 3] > 0
     edge = np.where(shows.any(axis=0), shows.argmax(axis=0), h)
-    bottom = np.where(shows, jeans.depth, jeans.depth[np.minimum(edge, h - 1), np.arange(w)][None, :])
-    hide = (np.arange(h)[:, None] >= edge[None, :]) & (shirt.depth < bottom)
-    rgba = shirt.rgba.copy()
+    bottom = np.where(shows, jeans_depth, jeans_depth[np.minimum(edge, h - 1), np.arange(w)][None, :])
+    hide = (np.arange(h)[:, None] >= edge[None, :]) & (shirt_depth < bottom)
+    rgba = shirt.on_canvas(room.canvas)
     rgba[hide, 3] = 0
-    garments = [dataclasses.replace(g, rgba=rgba) if g is shirt else g for g in room.garments]
+    garments = [dataclasses.replace(g, rgba=rgba, at=(0, 0)) if g is shirt else g for g in room.garments]
     return wear(dataclasses.replace(room, garments=garments), {"shirt", "jeans"})
 
 

@@ -43,9 +43,9 @@ def test_layer_depth_interpolates_at_pixel_centres_where_the_texture_shows():
     image[:, :3, 3] = 255  # the texture's right column is clear
     d = layer_depth(V, V, F, np.array([0.0, 4.0, 4.0, 0.0]), image, (1, 1), (7, 4))
     shows = ~np.isnan(d)
-    # the clear column and beyond: NaN; OpenCV's fill takes the pixels on the square's
-    # lower edge (centres 0.5 px outside) too, their depth extrapolated on the same plane
+    # the clear column and beyond: NaN; the pixels whose centres are inside, no others
     assert shows[1:3, 1:4].all() and not shows[:, 4:].any() and not shows[0].any() and not shows[:, 0].any()
+    assert not shows[3].any()
     assert np.allclose(d[1:3, 1:4], [[0.5, 1.5, 2.5]] * 2)  # pixel centres x + 0.5, depth x - 1
     # posed: the same rest mesh moved 2 px right keeps its depths on the moved pixels
     moved = layer_depth(V + (2, 0), V, F, np.array([0.0, 4.0, 4.0, 0.0]), image, (1, 1), (7, 4))
@@ -116,18 +116,22 @@ def test_garments_are_puppet_render_of_their_fit_pose_in_draw_order(tmp_path):
     for g, pose in zip(room.garments, ("rest", "fit", "rest", "rest")):
         ref = os.path.join(folder, g.name + "-ref.png")
         assert main(["render", g.file, *(["--pose", pose] if pose != "rest" else []), "-o", ref]) == 0
-        assert np.array_equal(g.rgba, np.asarray(Image.open(ref).convert("RGBA"))), g.name
-        shows = g.rgba[..., 3] > 0
-        assert not np.isnan(g.depth[shows]).any()  # a depth wherever the garment shows
+        drawn = g.on_canvas(room.canvas)
+        assert np.array_equal(drawn, np.asarray(Image.open(ref).convert("RGBA"))), g.name
+        # cropped to where it shows
+        assert (g.rgba[0, :, 3] > 0).any() and (g.rgba[-1, :, 3] > 0).any() and (g.rgba[:, 0, 3] > 0).any()
+        assert (g.rgba[:, -1, 3] > 0).any() and g.depth.shape == g.rgba.shape[:2]
+        shows, depth = drawn[..., 3] > 0, g.depth_on_canvas(room.canvas)
+        assert not np.isnan(depth[shows]).any()  # a depth wherever the garment shows
         near = cv2.dilate(shows.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-        assert not (~np.isnan(g.depth) & ~near).any()  # and one pixel round it at most
+        assert not (~np.isnan(depth) & ~near).any()  # and one pixel round it at most
     jeans, shirt = room.garments[:2]
     assert np.allclose(jeans.depth[~np.isnan(jeans.depth)], 1.0)  # its one pin's depth, everywhere
     assert np.allclose(shirt.depth[~np.isnan(shirt.depth)], 0.0)
     # the fit pose moved the shirt's hem: its render at rest differs
     rest = os.path.join(folder, "rest.png")
     assert main(["render", shirt.file, "-o", rest]) == 0
-    assert not np.array_equal(shirt.rgba, np.asarray(Image.open(rest).convert("RGBA")))
+    assert not np.array_equal(shirt.on_canvas(room.canvas), np.asarray(Image.open(rest).convert("RGBA")))
     # wearing: hand-checked pixels (cloth colours are opaque inside their 2-pixel margins)
     on = wear(room, {"shirt", "jeans", "cap"})
     assert tuple(on[5, 32, :3]) == GARMENTS["hat"][0]
@@ -141,7 +145,7 @@ def test_garments_are_puppet_render_of_their_fit_pose_in_draw_order(tmp_path):
     with open(jeans.file, "w") as f:
         json.dump(doc, f)
     again = load_garment(jeans.file, room.canvas, body)
-    assert np.array_equal(again.rgba, jeans.rgba) and again.rgba[0, 0, 3] == 0
+    assert np.array_equal(again.rgba, jeans.rgba) and again.at == jeans.at and again.on_canvas(room.canvas)[0, 0, 3] == 0
 
 
 @pytest.mark.gl
@@ -191,7 +195,34 @@ def test_the_bundled_room_dresses_and_tucks_in():  # about 1 s
     assert [g.name for g in room.garments] == ["jeans", "t-shirt", "dress", "shoes"]
     jeans, shirt = room.garments[:2]
     assert np.nanmax(np.abs(jeans.depth)) == 0  # no pin depth
-    hem, chest = shirt.depth[445, 350], shirt.depth[300, 350]
+    shirt_depth, jeans_depth = shirt.depth_on_canvas(room.canvas), jeans.depth_on_canvas(room.canvas)
+    hem, chest = shirt_depth[445, 350], shirt_depth[300, 350]
     assert -1 <= hem < -0.5 and abs(chest) < 0.3, (hem, chest)
-    both = (shirt.rgba[..., 3] > 0) & (jeans.rgba[..., 3] > 0)
-    assert both.sum() > 1000 and (shirt.depth[both] < jeans.depth[both]).mean() > 0.95  # a tucked hem goes under
+    both = (shirt.on_canvas(room.canvas)[..., 3] > 0) & (jeans.on_canvas(room.canvas)[..., 3] > 0)
+    assert both.sum() > 1000 and (shirt_depth[both] < jeans_depth[both]).mean() > 0.95  # a tucked hem goes under
+
+
+def test_triangle_ids_hold_the_pixel_centres_inside_the_later_triangle():
+    """The vectorised fill against a pixel-by-pixel test, on random overlapping (folded)
+    triangles of both windings, some off the frame and one degenerate."""
+    from puppet.room.depth import triangle_ids
+
+    rng = np.random.default_rng(4)
+    for _ in range(4):
+        V = rng.uniform(-3.0, 23.0, (12, 2))
+        F = rng.integers(0, 12, (10, 3))
+        F[0] = [1, 1, 2]  # degenerate: holds nothing
+        want = np.full((15, 20), -1)
+        for y in range(15):
+            for x in range(20):
+                p = np.array([x + 0.5, y + 0.5])
+                for t, (a, b, c) in enumerate(V[F]):
+                    det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+                    if det == 0:
+                        continue
+                    l1 = ((p[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (p[1] - a[1])) / det
+                    l2 = ((b[0] - a[0]) * (p[1] - a[1]) - (p[0] - a[0]) * (b[1] - a[1])) / det
+                    if l1 >= -1e-9 and l2 >= -1e-9 and l1 + l2 <= 1 + 1e-9:
+                        want[y, x] = t
+        got = triangle_ids(V, F, (20, 15))
+        assert (got >= 0).sum() > 20 and np.array_equal(got, want)
