@@ -193,8 +193,8 @@ def write_drawn(path: str, scene, layers, S: Similarity, canvas, *, meta: dict, 
     files are unchanged). Stored (not compressed: the PNGs are)."""
     rgba, depth, at = draw_garment(scene, layers, tuple(canvas), transform=lambda P: _back(S, P))
     meta = dict(meta, at=[int(at[0]), int(at[1])], size=[int(rgba.shape[1]), int(rgba.shape[0])])
-    parts = (json.dumps(meta).encode("utf-8"), page.encode(rgba), page.encode(depth_rgba(depth)),
-             page.encode(page.thumbnail(rgba)))
+    parts = (json.dumps(meta).encode("utf-8"), page.encode(rgba, page.FAST_LEVEL),
+             page.encode(depth_rgba(depth), page.FAST_LEVEL), page.encode(page.thumbnail(rgba), page.FAST_LEVEL))
 
     def write(tmp: str) -> None:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as z:

@@ -41,12 +41,12 @@ THUMB = 144
 #: Thumbnails a side of a thumbnail sheet (a sheet holds SHEET x SHEET of them).
 SHEET = 8
 #: zlib level of the page's PNGs (OpenCV, filter "up"). A 297 x 247 t-shirt crop: its
-#: picture 25.7 KB in 2.5 ms and its depth image 17.4 KB in 2.4 ms, against 20.6 KB in
-#: 29 ms and 12.4 KB in 90 ms from Pillow at level 9.
-LEVEL = 3
-#: ... and of the thumbnail sheets (one per SHEET x SHEET garments, loaded as the shelf
-#: scrolls: smaller files for the time).
-SHEET_LEVEL = 6
+#: picture 23.5 KB in 3.8 ms and its depth image 13.5 KB in 7.7 ms, against 20.6 KB in
+#: 29 ms and 12.4 KB in 90 ms from Pillow at level 9; the thumbnail sheets too.
+LEVEL = 6
+#: ... of the pictures a batch's workers draw (:mod:`puppet.batch.dressroom`), where time
+#: counts: 25.7 KB in 2.5 ms and 17.4 KB in 2.4 ms.
+FAST_LEVEL = 3
 PICTURES = "pictures"
 #: The names :func:`write_room_folder` gives the files of ``pictures/``.
 PICTURE_NAME = re.compile(r"mannequin\.png|\d{4,}(-depth)?\.png|thumbs-\d{3,}\.png")
@@ -77,7 +77,7 @@ def thumb_sheets(room: Room, picture) -> list[dict]:
             x, y = (k % SHEET) * cell, (k // SHEET) * cell
             sheet[y:y + t.shape[0], x:x + t.shape[1]] = t
             places.append(([x, y], [int(t.shape[1]), int(t.shape[0])]))
-        name = picture(f"thumbs-{first // per + 1:03d}.png", encode(sheet, SHEET_LEVEL))
+        name = picture(f"thumbs-{first // per + 1:03d}.png", encode(sheet))
         out += [{"sheet": name, "at": at, "size": size, "sheetSize": [sheet.shape[1], sheet.shape[0]]}
                 for at, size in places]
     return out

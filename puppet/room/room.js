@@ -294,6 +294,12 @@
   });
   window.addEventListener("hashchange", fromAddress);
 
+  // the address's garments start loading beside the mannequin (the first outfit needs both)
+  for (const part of ((/(?:^#|&)outfit=([^&]*)/.exec(location.hash) || [])[1] || "").split(",")) {
+    let name;
+    try { name = decodeURIComponent(part); } catch (e) { name = part; }
+    if (byName.has(name)) load(byName.get(name)).catch(() => {});  // a failure is said by fromAddress
+  }
   decoded(meta.mannequin).then((m) => {
     mannequin = m;
     shelf();
