@@ -35,11 +35,13 @@ from puppet.batch.jobs import DRAWN
 from puppet.batch.template import NUDGE, Transfer, on_mask
 from puppet.errors import SceneError
 from puppet.geom.outline_match import Similarity
+from puppet.imaging import masks as mk
 from puppet.output import atomic_write, check_folder, encode_png, write_bytes, write_folder, write_text
 from puppet.room import page
 from puppet.room.depth import depth_rgba
 from puppet.room.model import FIT_POSE, Garment, Room, draw_garment, draw_order, load_garment
 from puppet.room.page import PICTURE_NAME, PICTURES, write_room_folder
+from puppet.scene.rig.exterior import auto_points
 
 #: Folder of OUT_DIR holding the room (index.html, pictures/).
 ROOM = "room"
@@ -93,10 +95,15 @@ def resample(rgba: np.ndarray, mask: np.ndarray, S: Similarity, canvas) -> tuple
     return crop, (x0, y0)
 
 
-def _targets(pose: dict, S: Similarity) -> dict:
-    """A pose's (or key's) pin targets mapped back by ``S^-1`` (``None`` kept)."""
+def _targets(pose: dict, S: Similarity, names: dict | None = None) -> dict:
+    """A pose's (or key's) pin targets mapped back by ``S^-1`` (``None`` kept); a pin
+    named in ``names`` renamed, or left out when it maps to None (:func:`_ext_names`)."""
     out = {}
     for nm, t in pose.items():
+        if names and nm in names:
+            if names[nm] is None:
+                continue
+            nm = names[nm]
         if isinstance(t, list):
             t = _xy(_back(S, t))
         elif isinstance(t, dict) and "to" in t:
@@ -121,7 +128,8 @@ def garment_doc(tr: Transfer, pose: str, image: str, crop: np.ndarray, at: tuple
     for key in ("deformer", "bones", "physics"):
         if key in src:
             doc[key] = copy.deepcopy(src[key])
-    poses = {k: _targets(v, S) for k, v in src.get("poses", {}).items()}
+    names = _ext_names(tr, crop, at)
+    poses = {k: _targets(v, S, names) for k, v in src.get("poses", {}).items()}
     poses[FIT_POSE] = poses[pose]
     doc["poses"] = poses
     if "animation" in src:
@@ -129,9 +137,38 @@ def garment_doc(tr: Transfer, pose: str, image: str, crop: np.ndarray, at: tuple
         for key in anim.get("keys", []):
             for f in ("pins", "overrides"):
                 if isinstance(key.get(f), dict):
-                    key[f] = _targets(key[f], S)
+                    key[f] = _targets(key[f], S, names)
         doc["animation"] = anim
+    if names and "physics" in doc:
+        for chain in doc["physics"].get("chains", []):
+            chain["pins"] = [names.get(p, p) or p for p in chain["pins"]]
     return doc
+
+
+def _ext_names(tr: Transfer, crop: np.ndarray, at) -> dict[str, str | None]:
+    """The picture's automatic exterior points (``LAYER:extI``, made on its mask) -> the
+    room garment's (``LAYER:extJ``, made again on the resampled picture's alpha, numbered
+    by its own outline): matched one-to-one by place, the picture's points moved by
+    ``S^-1``; None for a point with no counterpart within a tenth of the garment's size
+    (its targets are dropped, as the template transfer drops them). Empty without
+    automatic exterior points."""
+    layer = tr.scene["layers"][0]
+    ext = layer.get("exterior")
+    if not isinstance(ext, dict) or not ext.get("auto", True):
+        return {}
+    beta = float(ext.get("beta", 1.0))
+    picture = auto_points(tr.mask, (0.0, 0.0), beta)
+    mask = mk.alpha_mask(crop)
+    garment = auto_points(mask, tuple(float(v) for v in at), beta)
+    out: dict[str, str | None] = {f"{layer['name']}:ext{i}": None for i in range(len(picture))}
+    if len(picture) and len(garment):
+        from scipy.optimize import linear_sum_assignment  # lazy: only templates with automatic exterior points
+
+        D = np.linalg.norm(_back(tr.similarity, picture)[:, None] - garment[None], axis=2)
+        r, c = linear_sum_assignment(D)
+        gate = 0.1 * np.sqrt(mask.sum())
+        out.update({f"{layer['name']}:ext{i}": f"{layer['name']}:ext{j}" for i, j in zip(r, c) if D[i, j] <= gate})
+    return out
 
 
 def _pins(pins: list[dict], S: Similarity, mask: np.ndarray, at) -> list[dict]:

@@ -222,3 +222,51 @@ def test_a_garment_the_room_refuses_is_left_out_and_said(tmp_path):
     assert "garment name 'shirt' is also the name of" in out["refused"][0]["error"]
     assert len(said) == 2 and all(s.startswith("puppet batch: dressroom: left out: ") for s in said)
     assert [g["name"] for g in room_meta(tmp_path / "room")["garments"]] == ["jeans", "shirt"]
+
+
+@pytest.mark.gl
+def test_automatic_exterior_points_keep_their_targets_in_the_room_garment(tmp_path):
+    """The room garment's automatic exterior points are made again on the resampled picture
+    and numbered by its own outline: a pose target of the picture's LAYER:extI goes to the
+    garment's point at the same place, wherever its number."""
+    from puppet.batch import jobs as J
+    from puppet.batch.work import run_job
+    from puppet.imaging import masks as mk
+    from puppet.imaging.io import load_rgba
+    from puppet.scene.rig.exterior import auto_points
+
+    doc = json.load(open(TEMPLATE))
+    doc["layers"][0]["image"] = SHIRT
+    doc["layers"][0]["exterior"] = {"auto": True, "beta": 1.0}
+    tpl = cached(TEMPLATE)  # the template's own points, on the template's canvas
+    ext = auto_points(tpl.image.mask, tpl.image.offset, 1.0)
+    assert len(ext) >= 4
+    for i, p in enumerate(ext):  # every point moved 12 px right
+        doc["poses"]["fit"][f"shirt:ext{i}"] = [float(p[0]) + 12.0, float(p[1])]
+    template = tmp_path / "tpl.json"
+    template.write_text(json.dumps(doc))
+    imgs = tmp_path / "imgs"
+    imgs.mkdir()
+    a = np.exp(1j * np.radians(45.0))  # turned 45 degrees about its centre in a 445 px picture
+    b = complex(222.5, 222.5) - a * complex(153.5, 153.5)
+    G.similar_copy(SHIRT, imgs / "turned.png", scale=1.0, angle=45.0, shift=(b.real, b.imag), size=(445, 445))
+    out = str(tmp_path / "out")
+    room = {"canvas": list(CANVAS), "category": "top"}
+    job = J.template_jobs(str(template), str(imgs), "fit", out, {}, tolerance=None, room=room)[0]
+    os.makedirs(out)
+    rec = run_job(job)
+    assert rec["status"] == "done", rec
+    scene = json.loads(open(job["room"]["scene"]).read())
+    named = [k for k in scene["poses"]["fit"] if k.startswith("shirt:ext")]
+    picture = load_rgba(job["room"]["picture"])
+    mine = auto_points(mk.alpha_mask(picture), tuple(scene["layers"][0]["offset"]), 1.0)
+    assert len(named) >= 1
+    for nm in named:
+        j = int(nm[len("shirt:ext"):])
+        assert np.linalg.norm(ext - mine[j], axis=1).min() < 4.0, (nm, mine[j])  # a template point's place
+        to = np.asarray(scene["poses"]["fit"][nm], float)
+        assert np.linalg.norm(to - mine[j] - (12.0, 0.0)) < 3.0, (nm, to, mine[j])  # moved as it is there
+    # the picture numbers its points otherwise than the resampled garment: renamed
+    picture_named = [k for k in cached(str(template)).transfer(str(imgs / "turned.png")).scene["poses"]["fit"]
+                     if k.startswith("shirt:ext")]
+    assert len(picture_named) == len(named) and picture_named != named
