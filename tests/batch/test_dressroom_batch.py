@@ -9,6 +9,7 @@ import subprocess
 import sys
 import zipfile
 
+import cv2
 import numpy as np
 import pytest
 from PIL import Image
@@ -270,3 +271,32 @@ def test_automatic_exterior_points_keep_their_targets_in_the_room_garment(tmp_pa
     picture_named = [k for k in cached(str(template)).transfer(str(imgs / "turned.png")).scene["poses"]["fit"]
                      if k.startswith("shirt:ext")]
     assert len(picture_named) == len(named) and picture_named != named
+
+
+def test_a_big_picture_is_averaged_into_the_templates_pixels(tmp_path):
+    """A picture 3 times the template's size (each template pixel a 3 x 3 block of it) is
+    resampled, through its k x k block averages, back to the template's own pixels."""
+    from puppet.batch.dressroom import resample
+    from puppet.geom.outline_match import Similarity
+
+    tpl = cached(TEMPLATE).image
+    G.similar_copy(SHIRT, tmp_path / "big.png", scale=3.0, angle=0.0, shift=(30.0, 45.0), size=(1000, 1000),
+                   nearest=True)
+    from puppet.imaging.io import load_rgba
+
+    big = load_rgba(str(tmp_path / "big.png"))
+    ox, oy = tpl.offset  # template canvas p -> big picture 3 (p - offset) + shift
+    S = Similarity(a=3.0 + 0j, b=complex(30.0 - 3 * ox, 45.0 - 3 * oy))
+    crop, (x, y) = resample(big, big[..., 3] > 0, S, CANVAS)
+    want = np.zeros((CANVAS[1], CANVAS[0], 4), np.uint8)
+    h, w = tpl.rgba.shape[:2]
+    want[int(oy):int(oy) + h, int(ox):int(ox) + w] = load_rgba(SHIRT)
+    got = np.zeros_like(want)
+    got[y:y + crop.shape[0], x:x + crop.shape[1]] = crop
+    # the blocks start a pixel before the mask's box, not on the copy's 3 x 3 grid: each is
+    # shifted back by the warp (bilinear), a third of a pixel of blur at the outline
+    solid = lambda im: im[..., 3] > 127  # noqa: E731
+    assert (solid(got) & solid(want)).sum() / (solid(got) | solid(want)).sum() > 0.99
+    assert grey_off(got, want) < 0.01  # the outline only (a 1 px ring is 0.6 % of this canvas)
+    inside = cv2.erode((want[..., 3] == 255).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    assert np.abs(got[inside].astype(int) - want[inside]).mean() < 2.0  # the block averages are its pixels
