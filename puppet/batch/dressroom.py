@@ -39,7 +39,7 @@ from puppet.imaging import masks as mk
 from puppet.output import atomic_write, check_folder, encode_png, write_bytes, write_folder, write_text
 from puppet.room import page
 from puppet.room.depth import depth_rgba
-from puppet.room.model import FIT_POSE, Garment, Room, draw_garment, draw_order, load_garment
+from puppet.room.model import CLEAR, FIT_POSE, Garment, Room, box_frame, cropped, draw_order, load_garment
 from puppet.room.page import PICTURE_NAME, PICTURES, write_room_folder
 from puppet.scene.rig.exterior import auto_points
 
@@ -208,7 +208,7 @@ def write_garment(job: dict, tr: Transfer, scene, layers, *, inputs) -> None:
     """Write the room garment of a matched template job (``job["room"]``: its ``scene``,
     ``picture`` and ``drawn`` paths, the template's ``canvas`` and ``category``): the
     picture, the scene, then the room's pictures drawn from the job's own posed
-    ``layers`` of ``scene`` (:func:`write_drawn`). A scene is there only with its picture;
+    ``layers`` of ``scene`` over the resampled picture (:func:`write_drawn`). A scene is there only with its picture;
     the job is done once all three are."""
     room = job["room"]
     crop, at = resample(tr.picture, tr.mask, tr.similarity, room["canvas"])
@@ -224,7 +224,9 @@ def write_garment(job: dict, tr: Transfer, scene, layers, *, inputs) -> None:
     text = json.dumps(doc, indent=1) + "\n"
     write_bytes(room["picture"], picture, inputs=inputs)
     write_text(room["scene"], text, inputs=inputs)
-    write_drawn(room["drawn"], scene, layers, tr.similarity, room["canvas"], inputs=inputs,
+    if len(layers) != 1:
+        raise SceneError(f"a room garment has one layer, the transferred scene {len(layers)}")
+    write_drawn(room["drawn"], scene.compositor, layers[0], crop, at, tr.similarity, room["canvas"], inputs=inputs,
                 meta={"name": name, "category": room["category"], "order": 0.0,
                       "scene": _digest(text.encode("utf-8")), "picture": _digest(picture)})
 
@@ -237,14 +239,32 @@ def _digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def write_drawn(path: str, scene, layers, S: Similarity, canvas, *, meta: dict, inputs) -> None:
+def draw_posed(compositor, posed, crop: np.ndarray, at, S: Similarity, canvas):
+    """The room's picture of a job's garment: its posed layer (the job's one layer, a
+    :class:`~puppet.scene.rig.core.LayerResult`) moved by ``S^-1`` onto the template's
+    ``canvas`` and drawn with the resampled picture ``crop`` (its corner at ``at``) as its
+    texture, in a box round it; ``(rgba, depth, at)`` as :func:`puppet.room.model.draw_garment`
+    gives them. The texture in the template's pixels, not the picture's: a catalogue photo
+    several times the template's size is drawn from its averaged pixels, not sampled."""
+    from puppet.render.layers import DrawLayer  # lazy: drawing only
+
+    deformed = _back(S, posed.deformed)
+    x0, y0, frame = box_frame(deformed, canvas)
+    layer = DrawLayer(key=posed.name + "\0room", image=crop, offset=(float(at[0]), float(at[1])),
+                      rest=_back(S, posed.rest), deformed=deformed - (x0, y0), triangles=posed.triangles,
+                      depth=posed.depth)
+    rgba = compositor.render([layer], frame, background=CLEAR)
+    return cropped(rgba, compositor.pin_depth([layer], frame, [posed.order]), (x0, y0), canvas)
+
+
+def write_drawn(path: str, compositor, posed, crop: np.ndarray, at, S: Similarity, canvas, *, meta: dict,
+                inputs) -> None:
     """``STEM.room.zip``: the garment's room pictures (its picture and depth image as the
-    room's page shows them, and its thumbnail) drawn from the job's posed ``layers``
-    moved onto the template's canvas by ``S^-1``, with ``meta.json`` (the garment's
-    name, category, order, its box's corner ``at`` and ``size``, and the SHA-256 of the
-    garment scene and picture it belongs to: the room uses the pictures only while those
-    files are unchanged). Stored (not compressed: the PNGs are)."""
-    rgba, depth, at = draw_garment(scene, layers, tuple(canvas), transform=lambda P: _back(S, P))
+    room's page shows them, and its thumbnail; :func:`draw_posed`), with ``meta.json``
+    (the garment's name, category, order, its box's corner ``at`` and ``size``, and the
+    SHA-256 of the garment scene and picture it belongs to: the room uses the pictures
+    only while those files are unchanged). Stored (not compressed: the PNGs are)."""
+    rgba, depth, at = draw_posed(compositor, posed, crop, at, S, tuple(canvas))
     meta = dict(meta, at=[int(at[0]), int(at[1])], size=[int(rgba.shape[1]), int(rgba.shape[0])])
     parts = (json.dumps(meta).encode("utf-8"), page.encode(rgba, page.FAST_LEVEL),
              page.encode(depth_rgba(depth), page.FAST_LEVEL), page.encode(page.thumbnail(rgba), page.FAST_LEVEL))

@@ -9,7 +9,6 @@ to front), then ``order``, then the order they were given in.
 """
 from __future__ import annotations
 
-import dataclasses
 import os
 from dataclasses import dataclass
 
@@ -21,8 +20,7 @@ from puppet.imaging.io import load_rgba
 from puppet.room.depth import grow
 from puppet.scene.format.garment import CATEGORIES, DEFAULT_CATEGORY
 
-#: Frame sizes of garments drawn in a box (:func:`draw_garment` with a transform) are
-#: multiples of this, px.
+#: Frame sizes of garments drawn in a box (:func:`box_frame`) are multiples of this, px.
 FRAME = 64
 #: The pose a garment is shown in when its scene has one.
 FIT_POSE = "fit"
@@ -107,32 +105,36 @@ def crop_box(alpha: np.ndarray) -> tuple[int, int, int, int]:
     return int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)
 
 
-def draw_garment(scene, layers, canvas: tuple[int, int], *, transform=None):
-    """The garment of ``scene``'s posed ``layers`` over a clear background, cropped to
-    where it shows: ``(rgba, depth, at)`` (see :class:`Garment`).
+def draw_garment(scene, layers, canvas: tuple[int, int]):
+    """The garment of ``scene``'s posed ``layers`` over a clear background, drawn over the
+    whole ``canvas`` = (W, H) (the pixels of ``puppet render``), cropped to where it
+    shows: ``(rgba, depth, at)`` (see :class:`Garment`)."""
+    rgba = scene.draw_layers(layers, background=CLEAR, canvas=canvas)
+    return cropped(rgba, scene.pin_depth(layers, canvas=canvas), (0, 0), canvas)
 
-    ``transform`` None: the layers are on the ``canvas`` = (W, H), drawn over all of it
-    (the pixels of ``puppet render``). Else a function taking (n, 2) points of the scene's
-    canvas onto ``canvas`` (a batch's picture onto the template's): the layers are moved
-    by it and drawn over the box of their vertices only."""
-    W, H = canvas
-    if transform is None:
-        (x0, y0), frame, posed = (0, 0), (W, H), layers
-    else:
-        moved = [transform(L.deformed) for L in layers]
-        every = np.concatenate([m for m in moved if len(m)] or [np.zeros((1, 2))])
-        x0, y0 = (min(max(int(np.floor(v)) - 1, 0), n - 1) for v, n in zip(every.min(axis=0), canvas))
-        x1, y1 = (min(max(int(np.ceil(v)) + 1, 1), n) for v, n in zip(every.max(axis=0), canvas))
-        # the frame's size rounded up to FRAME px (past the canvas if need be, cut off below):
-        # a batch's garments then share a few sizes, and the compositor keeps their targets
-        frame = tuple(-(-max(v, 1) // FRAME) * FRAME for v in (x1 - x0, y1 - y0))
-        posed = [dataclasses.replace(L, deformed=m - (x0, y0)) for L, m in zip(layers, moved)]
-    rgba = scene.draw_layers(posed, background=CLEAR, canvas=frame)
+
+def box_frame(points: np.ndarray, canvas: tuple[int, int]) -> tuple[int, int, tuple[int, int]]:
+    """``(x0, y0, (w, h))``: a frame round ``points`` (n, 2) on the ``canvas`` (its corner
+    on the canvas, a pixel of margin), its size rounded up to :data:`FRAME` px (past the
+    canvas if need be: :func:`cropped` cuts it off), so that garments drawn one after the
+    other share a few sizes and the compositor keeps their targets."""
+    P = np.asarray(points, np.float64).reshape(-1, 2)
+    if not len(P):
+        P = np.zeros((1, 2))
+    x0, y0 = (min(max(int(np.floor(v)) - 1, 0), n - 1) for v, n in zip(P.min(axis=0), canvas))
+    x1, y1 = (min(max(int(np.ceil(v)) + 1, 1), n) for v, n in zip(P.max(axis=0), canvas))
+    return x0, y0, tuple(-(-max(v, 1) // FRAME) * FRAME for v in (x1 - x0, y1 - y0))
+
+
+def cropped(rgba: np.ndarray, pin_depth: np.ndarray, origin, canvas: tuple[int, int]):
+    """A frame drawn with its corner at ``origin`` on the ``canvas`` and its pin depth
+    (NaN where nothing shows), cut to the canvas and cropped to where the garment shows:
+    ``(rgba, depth grown by a pixel, at)``."""
+    (W, H), (x0, y0) = canvas, origin
     rgba[:, W - x0:, 3] = 0  # what falls off the canvas is not the room's (W - x0 >= 1)
     rgba[H - y0:, :, 3] = 0
     x, y, w, h = crop_box(rgba[..., 3])
-    depth = grow(scene.pin_depth(posed, canvas=frame)[y:y + h, x:x + w])
-    return np.ascontiguousarray(rgba[y:y + h, x:x + w]), depth, (x0 + x, y0 + y)
+    return np.ascontiguousarray(rgba[y:y + h, x:x + w]), grow(pin_depth[y:y + h, x:x + w]), (x0 + x, y0 + y)
 
 
 def garment_spec(scene, path: str) -> tuple[str, str, float]:
