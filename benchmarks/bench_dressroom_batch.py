@@ -7,7 +7,8 @@ pose ``fit``) scaled 0.9 to 1.6 and turned up to 20 degrees (370 to 660 px); the
 ``assets/scenes/room/mannequin.json`` (a scene, drawn at rest).
 
 Each round runs the same batch twice on one embedded LocalCluster that is already up,
-its workers warm (as ``bench_batch.py``): without ``--dressroom`` and with it, each as the
+its workers warm (as ``bench_batch.py``): without ``--dressroom`` and with it (in turn
+first: the first run of a round pays for what warms up), each as the
 command runs it (its checks, the jobs, ``run_batch``; with ``--dressroom`` the mannequin
 drawn before and the room written after). Printed: wall and CPU time (this process +
 the workers) of both, the ratio, and where the room's time went. The load average is
@@ -107,8 +108,12 @@ def run(args, tmp: str) -> None:
             for addr in client.scheduler_info()["workers"]:
                 client.submit(work.Runner, workers=[addr], actor=True, pure=False).result().warm().result()
         for r in range(args.rounds):
-            plain = one(client, base + ["-o", os.path.join(tmp, f"plain{r}")])
+            # one after the other, in turn first (the first run of a round pays what warms up)
+            if r % 2 == 0:
+                plain = one(client, base + ["-o", os.path.join(tmp, f"plain{r}")])
             room = one(client, base + ["-o", os.path.join(tmp, f"room{r}"), "--dressroom", mannequin])
+            if r % 2 == 1:
+                plain = one(client, base + ["-o", os.path.join(tmp, f"plain{r}")])
             rows.append((plain[:2], room[:2]))
             print(f"round {r}: without {plain[0]:6.2f} s wall {plain[1]:6.2f} s CPU | with --dressroom "
                   f"{room[0]:6.2f} s wall {room[1]:6.2f} s CPU | +{100 * (room[0] / plain[0] - 1):5.1f} % wall, "
