@@ -80,7 +80,8 @@ class Scene(Document):
         return self.draw_layers(layers, size=size, wireframe=wireframe)
 
     @ck.checked(layers=posed_layers, size=ck.optional(ck.size), wireframe=ck.flag,
-                background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE), preview=ck.flag)
+                background=ck.optional(ck.colour_or_image), reduce=ck.integer(1, ck.MAX_SIDE), preview=ck.flag,
+                canvas=ck.optional(ck.size))
     def draw_layers(self, layers, *, size=None, wireframe: bool = False, background=None,
                     reduce: int = 1, preview: bool = False, canvas: tuple[int, int] | None = None) -> np.ndarray:
         """Composite already posed layers (:meth:`layers` results) into an RGBA array, over
@@ -118,6 +119,7 @@ class Scene(Document):
             draw = [self._reduced(L, keys[k], reduce) for L, k in zip(draw, shown)]
         return draw
 
+    @ck.checked(layers=posed_layers, canvas=ck.optional(ck.size))
     def pin_depth(self, layers, *, canvas: tuple[int, int] | None = None) -> np.ndarray:
         """(H, W) float32 over the ``canvas`` (default: the scene's) of already posed
         ``layers``: at each pixel centre, the depth the pins give the front-most visible
@@ -126,7 +128,9 @@ class Scene(Document):
         (:meth:`puppet.render.compositor.Compositor.pin_depth`)."""
         draw = self._draw_list(layers)
         ranks = [layers[k].order for k, L in enumerate(self.data.layers) if L.visible]
-        return self.compositor.pin_depth(draw, tuple(canvas) if canvas is not None else self.canvas, ranks)
+        frame = tuple(canvas) if canvas is not None else self.canvas
+        self._check_drawable(frame, (0, 0, 0, 0))
+        return self.compositor.pin_depth(draw, frame, ranks)
 
     def _first_frame_size(self, size) -> tuple[int, int] | None:
         """The frame size of a render that can make the compositor and its targets while

@@ -150,7 +150,9 @@ def valid_calls(folder) -> dict:
 
 #: public methods that draw (a GL context): tested in test_drawing_methods_check_first
 DRAWING = {"render": ((), {"pose": "up", "time": None, "size": (50, 40), "wireframe": False}),
-           "draw_layers": ((None,), {"size": (50, 40), "wireframe": False, "background": (1, 2, 3, 4), "reduce": 1})}
+           "draw_layers": ((None,), {"size": (50, 40), "wireframe": False, "background": (1, 2, 3, 4), "reduce": 1,
+                                     "canvas": None}),
+           "pin_depth": ((None,), {"canvas": (50, 40)})}
 #: methods of a drag: (args, kwargs) on a fresh drag of a1
 DRAG_CALLS = {"move_layers": (((30, 20),), {"time": None}), "commit": ((), {"keys": None}),
               "release_layers": ((), {"keys": None}), "cancel": ((), {})}
@@ -336,7 +338,7 @@ def test_the_command_line_reaches_the_same_checks(folder, tmp_path):
 @given(data=st.data())
 def test_drawing_methods_check_first(scene, folder, name, data):
     args, kwargs = DRAWING[name]
-    if name == "draw_layers":
+    if name in ("draw_layers", "pin_depth"):
         args = (scene.layers("up"),)
     _hostile_call(scene, folder, name, args, kwargs, data)
 

@@ -13,11 +13,17 @@ On the worker, a template job that matched its picture (:func:`write_garment`):
    by ``S^-1`` (so they sit near the template's own), the pose ``fit`` = the transferred
    pose ``NAME`` mapped back (the garment is drawn as the template sits on the mannequin
    in ``NAME``), and a ``garment`` section (name: the output's stem, category: the
-   template's, else ``top``);
+   template's, else ``top``); automatic exterior points renamed as the resampled
+   picture numbers them (:func:`_ext_names`);
+3. draws the room's pictures from the job's own solve (:func:`draw_posed`: the posed mesh
+   moved by ``S^-1``, over that picture) and writes them with the garment's place and the
+   digests of the files above as ``OUT_DIR/garments/STEM.room.zip`` (:func:`write_drawn`);
 
 then, on the client, once every job ran (:func:`make_room`): the room of the mannequin
 and every garment written (up to date ones of an earlier run too), in the folder form
-(:func:`puppet.room.page.write_room_folder`) at ``OUT_DIR/room/``. A garment the room
+(:func:`puppet.room.page.write_room_folder`) at ``OUT_DIR/room/``: a garment's pictures
+those its job drew (:func:`read_drawn`), or, for a garment scene edited since or a
+drawn file missing or spoiled, the scene drawn by the client. A garment the room
 refuses is left out and reported; the room itself is never a failed job.
 """
 from __future__ import annotations
@@ -208,8 +214,10 @@ def write_garment(job: dict, tr: Transfer, scene, layers, *, inputs) -> None:
     """Write the room garment of a matched template job (``job["room"]``: its ``scene``,
     ``picture`` and ``drawn`` paths, the template's ``canvas`` and ``category``): the
     picture, the scene, then the room's pictures drawn from the job's own posed
-    ``layers`` of ``scene`` over the resampled picture (:func:`write_drawn`). A scene is there only with its picture;
-    the job is done once all three are."""
+    ``layers`` of ``scene`` over the resampled picture (:func:`write_drawn`). A scene is
+    there only with its picture; the job is done once all three are."""
+    if len(layers) != 1:
+        raise SceneError(f"a room garment has one layer, the transferred scene {len(layers)}")
     room = job["room"]
     crop, at = resample(tr.picture, tr.mask, tr.similarity, room["canvas"])
     name = os.path.splitext(job["rel"])[0]
@@ -224,8 +232,6 @@ def write_garment(job: dict, tr: Transfer, scene, layers, *, inputs) -> None:
     text = json.dumps(doc, indent=1) + "\n"
     write_bytes(room["picture"], picture, inputs=inputs)
     write_text(room["scene"], text, inputs=inputs)
-    if len(layers) != 1:
-        raise SceneError(f"a room garment has one layer, the transferred scene {len(layers)}")
     write_drawn(room["drawn"], scene.compositor, layers[0], crop, at, tr.similarity, room["canvas"], inputs=inputs,
                 meta={"name": name, "category": room["category"], "order": 0.0,
                       "scene": _digest(text.encode("utf-8")), "picture": _digest(picture)})
