@@ -70,9 +70,9 @@ def resample(rgba: np.ndarray, mask: np.ndarray, S: Similarity, canvas) -> tuple
 
     Pixel centres are at +0.5 on both canvases; the crop is the box (1 px margin, clipped
     to ``canvas``) around the image of the mask's box under ``S^-1``; bilinear over
-    premultiplied colour, so clear pixels lend no colour to the edge. A picture k >= 2
-    times the template's scale is first averaged over k x k blocks (premultiplied), so a
-    crop pixel shows the picture's pixels it covers, not a sample of them. Raises SceneError
+    premultiplied colour (16 bits), so clear pixels lend no colour to the edge. A picture
+    k >= 2 times the template's scale is first averaged over k x k blocks, so a crop pixel
+    shows the picture's pixels it covers, not a sample of them. Raises SceneError
     when the garment lands outside the canvas."""
     m8 = np.ascontiguousarray(mask, np.uint8)
     mx, my, mw, mh = cv2.boundingRect(m8)
@@ -90,26 +90,22 @@ def resample(rgba: np.ndarray, mask: np.ndarray, S: Similarity, canvas) -> tuple
     bx1, by1 = min(mx + mw + 1, rgba.shape[1]), min(my + mh + 1, rgba.shape[0])
     c = 0.5 + 0.5j  # cv2 samples at integer indices: pixel centres
     t = S.a * (complex(x0, y0) + c) + S.b - c - complex(bx0, by0)  # crop index p -> box index S.a p + t
-    k = int(abs(S.a))
+    # premultiplied in 16 bits (0..255^2) by OpenCV, the mask's outside cleared
+    r, g, b, alpha = cv2.split(np.ascontiguousarray(rgba[by0:by1, bx0:bx1]))
+    alpha = cv2.multiply(alpha, m8[by0:by1, bx0:bx1])
+    pm = cv2.merge([cv2.multiply(p, alpha, dtype=cv2.CV_16U) for p in (r, g, b)]
+                   + [cv2.multiply(alpha, 255, dtype=cv2.CV_16U)])
+    k, A = int(abs(S.a)), S.a
     if k >= 2:  # a picture k times the template or more: averaged over k x k blocks first (what
-        # the crop's pixels cover; and the float work on a k^2 times smaller picture)
-        h, w = -(-(by1 - by0) // k) * k, -(-(bx1 - bx0) // k) * k
-        r, g, b, alpha = cv2.split(np.ascontiguousarray(rgba[by0:by1, bx0:bx1]))
-        alpha = cv2.multiply(alpha, m8[by0:by1, bx0:bx1])  # clear off the mask
-        planes = [cv2.multiply(p, alpha, dtype=cv2.CV_16U) for p in (r, g, b)]  # premultiplied, 0..255^2
-        pm = cv2.merge(planes + [cv2.multiply(alpha, 255, dtype=cv2.CV_16U)])
+        # the crop's pixels cover; and the warp of a k^2 times smaller picture)
+        h, w = -(-pm.shape[0] // k) * k, -(-pm.shape[1] // k) * k
         pm = cv2.copyMakeBorder(pm, 0, h - pm.shape[0], 0, w - pm.shape[1], cv2.BORDER_CONSTANT, value=0)
-        a = cv2.resize(pm, (w // k, h // k), interpolation=cv2.INTER_AREA).astype(np.float32)
-        a *= np.float32(1 / 255)
+        pm = cv2.resize(pm, (w // k, h // k), interpolation=cv2.INTER_AREA)
         t, A = (t + c) / k - c, S.a / k  # box pixel centre q + 0.5 is block coordinate (q + 0.5) / k
-    else:
-        a = rgba[by0:by1, bx0:bx1].astype(np.float32)
-        a[..., 3] *= mask[by0:by1, bx0:bx1]
-        a[..., :3] *= a[..., 3:] * np.float32(1 / 255)
-        A = S.a
     M = np.array([[A.real, -A.imag, t.real], [A.imag, A.real, t.imag]])
-    out = cv2.warpAffine(a, M, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                         borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
+    out = cv2.warpAffine(pm, M, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0)).astype(np.float32)
+    out *= np.float32(1 / 255)
     alpha = out[..., 3:]
     out[..., :3] *= np.divide(np.float32(255), alpha, out=np.zeros_like(alpha), where=alpha > 0)
     np.rint(out, out=out)

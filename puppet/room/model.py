@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 import puppet
@@ -99,10 +100,8 @@ def load_mannequin(path: str) -> np.ndarray:
 def crop_box(alpha: np.ndarray) -> tuple[int, int, int, int]:
     """(x, y, w, h) of the smallest box holding every pixel with alpha > 0 (a 1x1 box at
     the origin when there is none)."""
-    ys, xs = np.nonzero(alpha > 0)
-    if not len(ys):
-        return 0, 0, 1, 1
-    return int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)
+    x, y, w, h = cv2.boundingRect(np.ascontiguousarray(alpha > 0, np.uint8))
+    return (0, 0, 1, 1) if not w else (int(x), int(y), int(w), int(h))
 
 
 def draw_garment(scene, layers, canvas: tuple[int, int]):
