@@ -1,7 +1,7 @@
 """``puppet batch --template ... --dressroom MANNEQUIN``: what the room adds to a template batch.
 
-Run: ``python benchmarks/bench_dressroom_batch.py [--pictures 16] [--rounds 2] [--workers 2]``
-from the repository root. The pictures: similarity copies of the bundled room t-shirt
+Run: ``python benchmarks/bench_dressroom_batch.py [--pictures 16] [--rounds 2] [--workers 2]
+[--scale LO,HI] [--interleaved]`` from the repository root. The pictures: similarity copies of the bundled room t-shirt
 (``assets/scenes/room/t-shirt.png``, the template ``assets/scenes/room/t-shirt.json``,
 pose ``fit``) scaled 0.9 to 1.6 and turned up to 20 degrees (370 to 660 px); the mannequin:
 ``assets/scenes/room/mannequin.json`` (a scene, drawn at rest).
@@ -87,9 +87,46 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--scale", default="0.9,1.6", help="the pictures' scales of the 307 px shirt, LO,HI "
                     "(3,5: catalogue photos of 1100 to 2100 px)")
+    ap.add_argument("--interleaved", action="store_true",
+                    help="instead: every picture's job run in this process without and with the room, in turn "
+                         "first, twice; medians (the machine's drift cancels out)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="bench-room-") as tmp:
-        run(args, tmp)
+        (interleaved if args.interleaved else run)(args, tmp)
+
+
+def interleaved(args, tmp: str) -> None:
+    """Each picture's template job as a worker runs it (``work.run_job``, this process's
+    GL context), without and with ``--dressroom``'s room garment, one right after the
+    other, in turn first; the per-job difference is what the room adds to a batch's jobs."""
+    from puppet.batch import jobs as J
+    from puppet.batch import work
+
+    imgs = pictures(args.pictures, os.path.join(tmp, "imgs"), tuple(float(v) for v in args.scale.split(",")))
+    template = os.path.join(ROOM, "t-shirt.json")
+    work.warm()
+    room = {"canvas": [700, 720], "category": "top"}
+    plain = J.template_jobs(template, imgs, "fit", os.path.join(tmp, "plain"), {}, tolerance=None)
+    with_room = J.template_jobs(template, imgs, "fit", os.path.join(tmp, "room"), {}, tolerance=None, room=room)
+    for d in ("plain", "room"):
+        os.makedirs(os.path.join(tmp, d), exist_ok=True)
+    print(f"{args.pictures} pictures (scale {args.scale}), one process, load before {os.getloadavg()[0]:.2f}")
+    t = {"plain": [], "room": []}
+    for rep in range(3):
+        for k, (a, b) in enumerate(zip(plain, with_room)):
+            order = [("plain", a), ("room", b)] if (k + rep) % 2 == 0 else [("room", b), ("plain", a)]
+            for name, job in order:
+                t0 = time.perf_counter()
+                rec = work.run_job(job)
+                dt = time.perf_counter() - t0
+                assert rec["status"] == "done", rec
+                if rep:  # the first pass warms the scene cache and the compositor's targets
+                    t[name].append(dt)
+    p, r = np.array(t["plain"]), np.array(t["room"])
+    print(f"| jobs | a job without, median | with the room, median | per-job difference, median | added |\n"
+          f"|---|---|---|---|---|\n| {len(p)} + {len(r)} | {1e3 * np.median(p):.0f} ms | {1e3 * np.median(r):.0f} ms "
+          f"| {1e3 * np.median(r - p):.0f} ms | {100 * np.median(r - p) / np.median(p):.1f} % |")
+    print(f"load after {os.getloadavg()[0]:.2f}")
 
 
 def run(args, tmp: str) -> None:
