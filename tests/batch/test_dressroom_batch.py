@@ -147,10 +147,11 @@ def test_the_batch_writes_the_room_of_the_matched_garments(cluster2, tmp_path):
     assert summary["counts"]["skipped"] == 2 and summary["counts"]["done"] == 0
     assert (out / "room" / "index.html").read_bytes() == old
     assert temporaries(out) == []
-    (out / "garments" / "small.json").unlink()  # a garment gone: its job is not up to date
-    summary = batch(cluster2, argv + ["--resume"])
-    assert summary["counts"]["skipped"] == 1 and summary["counts"]["done"] == 1
-    assert (out / "room" / "index.html").read_bytes() == old
+    for gone in ("small.json", "big.room.zip"):  # a garment's file gone: its job is not up to date
+        (out / "garments" / gone).unlink()
+        summary = batch(cluster2, argv + ["--resume"])
+        assert summary["counts"]["skipped"] == 1 and summary["counts"]["done"] == 1
+        assert (out / "room" / "index.html").read_bytes() == old
     # a garment scene edited since its job drew it: the room draws the scene as it is now
     edited = json.loads((out / "garments" / "small.json").read_text())
     edited["garment"]["name"] = "small shirt"
