@@ -41,8 +41,12 @@ def draw(app) -> None:
     files = getattr(app, "files", None)
     native = files is not None and files.native
     imgui.set_next_item_width(WIDTH - (150 if native else 60))
+    if imgui.is_window_appearing():  # the dialog opens ready for the first garment's path
+        imgui.set_keyboard_focus_here()
     entered, f.adding = imgui.input_text_with_hint("##room-garment", "a garment scene (.json)", f.adding,
                                                    imgui.InputTextFlags_.enter_returns_true)
+    if entered:  # Enter adds and leaves the field: take the keyboard back, for the next path
+        imgui.set_keyboard_focus_here(-1)
     imgui.set_item_tooltip("a garment scene's path (.json), then Add (or Enter)")
     note("room:garment")
     imgui.same_line()
