@@ -201,8 +201,7 @@ class Compositor:
         texel under it (nearest) has alpha > 0, less that layer's ``ranks`` entry; NaN
         where no layer shows. Front-most as in :meth:`render` (larger depth; at a tie the
         later triangle, then the later layer). The CPU reference is
-        :func:`puppet.room.depth.layer_depth` with :func:`~puppet.room.depth.front_depth`
-        (before its growth).
+        ``tests/room/reference.py`` (``layer_depth``, and ``front_depth`` before its growth).
 
         Returns
         -------

@@ -2,7 +2,7 @@
 
 A garment is a scene rendered at its pose ``fit`` (else at rest) over a clear background,
 with its per-pixel pin depth (drawn on the GPU, :meth:`puppet.api.Scene.pin_depth`;
-the CPU reference is :mod:`puppet.room.depth`), both cropped to where it shows (a
+:mod:`puppet.room.depth` codes it for the page), both cropped to where it shows (a
 room of a thousand garments keeps its crops, not a thousand canvases). Garments are drawn in
 :func:`draw_order`: by category (:data:`~puppet.scene.format.garment.CATEGORIES`, back
 to front), then ``order``, then the order they were given in.

@@ -1,13 +1,13 @@
 """``Compositor.pin_depth`` (the GPU's per-pixel pin depth) against its CPU reference,
-:func:`puppet.room.depth.layer_depth` and the front-most layer of
-:func:`puppet.room.depth.front_depth`, on small random layers."""
+``tests/room/reference.py`` (``layer_depth`` and the front-most layer of
+``front_depth``), on small random layers."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from puppet.render.layers import DrawLayer
-from puppet.room.depth import layer_depth
+from tests.room.reference import layer_depth
 
 SIZE = (48, 40)
 

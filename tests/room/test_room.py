@@ -15,10 +15,11 @@ from PIL import Image
 
 from puppet.cli import main
 from puppet.errors import SceneError
-from puppet.room.depth import LOW, STEPS, depth_rgba, front_depth, layer_depth
+from puppet.room.depth import LOW, STEPS, depth_rgba
 from puppet.room.page import thumbnail
 from puppet.scene.format.load import load_scene_data
 from tests.room.art import GARMENTS, SKIN, garment, room_files
+from tests.room.reference import front_depth, layer_depth, triangle_ids
 
 
 def test_garment_section_is_read_with_its_defaults_and_checked(tmp_path):
@@ -206,7 +207,6 @@ def test_the_bundled_room_dresses_and_tucks_in():  # about 1 s
 def test_triangle_ids_hold_the_pixel_centres_inside_the_later_triangle():
     """The vectorised fill against a pixel-by-pixel test, on random overlapping (folded)
     triangles of both windings, some off the frame and one degenerate."""
-    from puppet.room.depth import triangle_ids
 
     rng = np.random.default_rng(4)
     for _ in range(4):
