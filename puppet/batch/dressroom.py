@@ -53,13 +53,6 @@ from puppet.scene.rig.exterior import auto_points
 ROOM = "room"
 
 
-def _back(S: Similarity, P) -> np.ndarray:
-    """Picture points -> template points (``S^-1``), (..., 2)."""
-    P = np.asarray(P, np.float64)
-    z = (P[..., 0] + 1j * P[..., 1] - S.b) / S.a
-    return np.stack([z.real, z.imag], axis=-1)
-
-
 def _xy(p) -> list[float]:
     return [round(float(p[0]), 3), round(float(p[1]), 3)]
 
@@ -79,7 +72,7 @@ def resample(rgba: np.ndarray, mask: np.ndarray, S: Similarity, canvas) -> tuple
     if not mw:
         raise SceneError("the picture's mask is empty")
     corners = np.array([[mx, my], [mx + mw, my], [mx, my + mh], [mx + mw, my + mh]], np.float64)
-    box = _back(S, corners)
+    box = S.inverse().apply(corners)
     W, H = canvas
     x0, y0 = (max(int(np.floor(v)) - 1, 0) for v in box.min(axis=0))
     x1, y1 = min(int(np.ceil(box[:, 0].max())) + 1, W), min(int(np.ceil(box[:, 1].max())) + 1, H)
@@ -123,9 +116,9 @@ def _targets(pose: dict, S: Similarity, names: dict | None = None) -> dict:
                 continue
             nm = names[nm]
         if isinstance(t, list):
-            t = _xy(_back(S, t))
+            t = _xy(S.inverse().apply(t))
         elif isinstance(t, dict) and "to" in t:
-            t = dict(t, to=_xy(_back(S, t["to"])))
+            t = dict(t, to=_xy(S.inverse().apply(t["to"])))
         out[nm] = t
     return out
 
@@ -138,7 +131,7 @@ def garment_doc(tr: Transfer, pose: str, image: str, crop: np.ndarray, at: tuple
     layer.update(image=image, offset=[int(at[0]), int(at[1])], mask="alpha")
     cage = src["layers"][0].get("cage")
     if cage is not None:
-        layer["cage"] = dict(copy.deepcopy(cage), points=[_xy(p) for p in _back(S, cage["points"])])
+        layer["cage"] = dict(copy.deepcopy(cage), points=[_xy(p) for p in S.inverse().apply(cage["points"])])
         if "offset" in cage:
             layer["cage"]["offset"] = min(round(cage["offset"] / S.scale, 1), 1000.0)
     doc = {"puppet": 1, "canvas": list(canvas), "garment": {"name": name, "category": category},
@@ -182,7 +175,7 @@ def _ext_names(tr: Transfer, crop: np.ndarray, at) -> dict[str, str | None]:
     if len(picture) and len(garment):
         from scipy.optimize import linear_sum_assignment  # lazy: only templates with automatic exterior points
 
-        D = np.linalg.norm(_back(tr.similarity, picture)[:, None] - garment[None], axis=2)
+        D = np.linalg.norm(tr.similarity.inverse().apply(picture)[:, None] - garment[None], axis=2)
         r, c = linear_sum_assignment(D)
         gate = 0.1 * np.sqrt(mask.sum())
         out.update({f"{layer['name']}:ext{i}": f"{layer['name']}:ext{j}" for i, j in zip(r, c) if D[i, j] <= gate})
@@ -196,7 +189,7 @@ def _pins(pins: list[dict], S: Similarity, mask: np.ndarray, at) -> list[dict]:
     out = []
     off = np.asarray(at, np.float64)
     for p in pins:
-        x = _back(S, p["at"])
+        x = S.inverse().apply(p["at"])
         if p.get("kind", "interior") != "exterior":
             y, far = on_mask(mask, x - off)
             if far > NUDGE:
@@ -250,10 +243,10 @@ def draw_posed(compositor, posed, crop: np.ndarray, at, S: Similarity, canvas):
     several times the template's size is drawn from its averaged pixels, not sampled."""
     from puppet.render.layers import DrawLayer  # lazy: drawing only
 
-    deformed = _back(S, posed.deformed)
+    deformed = S.inverse().apply(posed.deformed)
     x0, y0, frame = box_frame(deformed, canvas)
     layer = DrawLayer(key=posed.name + "\0room", image=crop, offset=(float(at[0]), float(at[1])),
-                      rest=_back(S, posed.rest), deformed=deformed - (x0, y0), triangles=posed.triangles,
+                      rest=S.inverse().apply(posed.rest), deformed=deformed - (x0, y0), triangles=posed.triangles,
                       depth=posed.depth)
     rgba = compositor.render([layer], frame, background=CLEAR)
     return cropped(rgba, compositor.pin_depth([layer], frame, [posed.order]), (x0, y0), canvas)

@@ -55,6 +55,10 @@ class Similarity:
         """Map points. ``P`` (..., 2) -> (..., 2)."""
         return _xy(self.a * _c(P) + self.b)
 
+    def inverse(self) -> "Similarity":
+        """``z -> (z - b) / a``."""
+        return Similarity(a=1.0 / self.a, b=-self.b / self.a)
+
     def apply_vector(self, D) -> np.ndarray:
         """Map displacements (scaled and rotated, not shifted). (..., 2) -> (..., 2)."""
         return _xy(self.a * _c(D))
