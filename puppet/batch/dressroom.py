@@ -45,7 +45,7 @@ from puppet.imaging import masks as mk
 from puppet.output import atomic_write, check_folder, encode_png, write_bytes, write_folder, write_text
 from puppet.room import page
 from puppet.room.depth import depth_rgba
-from puppet.room.model import CLEAR, FIT_POSE, Garment, Room, box_frame, cropped, draw_order, load_garment
+from puppet.room.model import CLEAR, FIT_POSE, Garment, Room, box_frame, cropped, load_garment, load_garments
 from puppet.room.page import PICTURE_NAME, PICTURES, write_room_folder
 from puppet.scene.rig.exterior import auto_points
 
@@ -326,22 +326,18 @@ def check_room_folder(folder: str, inputs) -> None:
 
 def garments(room: list[str], canvas, mannequin: str, say) -> tuple[list, list[dict]]:
     """The garments of the scenes ``room`` (``puppet.room.model.Garment``, in draw
-    order) and the refused ones (``{"garment": path, "error": one line}``): a garment the
-    room refuses (it cannot be drawn, its name is taken) is left out and said."""
-    loaded, refused, names = [], [], {}
-    for path in room:
-        try:
-            g = read_drawn(path) or load_garment(path, canvas, mannequin)
-            if g.name in names:
-                raise SceneError(f"garment name {g.name!r} is also the name of {names[g.name]}", file=path)
-        except SceneError as e:
-            line = str(e).strip().splitlines()[0]
-            refused.append({"garment": path, "error": line})
-            say(f"puppet batch: dressroom: left out: {line}")
-            continue
-        names[g.name] = path
-        loaded.append(g)
-    return draw_order(loaded), refused
+    order; those its jobs drew, :func:`read_drawn`, else drawn here) and the refused
+    ones (``{"garment": path, "error": one line}``): a garment the room refuses (it cannot
+    be drawn, its name is taken) is left out and said."""
+    refused = []
+
+    def left_out(path: str, e: SceneError) -> None:
+        line = str(e).strip().splitlines()[0]
+        refused.append({"garment": path, "error": line})
+        say(f"puppet batch: dressroom: left out: {line}")
+    loaded = load_garments(room, canvas, mannequin, left_out=left_out,
+                           load=lambda path: read_drawn(path) or load_garment(path, canvas, mannequin))
+    return loaded, refused
 
 
 def make_room(out_dir: str, mannequin: np.ndarray, mannequin_file: str, scenes: list[str], *, inputs,

@@ -165,19 +165,35 @@ def draw_order(garments: list[Garment]) -> list[Garment]:
     return [g for _, g in ranked]
 
 
+def load_garments(paths: list[str], canvas: tuple[int, int], mannequin: str, *, load=None,
+                  left_out=None) -> list[Garment]:
+    """The garments of the scenes ``paths`` in draw order, each read by ``load(path)``
+    (default: :func:`load_garment` on the ``canvas``). Two garments of one name are
+    refused: SceneError; or, with ``left_out(path, error)``, any garment refused (by its
+    name or by ``load``) is given to it and left out."""
+    load = load or (lambda path: load_garment(path, canvas, mannequin))
+    loaded, names = [], {}
+    for path in paths:
+        try:
+            g = load(path)
+            if g.name in names:
+                raise SceneError(f"garment name {g.name!r} is also the name of {names[g.name]} "
+                                 "(give one a \"garment\": {\"name\": ...})", file=g.file)
+        except SceneError as e:
+            if left_out is None:
+                raise
+            left_out(path, e)
+            continue
+        names[g.name] = g.file
+        loaded.append(g)
+    return draw_order(loaded)
+
+
 def load_room(mannequin: str, garments: list[str]) -> Room:
     """Read the mannequin and every garment; refuse two garments of one name."""
     body = load_mannequin(mannequin)
     h, w = body.shape[:2]
-    loaded, names = [], {}
-    for path in garments:
-        g = load_garment(path, (w, h), mannequin)
-        if g.name in names:
-            raise SceneError(f"garment name {g.name!r} is also the name of {names[g.name]} "
-                             "(give one a \"garment\": {\"name\": ...})", file=g.file)
-        names[g.name] = g.file
-        loaded.append(g)
-    return Room(mannequin=body, garments=draw_order(loaded))
+    return Room(mannequin=body, garments=load_garments(garments, (w, h), mannequin))
 
 
 def wear(room: Room, names) -> np.ndarray:
