@@ -183,6 +183,7 @@ def _finale(args: argparse.Namespace, out_dir: str, say):
 
     def room(batch) -> dict:
         from puppet.batch import dressroom  # lazy: the room's modules (numpy, the scene stack)
+        from puppet.batch.work import one_line  # lazy: as above
 
         scenes = [j["room"]["scene"] for j in batch.jobs
                   if batch.records.get(j["id"], {}).get("status") in ("done", "skipped")
@@ -191,7 +192,7 @@ def _finale(args: argparse.Namespace, out_dir: str, say):
         try:
             out = dressroom.make_room(out_dir, args.mannequin_rgba, args.dressroom, scenes, inputs=inputs, say=say)
         except SceneError as e:  # the room cannot be written: said and reported, the jobs' outputs stand
-            line = str(e).strip().splitlines()[0]
+            line = one_line(e)
             say(f"puppet batch: dressroom: the room was not written: {line}")
             return {"folder": None, "error": line}
         say(f"puppet batch: dressroom: {len(out['garments'])} garments in {os.path.join(args.output, 'room', '')}"

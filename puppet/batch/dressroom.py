@@ -39,6 +39,7 @@ import numpy as np
 
 from puppet.batch.jobs import DRAWN
 from puppet.batch.template import NUDGE, Transfer, on_mask
+from puppet.batch.work import one_line
 from puppet.errors import SceneError
 from puppet.geom.outline_match import Similarity
 from puppet.imaging import masks as mk
@@ -332,7 +333,7 @@ def garments(room: list[str], canvas, mannequin: str, say) -> tuple[list, list[d
     refused = []
 
     def left_out(path: str, e: SceneError) -> None:
-        line = str(e).strip().splitlines()[0]
+        line = one_line(e)
         refused.append({"garment": path, "error": line})
         say(f"puppet batch: dressroom: left out: {line}")
     loaded = load_garments(room, canvas, mannequin, left_out=left_out,

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import subprocess
 import time
 
@@ -57,7 +58,8 @@ class Browser:
         end = time.monotonic() + self.timeout
         while True:
             while b"\0" not in self._buf:
-                if time.monotonic() > end:
+                left = end - time.monotonic()
+                if left <= 0 or not select.select([self._r], [], [], left)[0]:  # never a read that blocks for ever
                     raise TimeoutError(f"no reply to {method}")
                 chunk = os.read(self._r, 1 << 16)
                 if not chunk:
