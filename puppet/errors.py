@@ -32,3 +32,9 @@ class SceneError(Exception):
 
 class ImageError(SceneError):
     """An image that is missing, unreadable, corrupt or too large."""
+
+
+def one_line(e: BaseException) -> str:
+    """The first line of an error's message (its type's name when it has none)."""
+    text = str(e).strip().splitlines()
+    return text[0] if text else type(e).__name__

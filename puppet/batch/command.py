@@ -183,7 +183,7 @@ def _finale(args: argparse.Namespace, out_dir: str, say):
 
     def room(batch) -> dict:
         from puppet.batch import dressroom  # lazy: the room's modules (numpy, the scene stack)
-        from puppet.batch.work import one_line  # lazy: as above
+        from puppet.errors import one_line  # lazy: as above
 
         scenes = [j["room"]["scene"] for j in batch.jobs
                   if batch.records.get(j["id"], {}).get("status") in ("done", "skipped")

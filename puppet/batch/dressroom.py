@@ -39,8 +39,7 @@ import numpy as np
 
 from puppet.batch.jobs import DRAWN
 from puppet.batch.template import NUDGE, Transfer, on_mask
-from puppet.batch.work import one_line
-from puppet.errors import SceneError
+from puppet.errors import SceneError, one_line
 from puppet.geom.outline_match import Similarity
 from puppet.imaging import masks as mk
 from puppet.output import atomic_write, check_folder, encode_png, write_bytes, write_folder, write_text

@@ -25,7 +25,7 @@ from collections import OrderedDict
 from puppet.batch.guard import unchanged_path
 from puppet.batch.jobs import spec
 from puppet.batch.state import inputs_digest
-from puppet.errors import SceneError
+from puppet.errors import SceneError, one_line
 from puppet.output import save_png
 
 #: Scenes kept loaded per worker (each holds its images, meshes and factorisations).
@@ -202,11 +202,6 @@ def _room_garment(job: dict, tr, scene, layers, inputs) -> None:
         dressroom.write_garment(job, tr, scene, layers, inputs=inputs)
     except SceneError as e:
         raise SceneError(f"dressroom garment: {one_line(e)}") from None
-
-
-def one_line(e: BaseException) -> str:
-    text = str(e).strip().splitlines()
-    return text[0] if text else type(e).__name__
 
 
 def run_job(job: dict) -> dict:
